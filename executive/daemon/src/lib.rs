@@ -1,0 +1,13 @@
+//! executive: the TRACE executive process and the `trace` command.
+//!
+//! The binary is a thin `main` (argument parsing, logging, exit codes); everything it does is
+//! a library function here so tests can call it in-process.
+//!
+//! Dependencies, chosen deliberately:
+//! - `clap` (derive) for the command line: subcommands, help and validation for free.
+//! - `codespan-reporting` for diagnostics: rustc-style source excerpts with carets, without
+//!   hand-formatting, and small (no proc-macros, unlike `miette`).
+//! - `anyhow` only in `main`; this library returns typed errors.
+//! - `tracing` + `tracing-subscriber` for logs with an env filter.
+
+pub mod validate;

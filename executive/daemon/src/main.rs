@@ -1,0 +1,42 @@
+//! The `trace` command: thin entry point over the `executive` library.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// TRACE: model, verify and execute robotic missions written in BPMN 2.0.
+#[derive(Parser)]
+#[command(name = "trace", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Check mission models and list every problem (exit 0 valid, 1 invalid, 2 unreadable).
+    Validate {
+        /// BPMN files to check.
+        #[arg(required = true)]
+        files: Vec<PathBuf>,
+        /// Print diagnostics as JSON for tools.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+fn main() -> anyhow::Result<ExitCode> {
+    tracing_subscriber::fmt()
+        .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "warn".into()))
+        .with_writer(std::io::stderr)
+        .init();
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Validate { files, json } => {
+            let stdout = std::io::stdout();
+            let verdict = executive::validate::run(&files, json, &mut stdout.lock())?;
+            Ok(ExitCode::from(verdict.exit_code() as u8))
+        }
+    }
+}

@@ -1,0 +1,135 @@
+//! `trace validate`: load models and report every diagnostic, for people or for tools.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use codespan_reporting::diagnostic::{Diagnostic as Report, Label};
+use codespan_reporting::files::SimpleFile;
+use codespan_reporting::term::{self, Config};
+use executive_model::{Diagnostic, Loaded, Severity, load};
+use serde::Serialize;
+
+/// The verdict on one file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Verdict {
+    /// Loads with no errors (warnings allowed).
+    Valid,
+    /// Reads as BPMN but has errors.
+    Invalid,
+    /// Cannot be read at all (missing file, not XML, hostile XML, not BPMN).
+    Unreadable,
+}
+
+impl Verdict {
+    /// The process exit code for this verdict: 0 valid, 1 invalid, 2 unreadable.
+    pub fn exit_code(self) -> i32 {
+        match self {
+            Verdict::Valid => 0,
+            Verdict::Invalid => 1,
+            Verdict::Unreadable => 2,
+        }
+    }
+}
+
+/// One file's outcome, as printed with `--json`.
+#[derive(Debug, Serialize)]
+pub struct FileReport {
+    /// The path as given.
+    pub file: PathBuf,
+    /// `valid`, `invalid` or `unreadable`.
+    pub verdict: &'static str,
+    /// Every diagnostic, in source order.
+    pub diagnostics: Vec<Diagnostic>,
+}
+
+/// Loads `path`; a file that cannot be read becomes an `unreadable` diagnostic.
+pub fn check_file(path: &Path) -> (Verdict, Loaded) {
+    match std::fs::read(path) {
+        Ok(bytes) => {
+            let loaded = load(&bytes);
+            let verdict = if loaded.unreadable() {
+                Verdict::Unreadable
+            } else if loaded.graph.is_some() {
+                Verdict::Valid
+            } else {
+                Verdict::Invalid
+            };
+            (verdict, loaded)
+        }
+        Err(e) => {
+            let d = Diagnostic {
+                severity: Severity::Error,
+                code: "unreadable",
+                constraint: None,
+                message: format!("cannot read {}: {e}", path.display()),
+                element: None,
+                offset: 0,
+                line: 1,
+                column: 1,
+            };
+            (Verdict::Unreadable, Loaded { graph: None, diagnostics: vec![d], text: String::new() })
+        }
+    }
+}
+
+/// Writes diagnostics the way rustc does: a headline, the source line and a caret.
+pub fn render(out: &mut dyn Write, path: &Path, loaded: &Loaded) -> std::io::Result<()> {
+    let file = SimpleFile::new(path.display().to_string(), loaded.text.as_str());
+    let config = Config::default();
+    for d in &loaded.diagnostics {
+        let report = match d.severity {
+            Severity::Error => Report::error(),
+            Severity::Warning => Report::warning(),
+        };
+        let mut code = d.code.to_owned();
+        if let Some(c) = d.constraint {
+            code = format!("{code}, {c}");
+        }
+        let mut report = report.with_code(code).with_message(&d.message);
+        if !loaded.text.is_empty() {
+            let start = d.offset.min(loaded.text.len());
+            let end = loaded.text[start..].find(['>', '\n']).map_or(start, |i| start + i + 1);
+            let label = match &d.element {
+                Some(e) => Label::primary((), start..end).with_message(format!("element `{e}`")),
+                None => Label::primary((), start..end),
+            };
+            report = report.with_labels(vec![label]);
+        } else if let Some(e) = &d.element {
+            report = report.with_notes(vec![format!("element `{e}`")]);
+        }
+        term::emit_to_io_write(out, &config, &file, &report).map_err(std::io::Error::other)?;
+    }
+    Ok(())
+}
+
+/// Runs `trace validate` over `files`, printing to `out`; returns the worst verdict.
+pub fn run(files: &[PathBuf], json: bool, out: &mut dyn Write) -> std::io::Result<Verdict> {
+    let mut worst = Verdict::Valid;
+    let mut reports = Vec::new();
+    for path in files {
+        let (verdict, loaded) = check_file(path);
+        worst = worst.max(verdict);
+        if json {
+            let verdict = match verdict {
+                Verdict::Valid => "valid",
+                Verdict::Invalid => "invalid",
+                Verdict::Unreadable => "unreadable",
+            };
+            reports.push(FileReport { file: path.clone(), verdict, diagnostics: loaded.diagnostics });
+        } else {
+            render(out, path, &loaded)?;
+            let errors = loaded.errors().count();
+            let warnings = loaded.diagnostics.len() - errors;
+            match verdict {
+                Verdict::Valid if warnings == 0 => writeln!(out, "{}: valid", path.display())?,
+                Verdict::Valid => writeln!(out, "{}: valid, {warnings} warning(s)", path.display())?,
+                _ => writeln!(out, "{}: {errors} error(s), {warnings} warning(s)", path.display())?,
+            }
+        }
+    }
+    if json {
+        serde_json::to_writer_pretty(&mut *out, &reports).map_err(std::io::Error::other)?;
+        writeln!(out)?;
+    }
+    Ok(worst)
+}

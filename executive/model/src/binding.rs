@@ -1,0 +1,371 @@
+//! Task bindings: how a task reaches a system (resource name, typed inputs and outputs).
+//!
+//! Three dialects are read into one [`TaskBinding`]:
+//! - ours, namespace `urn:trace:bpmn:1.0` (prefix `trace`):
+//!   `<trace:task resource="excavation.excavate"><trace:input target="site_id" source="site.id" type="int"/>
+//!   <trace:output source="achieved_depth_cm" target="depth_cm" type="f64"/></trace:task>`;
+//! - Camunda 8: `zeebe:taskDefinition type=…` and `zeebe:ioMapping` (`zeebe:input` / `zeebe:output`);
+//! - Camunda 7: `camunda:topic` / `camunda:class` / `camunda:delegateExpression` and
+//!   `camunda:inputOutput` (`camunda:inputParameter` / `camunda:outputParameter`), and
+//!   `camunda:in` / `camunda:out` on call activities.
+//!
+//! Inputs evaluate `source` (an expression over the instance's variables) into the goal field
+//! `target` (a dotted path such as `selected_site.site_id`). Outputs evaluate `source` (an
+//! expression over the result's fields) into the variable `target`.
+
+use serde::Serialize;
+
+use crate::diagnostic::Sink;
+use crate::expr::Expression;
+use crate::xml::{Element, Ns};
+
+/// Which extension vocabulary a binding was read from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Dialect {
+    /// `urn:trace:bpmn:1.0`.
+    Trace,
+    /// Camunda 8 (`zeebe:`).
+    Zeebe,
+    /// Camunda 7 (`camunda:`).
+    Camunda7,
+}
+
+/// A declared field type of a goal, result or form field.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FieldType {
+    /// 64-bit signed integer (`int`).
+    Int,
+    /// 64-bit float (`f64`, `float`, `double`).
+    Float,
+    /// UTF-8 string.
+    String,
+    /// Boolean.
+    Bool,
+    /// RFC 3339 timestamp.
+    Timestamp,
+    /// A list of one element type (`[int]`).
+    List(Box<FieldType>),
+    /// Any JSON value.
+    Json,
+}
+
+impl FieldType {
+    /// Parses `int`, `f64`, `string`, `bool`, `timestamp`, `json` or `[T]`.
+    pub fn parse(s: &str) -> Option<FieldType> {
+        let s = s.trim();
+        if let Some(inner) = s.strip_prefix('[').and_then(|r| r.strip_suffix(']')) {
+            return FieldType::parse(inner).map(|t| FieldType::List(Box::new(t)));
+        }
+        Some(match s {
+            "int" | "i64" | "integer" | "long" => FieldType::Int,
+            "f64" | "float" | "double" | "number" => FieldType::Float,
+            "string" | "str" => FieldType::String,
+            "bool" | "boolean" => FieldType::Bool,
+            "timestamp" => FieldType::Timestamp,
+            "json" | "any" => FieldType::Json,
+            _ => return None,
+        })
+    }
+}
+
+impl std::fmt::Display for FieldType {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            FieldType::Int => f.write_str("int"),
+            FieldType::Float => f.write_str("f64"),
+            FieldType::String => f.write_str("string"),
+            FieldType::Bool => f.write_str("bool"),
+            FieldType::Timestamp => f.write_str("timestamp"),
+            FieldType::Json => f.write_str("json"),
+            FieldType::List(t) => write!(f, "[{t}]"),
+        }
+    }
+}
+
+/// One input: `source` evaluated over the variables, written to the goal field `target`.
+#[derive(Clone, Debug)]
+pub struct InputMapping {
+    /// Goal field path, e.g. `selected_site.site_id`.
+    pub target: String,
+    /// Expression over the instance's variables.
+    pub source: Expression,
+    /// Declared type, checked against the action catalogue and converted at run time.
+    pub ty: Option<FieldType>,
+}
+
+/// One output: `source` evaluated over the result fields, written to the variable `target`.
+#[derive(Clone, Debug)]
+pub struct OutputMapping {
+    /// Expression over the result (a field path such as `selected_site.site_id` is one).
+    pub source: Expression,
+    /// Variable name.
+    pub target: String,
+    /// Declared type (for user tasks, the form field type).
+    pub ty: Option<FieldType>,
+}
+
+/// How a task reaches a system.
+#[derive(Clone, Debug)]
+pub struct TaskBinding {
+    /// Vocabulary it was read from.
+    pub dialect: Dialect,
+    /// Resource name routed to a connector, e.g. `excavation.excavate` or `ground.approve_site`.
+    pub resource: Option<String>,
+    /// Inputs, in document order.
+    pub inputs: Vec<InputMapping>,
+    /// Outputs, in document order.
+    pub outputs: Vec<OutputMapping>,
+    /// Retries the connector may make before the failure reaches the model.
+    pub retries: Option<u32>,
+    /// Call activities: pass every variable in (`camunda:in variables="all"`).
+    pub all_in: bool,
+    /// Call activities: pass every variable out.
+    pub all_out: bool,
+}
+
+impl TaskBinding {
+    fn new(dialect: Dialect) -> TaskBinding {
+        TaskBinding { dialect, resource: None, inputs: Vec::new(), outputs: Vec::new(), retries: None, all_in: false, all_out: false }
+    }
+}
+
+/// Context for reading one element's binding: where to report and how strictly.
+pub(crate) struct Reader<'a> {
+    pub(crate) sink: &'a mut Sink,
+    pub(crate) element_id: &'a str,
+    /// Executable processes get errors; descriptive ones get warnings.
+    pub(crate) strict: bool,
+}
+
+impl Reader<'_> {
+    fn problem(&mut self, offset: usize, code: &'static str, message: String) {
+        if self.strict {
+            self.sink.error(code, offset, Some(self.element_id), message);
+        } else {
+            self.sink.warning(code, offset, Some(self.element_id), message);
+        }
+    }
+
+    fn expr(&mut self, offset: usize, raw: &str, what: &str) -> Option<Expression> {
+        match Expression::parse(raw) {
+            Ok(e) => Some(e),
+            Err(e) => {
+                self.problem(offset, "bad-expression", format!("{what}: {e}"));
+                None
+            }
+        }
+    }
+
+    /// A literal string as an expression (Camunda's static values).
+    fn literal(&mut self, offset: usize, value: &str, what: &str) -> Option<Expression> {
+        let quoted = serde_json_string(value);
+        self.expr(offset, &quoted, what)
+    }
+
+    fn ty(&mut self, el: &Element, ns: &Ns) -> Option<FieldType> {
+        let raw = el.attr("type").or_else(|| el.attr_ns(ns, "type"))?;
+        let t = FieldType::parse(raw);
+        if t.is_none() {
+            self.problem(el.offset, "bad-type", format!("unknown field type `{raw}` (use int, f64, string, bool, timestamp, json or [T])"));
+        }
+        t
+    }
+
+    /// Reads every binding on `el` (a task or call activity). Several dialects on one element
+    /// are refused, since which one wins would be a guess.
+    pub(crate) fn read(&mut self, el: &Element) -> Option<TaskBinding> {
+        let mut found: Vec<TaskBinding> = Vec::new();
+        if let Some(b) = self.read_trace(el) {
+            found.push(b);
+        }
+        if let Some(b) = self.read_zeebe(el) {
+            found.push(b);
+        }
+        if let Some(b) = self.read_camunda(el) {
+            found.push(b);
+        }
+        if found.len() > 1 {
+            self.problem(el.offset, "conflicting-bindings", "the task carries bindings in more than one dialect (trace, zeebe, camunda); keep one".to_owned());
+        }
+        found.into_iter().next()
+    }
+
+    fn read_trace(&mut self, el: &Element) -> Option<TaskBinding> {
+        let task = el.extensions().find(|e| e.ns == Ns::Trace && e.name == "task")?;
+        let mut b = TaskBinding::new(Dialect::Trace);
+        b.resource = task.attr("resource").map(str::to_owned);
+        if let Some(r) = task.attr("retries") {
+            match r.parse() {
+                Ok(n) => b.retries = Some(n),
+                Err(_) => self.problem(task.offset, "bad-attribute", format!("retries=\"{r}\" is not a whole number")),
+            }
+        }
+        for child in &task.children {
+            if child.ns != Ns::Trace {
+                continue;
+            }
+            let (target, source) = (child.attr("target"), child.attr("source"));
+            match child.name.as_str() {
+                "input" | "output" => {
+                    let (Some(target), Some(source)) = (target, source) else {
+                        self.problem(child.offset, "bad-binding", format!("trace:{} needs both source and target", child.name));
+                        continue;
+                    };
+                    let ty = self.ty(child, &Ns::Trace);
+                    let what = format!("trace:{} {target}", child.name);
+                    let Some(source) = self.expr(child.offset, source, &what) else { continue };
+                    if child.name == "input" {
+                        b.inputs.push(InputMapping { target: target.to_owned(), source, ty });
+                    } else {
+                        b.outputs.push(OutputMapping { source, target: target.to_owned(), ty });
+                    }
+                }
+                other => self.problem(child.offset, "unknown-element", format!("trace:{other} is not part of the trace vocabulary (input, output)")),
+            }
+        }
+        Some(b)
+    }
+
+    fn read_zeebe(&mut self, el: &Element) -> Option<TaskBinding> {
+        let zeebe: Vec<&Element> = el.extensions().filter(|e| e.ns == Ns::Zeebe).collect();
+        if zeebe.is_empty() {
+            return None;
+        }
+        let mut b = TaskBinding::new(Dialect::Zeebe);
+        let mut relevant = false;
+        for z in zeebe {
+            match z.name.as_str() {
+                "taskDefinition" => {
+                    relevant = true;
+                    b.resource = z.attr("type").map(str::to_owned);
+                    b.retries = z.attr("retries").and_then(|r| r.parse().ok());
+                }
+                "ioMapping" => {
+                    relevant = true;
+                    for m in &z.children {
+                        let (Some(source), Some(target)) = (m.attr("source"), m.attr("target")) else {
+                            if m.ns == Ns::Zeebe {
+                                self.problem(m.offset, "bad-binding", format!("zeebe:{} needs source and target", m.name));
+                            }
+                            continue;
+                        };
+                        let what = format!("zeebe:{} {target}", m.name);
+                        let source = if source.trim_start().starts_with('=') {
+                            self.expr(m.offset, source, &what)
+                        } else {
+                            self.literal(m.offset, source, &what)
+                        };
+                        let Some(source) = source else { continue };
+                        match m.name.as_str() {
+                            "input" => b.inputs.push(InputMapping { target: target.to_owned(), source, ty: None }),
+                            "output" => b.outputs.push(OutputMapping { source, target: target.to_owned(), ty: None }),
+                            _ => {}
+                        }
+                    }
+                }
+                "calledElement" => {
+                    relevant = true;
+                    b.all_in = z.attr("propagateAllParentVariables") != Some("false");
+                    b.all_out = z.attr("propagateAllChildVariables") != Some("false");
+                }
+                _ => {}
+            }
+        }
+        relevant.then_some(b)
+    }
+
+    fn read_camunda(&mut self, el: &Element) -> Option<TaskBinding> {
+        let mut b = TaskBinding::new(Dialect::Camunda7);
+        let mut relevant = false;
+        for attr in ["topic", "class", "delegateExpression", "expression", "decisionRef"] {
+            if let Some(v) = el.attr_ns(&Ns::Camunda, attr) {
+                b.resource = Some(v.to_owned());
+                relevant = true;
+                break;
+            }
+        }
+        for ext in el.extensions().filter(|e| e.ns == Ns::Camunda) {
+            match ext.name.as_str() {
+                "inputOutput" => {
+                    relevant = true;
+                    for p in ext.children.iter().filter(|p| p.ns == Ns::Camunda) {
+                        let Some(name) = p.attr("name") else {
+                            self.problem(p.offset, "bad-binding", format!("camunda:{} needs a name", p.name));
+                            continue;
+                        };
+                        if let Some(nested) = p.children.iter().find(|c| c.ns == Ns::Camunda) {
+                            self.problem(nested.offset, "unsupported", format!(
+                                "camunda:{} inside camunda:{} {name} is not supported; write the value as one expression",
+                                nested.name, p.name
+                            ));
+                            continue;
+                        }
+                        let raw = p.trimmed_text();
+                        let what = format!("camunda:{} {name}", p.name);
+                        let value = if raw.starts_with("${") || raw.starts_with("#{") {
+                            self.expr(p.offset, raw, &what)
+                        } else {
+                            self.literal(p.offset, raw, &what)
+                        };
+                        let Some(value) = value else { continue };
+                        match p.name.as_str() {
+                            "inputParameter" => b.inputs.push(InputMapping { target: name.to_owned(), source: value, ty: None }),
+                            "outputParameter" => b.outputs.push(OutputMapping { source: value, target: name.to_owned(), ty: None }),
+                            _ => {}
+                        }
+                    }
+                }
+                "in" | "out" => {
+                    relevant = true;
+                    let inbound = ext.name == "in";
+                    if ext.attr("variables") == Some("all") {
+                        if inbound { b.all_in = true } else { b.all_out = true }
+                        continue;
+                    }
+                    let target = ext.attr("target");
+                    let source = match (ext.attr("source"), ext.attr("sourceExpression")) {
+                        (Some(s), None) => self.expr(ext.offset, s, &format!("camunda:{} source", ext.name)),
+                        (None, Some(s)) => self.expr(ext.offset, s, &format!("camunda:{} sourceExpression", ext.name)),
+                        _ => {
+                            self.problem(ext.offset, "bad-binding", format!("camunda:{} needs exactly one of source, sourceExpression, or variables=\"all\"", ext.name));
+                            continue;
+                        }
+                    };
+                    let (Some(source), Some(target)) = (source, target) else {
+                        if target.is_none() {
+                            self.problem(ext.offset, "bad-binding", format!("camunda:{} needs a target", ext.name));
+                        }
+                        continue;
+                    };
+                    if inbound {
+                        b.inputs.push(InputMapping { target: target.to_owned(), source, ty: None });
+                    } else {
+                        b.outputs.push(OutputMapping { source, target: target.to_owned(), ty: None });
+                    }
+                }
+                _ => {}
+            }
+        }
+        relevant.then_some(b)
+    }
+}
+
+/// `value` as a quoted string literal of the expression language.
+fn serde_json_string(value: &str) -> String {
+    let mut out = String::with_capacity(value.len() + 2);
+    out.push('"');
+    for c in value.chars() {
+        match c {
+            '"' => out.push_str("\\\""),
+            '\\' => out.push_str("\\\\"),
+            '\n' => out.push_str("\\n"),
+            '\r' => out.push_str("\\r"),
+            '\t' => out.push_str("\\t"),
+            c => out.push(c),
+        }
+    }
+    out.push('"');
+    out
+}

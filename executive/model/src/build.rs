@@ -1,0 +1,756 @@
+//! Building the graph: the element tree of a `definitions` document -> [`ProcessGraph`].
+//!
+//! Two passes over each process: the first gives every flow node an id (so references that point
+//! forward resolve), the second reads each node's details, flows, defaults and boundaries. Every
+//! reference that does not resolve, and every element the executive cannot execute, becomes a
+//! diagnostic; nothing is skipped silently.
+
+use std::collections::BTreeMap;
+
+use crate::binding::Reader as BindingReader;
+use crate::diagnostic::Sink;
+use crate::expr::{Expression, parse_assignments};
+use crate::graph::*;
+use crate::timer::{TimerKind, parse_timer};
+use crate::xml::{Document, Element, Ns};
+
+/// BPMN flow-node element names.
+const FLOW_NODES: &[&str] = &[
+    "startEvent", "endEvent", "intermediateCatchEvent", "intermediateThrowEvent", "boundaryEvent",
+    "exclusiveGateway", "inclusiveGateway", "parallelGateway", "eventBasedGateway", "complexGateway",
+    "task", "serviceTask", "userTask", "scriptTask", "sendTask", "receiveTask", "manualTask",
+    "businessRuleTask", "subProcess", "transaction", "adHocSubProcess", "callActivity",
+];
+
+/// BPMN elements that may stand in a process or sub-process and carry no control flow.
+const PASSIVE: &[&str] = &[
+    "sequenceFlow", "dataObject", "dataObjectReference", "dataStoreReference", "textAnnotation",
+    "association", "group", "laneSet", "property", "ioSpecification", "documentation",
+    "extensionElements", "dataInputAssociation", "dataOutputAssociation", "auditing", "monitoring",
+    "correlationSubscription", "supports", "category", "ioBinding", "resourceRole", "performer",
+    "humanPerformer", "potentialOwner", "dataInput", "dataOutput", "inputSet", "outputSet",
+    "standardLoopCharacteristics", "multiInstanceLoopCharacteristics", "incoming", "outgoing",
+    "completionCondition", "renderings", "rendering",
+];
+
+/// Strips a QName prefix from a reference (`tns:Message_1` -> `Message_1`).
+pub(crate) fn local_ref(r: &str) -> &str {
+    let r = r.trim();
+    r.rsplit_once(':').map_or(r, |(_, l)| l)
+}
+
+struct NodeSource<'d> {
+    el: &'d Element,
+    strict: bool,
+}
+
+pub(crate) struct Builder<'d, 's> {
+    pub(crate) sink: &'s mut Sink,
+    g: ProcessGraph,
+    node_src: Vec<NodeSource<'d>>,
+    flow_src: Vec<(&'d Element, Scope, bool)>,
+    associations: Vec<&'d Element>,
+    messages: BTreeMap<String, MessageId>,
+    signals: BTreeMap<String, SignalId>,
+    errors: BTreeMap<String, ErrorId>,
+    escalations: BTreeMap<String, EscalationId>,
+    /// Definitions-level event definitions, by id (`eventDefinitionRef`).
+    global_event_defs: BTreeMap<String, &'d Element>,
+    /// Global tasks callable by call activities.
+    global_tasks: BTreeMap<String, &'d Element>,
+    /// Every BPMN id in the document, with the element name and offset.
+    pub(crate) all_ids: BTreeMap<&'d str, (&'d str, usize)>,
+}
+
+/// Builds the graph from a parsed document. Returns `None` only when the root is not a BPMN
+/// `definitions` element; every other problem is a diagnostic in `sink`.
+pub(crate) fn build<'d>(doc: &'d Document, sink: &mut Sink) -> Option<ProcessGraph> {
+    let root = &doc.root;
+    if !root.is_bpmn("definitions") {
+        let what = match &root.ns {
+            Ns::Other(uri) => format!("<{}> in namespace {uri}", root.name),
+            _ => format!("<{}>", root.name),
+        };
+        sink.error("not-bpmn", root.offset, None, format!(
+            "the root element is {what}, not a BPMN 2.0 <definitions> (namespace http://www.omg.org/spec/BPMN/20100524/MODEL)"
+        ));
+        return None;
+    }
+    let mut b = Builder {
+        sink,
+        g: ProcessGraph {
+            id: root.attr("id").map(str::to_owned),
+            target_namespace: root.attr("targetNamespace").map(str::to_owned),
+            processes: Vec::new(),
+            nodes: Vec::new(),
+            flows: Vec::new(),
+            messages: Vec::new(),
+            signals: Vec::new(),
+            errors: Vec::new(),
+            escalations: Vec::new(),
+            collaborations: Vec::new(),
+            warnings: Vec::new(),
+            node_ids: BTreeMap::new(),
+            process_ids: BTreeMap::new(),
+        },
+        node_src: Vec::new(),
+        flow_src: Vec::new(),
+        associations: Vec::new(),
+        messages: BTreeMap::new(),
+        signals: BTreeMap::new(),
+        errors: BTreeMap::new(),
+        escalations: BTreeMap::new(),
+        global_event_defs: BTreeMap::new(),
+        global_tasks: BTreeMap::new(),
+        all_ids: BTreeMap::new(),
+    };
+    b.collect_ids(root);
+    b.globals(root);
+    for el in root.bpmn_children("process") {
+        b.process(el);
+    }
+    b.flows();
+    for i in 0..b.node_src.len() {
+        b.node_details(NodeId(i as u32));
+    }
+    b.compensation_associations();
+    for el in root.bpmn_children("collaboration") {
+        b.collaboration(el);
+    }
+    b.unknown_definitions_children(root);
+    Some(b.g)
+}
+
+impl<'d> Builder<'d, '_> {
+    fn problem(&mut self, strict: bool, code: &'static str, offset: usize, element: Option<&str>, message: String) -> &mut crate::Diagnostic {
+        if strict {
+            self.sink.error(code, offset, element, message)
+        } else {
+            self.sink.warning(code, offset, element, message)
+        }
+    }
+
+    fn collect_ids(&mut self, root: &'d Element) {
+        let mut stack = vec![root];
+        while let Some(el) = stack.pop() {
+            if el.ns == Ns::Bpmn {
+                if let Some(id) = el.attr("id") {
+                    if let Some((other, at)) = self.all_ids.get(id).copied() {
+                        let msg = format!("id `{id}` is used twice: by <{}> and by <{other}> at byte {at}", el.name);
+                        self.sink.error("duplicate-id", el.offset, Some(id), msg).constraint("EXT.002");
+                    } else {
+                        self.all_ids.insert(id, (el.name.as_str(), el.offset));
+                    }
+                }
+            }
+            // BPMN DI and foreign extensions hold no BPMN ids of their own.
+            if el.ns == Ns::Bpmn {
+                stack.extend(el.children.iter().rev());
+            }
+        }
+    }
+
+    fn globals(&mut self, root: &'d Element) {
+        for el in &root.children {
+            if el.ns != Ns::Bpmn {
+                continue;
+            }
+            let id = el.attr("id").unwrap_or_default().to_owned();
+            match el.name.as_str() {
+                "message" => {
+                    let name = el.attr("name").map(str::to_owned).unwrap_or_else(|| id.clone());
+                    let correlation_key = el
+                        .extensions()
+                        .find(|e| e.ns == Ns::Zeebe && e.name == "subscription")
+                        .and_then(|s| s.attr("correlationKey"))
+                        .and_then(|k| Expression::parse(k).ok());
+                    self.messages.insert(id.clone(), MessageId(self.g.messages.len() as u32));
+                    self.g.messages.push(Message { id, name, correlation_key });
+                }
+                "signal" => {
+                    let name = el.attr("name").map(str::to_owned).unwrap_or_else(|| id.clone());
+                    self.signals.insert(id.clone(), SignalId(self.g.signals.len() as u32));
+                    self.g.signals.push(Signal { id, name });
+                }
+                "error" => {
+                    self.errors.insert(id.clone(), ErrorId(self.g.errors.len() as u32));
+                    self.g.errors.push(ErrorDef {
+                        id,
+                        name: el.attr("name").map(str::to_owned),
+                        code: el.attr("errorCode").map(str::to_owned),
+                    });
+                }
+                "escalation" => {
+                    self.escalations.insert(id.clone(), EscalationId(self.g.escalations.len() as u32));
+                    self.g.escalations.push(Escalation {
+                        id,
+                        name: el.attr("name").map(str::to_owned),
+                        code: el.attr("escalationCode").map(str::to_owned),
+                    });
+                }
+                n if n.ends_with("EventDefinition") => {
+                    self.global_event_defs.insert(id, el);
+                }
+                n if n.starts_with("global") && n.ends_with("Task") => {
+                    self.global_tasks.insert(id, el);
+                }
+                _ => {}
+            }
+        }
+    }
+
+    fn unknown_definitions_children(&mut self, root: &Element) {
+        const KNOWN: &[&str] = &[
+            "process", "collaboration", "message", "signal", "error", "escalation", "itemDefinition",
+            "interface", "dataStore", "import", "extension", "documentation", "extensionElements",
+            "choreography", "globalConversation", "correlationProperty", "category", "resource",
+            "partnerEntity", "partnerRole", "endPoint", "relationship", "eventDefinition",
+            "globalTask", "globalScriptTask", "globalUserTask", "globalManualTask",
+            "globalBusinessRuleTask",
+        ];
+        for el in &root.children {
+            if el.ns == Ns::Bpmn && !KNOWN.contains(&el.name.as_str()) && !el.name.ends_with("EventDefinition") {
+                self.sink.warning("unknown-element", el.offset, el.attr("id"), format!("<{}> is not a BPMN 2.0 root element; it is ignored", el.name));
+            }
+        }
+    }
+
+    fn process(&mut self, el: &'d Element) {
+        let pid = ProcessId(self.g.processes.len() as u32);
+        let id = el.attr("id").unwrap_or_default().to_owned();
+        let strict = el.attr("isExecutable") != Some("false");
+        if !id.is_empty() {
+            self.g.process_ids.insert(id.clone(), pid);
+        }
+        self.g.processes.push(Process {
+            id,
+            name: el.attr("name").map(str::to_owned),
+            executable: strict,
+            nodes: Vec::new(),
+            properties: data_items(el, "property"),
+            data_objects: data_items(el, "dataObject"),
+            lanes: Vec::new(),
+            offset: el.offset,
+        });
+        let nodes = self.scope(el, Scope::Process(pid), strict);
+        self.g.processes[pid.index()].nodes = nodes;
+        let mut lanes = Vec::new();
+        for set in el.bpmn_children("laneSet") {
+            self.lanes(set, &mut lanes);
+        }
+        self.g.processes[pid.index()].lanes = lanes;
+    }
+
+    fn lanes(&mut self, set: &Element, out: &mut Vec<Lane>) {
+        for lane in set.bpmn_children("lane") {
+            let nodes = lane
+                .bpmn_children("flowNodeRef")
+                .filter_map(|r| self.g.node_ids.get(local_ref(&r.text)).copied())
+                .collect();
+            out.push(Lane {
+                id: lane.attr("id").unwrap_or_default().to_owned(),
+                name: lane.attr("name").map(str::to_owned),
+                nodes,
+            });
+            for child in lane.bpmn_children("childLaneSet") {
+                self.lanes(child, out);
+            }
+        }
+    }
+
+    /// First pass over a process or sub-process: allocate its nodes, remember its flows.
+    fn scope(&mut self, el: &'d Element, scope: Scope, strict: bool) -> Vec<NodeId> {
+        let mut nodes = Vec::new();
+        for child in &el.children {
+            if child.ns != Ns::Bpmn {
+                continue;
+            }
+            let name = child.name.as_str();
+            if FLOW_NODES.contains(&name) {
+                let nid = NodeId(self.g.nodes.len() as u32);
+                let id = match child.attr("id") {
+                    Some(id) => id.to_owned(),
+                    None => {
+                        self.sink.error("missing-id", child.offset, None, format!("<{name}> has no id")).constraint("EXT.003");
+                        format!("<{name} at byte {}>", child.offset)
+                    }
+                };
+                self.g.node_ids.entry(id.clone()).or_insert(nid);
+                self.g.nodes.push(Node {
+                    id,
+                    name: child.attr("name").map(str::to_owned),
+                    kind: NodeKind::End(Vec::new()),
+                    scope,
+                    incoming: Vec::new(),
+                    outgoing: Vec::new(),
+                    default_flow: None,
+                    boundaries: Vec::new(),
+                    looping: None,
+                    for_compensation: child.attr("isForCompensation") == Some("true"),
+                    compensation_handler: None,
+                    offset: child.offset,
+                });
+                self.node_src.push(NodeSource { el: child, strict });
+                nodes.push(nid);
+                if matches!(name, "subProcess" | "transaction" | "adHocSubProcess") {
+                    let inner = self.scope(child, Scope::SubProcess(nid), strict);
+                    self.g.nodes[nid.index()].kind = NodeKind::SubProcess(SubProcess {
+                        kind: SubProcessKind::Embedded,
+                        nodes: inner,
+                        data_objects: data_items(child, "dataObject"),
+                    });
+                }
+            } else if name == "sequenceFlow" {
+                self.flow_src.push((child, scope, strict));
+            } else if name == "association" {
+                self.associations.push(child);
+            } else if !PASSIVE.contains(&name) {
+                let msg = format!("<{name}> is not a flow element the executive knows; the model cannot run with it");
+                self.problem(strict, "unsupported-element", child.offset, child.attr("id"), msg);
+            }
+        }
+        nodes
+    }
+
+    fn flows(&mut self) {
+        let sources = std::mem::take(&mut self.flow_src);
+        for (el, scope, strict) in sources {
+            let id = el.attr("id").unwrap_or_default().to_owned();
+            let end = |b: &mut Self, attr: &str| -> Option<NodeId> {
+                let Some(r) = el.attr(attr) else {
+                    b.sink.error("missing-reference", el.offset, Some(&id), format!("sequence flow has no {attr}"));
+                    return None;
+                };
+                let r = local_ref(r);
+                match b.g.node_ids.get(r) {
+                    Some(n) => Some(*n),
+                    None => {
+                        let what = match b.all_ids.get(r) {
+                            Some((name, _)) => format!("<{name}> `{r}`, which is not a flow node (activity, event or gateway)"),
+                            None => format!("`{r}`, which does not exist"),
+                        };
+                        let constraint = if attr == "sourceRef" { "EXT.007" } else { "EXT.006" };
+                        b.sink.error("dangling-reference", el.offset, Some(&id), format!("sequence flow {attr} names {what}")).constraint(constraint);
+                        None
+                    }
+                }
+            };
+            let (source, target) = (end(self, "sourceRef"), end(self, "targetRef"));
+            let (Some(source), Some(target)) = (source, target) else { continue };
+            for (n, role) in [(source, "source"), (target, "target")] {
+                if self.g.node(n).scope != scope {
+                    let msg = format!("sequence flow connects `{}` in another process or sub-process level (its {role}); flows cannot cross scope boundaries", self.g.node(n).id);
+                    self.sink.error("cross-scope-flow", el.offset, Some(&id), msg);
+                }
+            }
+            let condition = el.bpmn_child("conditionExpression").and_then(|c| {
+                let text = c.trimmed_text();
+                if text.is_empty() {
+                    return None;
+                }
+                match Expression::parse(text) {
+                    Ok(e) => Some(e),
+                    Err(e) => {
+                        self.problem(strict, "bad-expression", c.offset, Some(&id), format!("condition of sequence flow: {e}")).constraint("EXT.012");
+                        None
+                    }
+                }
+            });
+            let fid = FlowId(self.g.flows.len() as u32);
+            self.g.nodes[source.index()].outgoing.push(fid);
+            self.g.nodes[target.index()].incoming.push(fid);
+            self.g.flows.push(SequenceFlow {
+                id,
+                name: el.attr("name").map(str::to_owned),
+                source,
+                target,
+                condition,
+                offset: el.offset,
+            });
+        }
+    }
+
+    /// Links each compensation boundary event to its handler through the association between them.
+    fn compensation_associations(&mut self) {
+        for a in std::mem::take(&mut self.associations) {
+            let end = |attr: &str| a.attr(attr).and_then(|r| self.g.node_ids.get(local_ref(r)).copied());
+            let (Some(source), Some(target)) = (end("sourceRef"), end("targetRef")) else { continue };
+            let NodeKind::Boundary(b) = &self.g.node(source).kind else { continue };
+            if !b.triggers.iter().any(|t| matches!(t, EventDefinition::Compensate { .. })) {
+                continue;
+            }
+            let activity = b.attached_to;
+            if !self.g.node(target).for_compensation {
+                let msg = format!("compensation handler `{}` must be marked isForCompensation=\"true\"", self.g.node(target).id);
+                self.sink.error("handler-not-for-compensation", a.offset, a.attr("id"), msg).constraint("EXT.144");
+            }
+            self.g.nodes[activity.index()].compensation_handler = Some(target);
+        }
+        for i in 0..self.g.nodes.len() {
+            let node = &self.g.nodes[i];
+            if let NodeKind::Boundary(b) = &node.kind {
+                if b.triggers.iter().any(|t| matches!(t, EventDefinition::Compensate { .. })) && self.g.node(b.attached_to).compensation_handler.is_none() {
+                    let msg = "a compensation boundary event must be connected by an association to its compensation handler".to_owned();
+                    self.sink.error("compensation-without-handler", node.offset, Some(&node.id.clone()), msg).constraint("EXT.143");
+                }
+            }
+        }
+    }
+
+    fn expr(&mut self, strict: bool, el: &Element, owner: &str, what: &str) -> Option<Expression> {
+        let text = el.trimmed_text();
+        match Expression::parse(text) {
+            Ok(e) => Some(e),
+            Err(e) => {
+                self.problem(strict, "bad-expression", el.offset, Some(owner), format!("{what}: {e}"));
+                None
+            }
+        }
+    }
+
+    fn resolve<T: Copy>(&mut self, map_of: fn(&Self) -> &BTreeMap<String, T>, el: &Element, attr: &str, owner: &str) -> Option<T> {
+        let r = el.attr(attr)?;
+        let key = local_ref(r);
+        match map_of(self).get(key) {
+            Some(v) => Some(*v),
+            None => {
+                let msg = format!("{attr} `{key}` does not name a {} defined in this model", attr.trim_end_matches("Ref"));
+                self.sink.error("dangling-reference", el.offset, Some(owner), msg);
+                None
+            }
+        }
+    }
+
+    fn event_definitions(&mut self, el: &'d Element, owner: &str, strict: bool) -> Vec<EventDefinition> {
+        let mut defs: Vec<&'d Element> = el.children.iter().filter(|c| c.ns == Ns::Bpmn && c.name.ends_with("EventDefinition")).collect();
+        for r in el.bpmn_children("eventDefinitionRef") {
+            match self.global_event_defs.get(local_ref(&r.text)) {
+                Some(d) => defs.push(d),
+                None => {
+                    self.sink.error("dangling-reference", r.offset, Some(owner), format!("eventDefinitionRef `{}` does not exist", r.trimmed_text()));
+                }
+            }
+        }
+        let mut out = Vec::new();
+        for d in defs {
+            let def = match d.name.as_str() {
+                "messageEventDefinition" => EventDefinition::Message(self.resolve(|b| &b.messages, d, "messageRef", owner)),
+                "signalEventDefinition" => EventDefinition::Signal(self.resolve(|b| &b.signals, d, "signalRef", owner)),
+                "errorEventDefinition" => EventDefinition::Error(self.resolve(|b| &b.errors, d, "errorRef", owner)),
+                "escalationEventDefinition" => EventDefinition::Escalation(self.resolve(|b| &b.escalations, d, "escalationRef", owner)),
+                "terminateEventDefinition" => EventDefinition::Terminate,
+                "cancelEventDefinition" => EventDefinition::Cancel,
+                "compensateEventDefinition" => {
+                    let activity = d.attr("activityRef").and_then(|r| match self.g.node_ids.get(local_ref(r)) {
+                        Some(n) => Some(*n),
+                        None => {
+                            self.sink.error("dangling-reference", d.offset, Some(owner), format!("activityRef `{r}` does not name an activity"));
+                            None
+                        }
+                    });
+                    EventDefinition::Compensate { activity, wait: d.attr("waitForCompletion") != Some("false") }
+                }
+                "linkEventDefinition" => EventDefinition::Link(d.attr("name").unwrap_or_default().to_owned()),
+                "conditionalEventDefinition" => match d.bpmn_child("condition") {
+                    Some(c) => match self.expr(strict, c, owner, "condition of conditional event") {
+                        Some(e) => EventDefinition::Conditional(e),
+                        None => continue,
+                    },
+                    None => {
+                        self.sink.error("missing-condition", d.offset, Some(owner), "conditional event definition has no <condition>".to_owned());
+                        continue;
+                    }
+                },
+                "timerEventDefinition" => {
+                    let parts: Vec<(TimerKind, &Element)> = [("timeDate", TimerKind::Date), ("timeDuration", TimerKind::Duration), ("timeCycle", TimerKind::Cycle)]
+                        .into_iter()
+                        .filter_map(|(n, k)| d.bpmn_child(n).map(|c| (k, c)))
+                        .collect();
+                    let [(kind, value)] = parts[..] else {
+                        let msg = format!("timer event definition needs exactly one of timeDate, timeDuration, timeCycle (found {})", parts.len());
+                        self.problem(strict, "bad-timer", d.offset, Some(owner), msg);
+                        continue;
+                    };
+                    match parse_timer(kind, value.trimmed_text()) {
+                        Ok(t) => EventDefinition::Timer(t),
+                        Err(e) => {
+                            self.problem(strict, "bad-timer", value.offset, Some(owner), e);
+                            EventDefinition::Timer(crate::timer::Timer { kind, value: crate::timer::TimerValue::Unparsed(value.trimmed_text().to_owned()) })
+                        }
+                    }
+                }
+                other => {
+                    self.problem(strict, "unsupported-element", d.offset, Some(owner), format!("<{other}> is not a BPMN event definition"));
+                    continue;
+                }
+            };
+            out.push(def);
+        }
+        out
+    }
+
+    fn node_details(&mut self, nid: NodeId) {
+        let NodeSource { el, strict } = self.node_src[nid.index()];
+        let owner = self.g.node(nid).id.clone();
+        let parallel_multiple = el.attr("parallelMultiple") == Some("true");
+        let kind = match el.name.as_str() {
+            "startEvent" => NodeKind::Start(StartEvent {
+                triggers: self.event_definitions(el, &owner, strict),
+                interrupting: el.attr("isInterrupting") != Some("false"),
+                parallel_multiple,
+            }),
+            "endEvent" => NodeKind::End(self.event_definitions(el, &owner, strict)),
+            "intermediateCatchEvent" => NodeKind::Catch(CatchEvent { triggers: self.event_definitions(el, &owner, strict), parallel_multiple }),
+            "intermediateThrowEvent" => NodeKind::Throw(self.event_definitions(el, &owner, strict)),
+            "boundaryEvent" => {
+                let triggers = self.event_definitions(el, &owner, strict);
+                let attached = el.attr("attachedToRef").map(local_ref);
+                let attached_to = match attached.and_then(|a| self.g.node_ids.get(a).copied()) {
+                    Some(a) if self.g.node(a).is_activity() || matches!(self.node_src[a.index()].el.name.as_str(), "subProcess" | "transaction" | "adHocSubProcess" | "callActivity") => {
+                        if self.g.node(a).scope != self.g.node(nid).scope {
+                            self.sink.error("cross-scope-boundary", el.offset, Some(&owner), "boundary event is attached to an activity of another process or sub-process level".to_owned());
+                        }
+                        a
+                    }
+                    Some(a) => {
+                        let msg = format!("boundary event is attached to <{}> `{}`, which is not an activity", self.node_src[a.index()].el.name, self.g.node(a).id);
+                        self.sink.error("boundary-on-non-activity", el.offset, Some(&owner), msg);
+                        nid
+                    }
+                    None => {
+                        let msg = match attached {
+                            Some(a) => format!("attachedToRef `{a}` does not name an activity"),
+                            None => "boundary event has no attachedToRef".to_owned(),
+                        };
+                        self.sink.error("dangling-reference", el.offset, Some(&owner), msg);
+                        nid
+                    }
+                };
+                if attached_to != nid {
+                    self.g.nodes[attached_to.index()].boundaries.push(nid);
+                }
+                NodeKind::Boundary(BoundaryEvent {
+                    attached_to,
+                    triggers,
+                    interrupting: el.attr("cancelActivity") != Some("false"),
+                    parallel_multiple,
+                })
+            }
+            g @ ("exclusiveGateway" | "inclusiveGateway" | "parallelGateway" | "eventBasedGateway" | "complexGateway") => {
+                let kind = match g {
+                    "exclusiveGateway" => GatewayKind::Exclusive,
+                    "inclusiveGateway" => GatewayKind::Inclusive,
+                    "parallelGateway" => GatewayKind::Parallel,
+                    "eventBasedGateway" => GatewayKind::EventBased { parallel: el.attr("eventGatewayType") == Some("Parallel") },
+                    _ => GatewayKind::Complex,
+                };
+                let activation = el.bpmn_child("activationCondition").and_then(|c| self.expr(strict, c, &owner, "activation condition"));
+                NodeKind::Gateway(Gateway { kind, activation, instantiate: el.attr("instantiate") == Some("true") })
+            }
+            "subProcess" | "transaction" | "adHocSubProcess" => {
+                let sub_kind = match el.name.as_str() {
+                    "transaction" => SubProcessKind::Transaction,
+                    "adHocSubProcess" => SubProcessKind::AdHoc {
+                        sequential: el.attr("ordering") == Some("Sequential"),
+                        completion: el.bpmn_child("completionCondition").and_then(|c| self.expr(strict, c, &owner, "completion condition")),
+                        cancel_remaining: el.attr("cancelRemainingInstances") != Some("false"),
+                    },
+                    _ if el.attr("triggeredByEvent") == Some("true") => SubProcessKind::Event,
+                    _ => SubProcessKind::Embedded,
+                };
+                match &mut self.g.nodes[nid.index()].kind {
+                    NodeKind::SubProcess(s) => s.kind = sub_kind,
+                    _ => unreachable!("sub-process nodes are created as such in the first pass"),
+                }
+                self.looping(nid, el, &owner, strict);
+                self.default_flow(nid, el, &owner);
+                return;
+            }
+            "callActivity" => {
+                let called_attr = el
+                    .attr("calledElement")
+                    .or_else(|| el.extensions().find(|e| e.ns == Ns::Zeebe && e.name == "calledElement").and_then(|e| e.attr("processId")));
+                let called = match called_attr.map(local_ref) {
+                    Some(c) => match (self.g.process_ids.get(c), self.global_tasks.contains_key(c)) {
+                        (Some(p), _) => Some(Called::Process(*p)),
+                        (None, true) => Some(Called::GlobalTask(c.to_owned())),
+                        (None, false) => {
+                            let msg = format!("call activity calls `{c}`, which is not a process or global task of this mission bundle");
+                            self.problem(strict, "missing-called-process", el.offset, Some(&owner), msg);
+                            None
+                        }
+                    },
+                    None => {
+                        self.problem(strict, "missing-called-process", el.offset, Some(&owner), "call activity has no calledElement".to_owned());
+                        None
+                    }
+                };
+                let binding = BindingReader { sink: self.sink, element_id: &owner, strict }.read(el);
+                NodeKind::CallActivity(CallActivity { called, binding })
+            }
+            task => {
+                let kind = match task {
+                    "serviceTask" => TaskKind::Service,
+                    "userTask" => TaskKind::User,
+                    "scriptTask" => TaskKind::Script,
+                    "sendTask" => TaskKind::Send,
+                    "receiveTask" => TaskKind::Receive,
+                    "manualTask" => TaskKind::Manual,
+                    "businessRuleTask" => TaskKind::BusinessRule,
+                    _ => TaskKind::Plain,
+                };
+                let binding = BindingReader { sink: self.sink, element_id: &owner, strict }.read(el);
+                let script = (kind == TaskKind::Script).then(|| self.script(el, &owner, strict)).flatten();
+                let message = matches!(kind, TaskKind::Send | TaskKind::Receive)
+                    .then(|| self.resolve(|b| &b.messages, el, "messageRef", &owner))
+                    .flatten();
+                NodeKind::Task(Task { kind, binding, script, message, instantiate: el.attr("instantiate") == Some("true") })
+            }
+        };
+        self.g.nodes[nid.index()].kind = kind;
+        self.looping(nid, el, &owner, strict);
+        self.default_flow(nid, el, &owner);
+    }
+
+    fn script(&mut self, el: &Element, owner: &str, strict: bool) -> Option<Script> {
+        let Some(s) = el.bpmn_child("script") else {
+            self.problem(strict, "missing-script", el.offset, Some(owner), "script task has no <script>".to_owned());
+            return None;
+        };
+        let format = el.attr("scriptFormat").map(str::to_owned);
+        let text = s.trimmed_text().to_owned();
+        let ours = matches!(format.as_deref(), Some("cel" | "text/x-cel" | "trace"));
+        let assignments = match parse_assignments(&text) {
+            Ok(a) => Some(a),
+            Err(e) if ours => {
+                self.problem(strict, "bad-script", s.offset, Some(owner), format!("script: {e}"));
+                None
+            }
+            // A script in another language runs through a script connector.
+            Err(_) => None,
+        };
+        Some(Script { format, text, assignments })
+    }
+
+    fn default_flow(&mut self, nid: NodeId, el: &Element, owner: &str) {
+        let Some(d) = el.attr("default") else { return };
+        let d = local_ref(d);
+        let found = self.g.node(nid).outgoing.iter().copied().find(|f| self.g.flow(*f).id == d);
+        match found {
+            Some(f) => self.g.nodes[nid.index()].default_flow = Some(f),
+            None => {
+                self.sink.error("bad-default-flow", el.offset, Some(owner), format!("default flow `{d}` is not an outgoing sequence flow of this element"));
+            }
+        }
+    }
+
+    fn looping(&mut self, nid: NodeId, el: &Element, owner: &str, strict: bool) {
+        if let Some(l) = el.bpmn_child("standardLoopCharacteristics") {
+            let maximum = match l.attr("loopMaximum") {
+                None => None,
+                Some(m) => match m.trim().parse::<u64>() {
+                    Ok(v) => Some(v),
+                    Err(_) => {
+                        self.problem(strict, "bad-attribute", l.offset, Some(owner), format!("loopMaximum=\"{m}\" is not a non-negative whole number"));
+                        None
+                    }
+                },
+            };
+            let condition = l.bpmn_child("loopCondition").and_then(|c| self.expr(strict, c, owner, "loop condition"));
+            self.g.nodes[nid.index()].looping = Some(Looping::Standard { test_before: l.attr("testBefore") == Some("true"), maximum, condition });
+            return;
+        }
+        let Some(m) = el.bpmn_child("multiInstanceLoopCharacteristics") else { return };
+        let zeebe = m.extensions().find(|e| e.ns == Ns::Zeebe && e.name == "loopCharacteristics");
+        let cardinality = m.bpmn_child("loopCardinality").and_then(|c| self.expr(strict, c, owner, "loop cardinality"));
+        let mut input_collection = m
+            .bpmn_child("loopDataInputRef")
+            .map(|r| local_ref(&r.text).to_owned())
+            .or_else(|| m.attr_ns(&Ns::Camunda, "collection").map(str::to_owned))
+            .or_else(|| zeebe.and_then(|z| z.attr("inputCollection")).map(str::to_owned))
+            .and_then(|c| match Expression::parse(&c) {
+                Ok(e) => Some(e),
+                Err(e) => {
+                    self.problem(strict, "bad-expression", m.offset, Some(owner), format!("input collection: {e}"));
+                    None
+                }
+            });
+        if input_collection.is_none() && cardinality.is_none() && strict {
+            self.problem(strict, "missing-cardinality", m.offset, Some(owner), "multi-instance needs a loopCardinality or an input collection".to_owned()).constraint("EXT.067");
+            input_collection = None;
+        }
+        let item_name = |child: &str| m.bpmn_child(child).and_then(|d| d.attr("name").or(d.attr("id"))).map(str::to_owned);
+        let input_element = item_name("inputDataItem")
+            .or_else(|| m.attr_ns(&Ns::Camunda, "elementVariable").map(str::to_owned))
+            .or_else(|| zeebe.and_then(|z| z.attr("inputElement")).map(str::to_owned));
+        let output_collection = m
+            .bpmn_child("loopDataOutputRef")
+            .map(|r| local_ref(&r.text).to_owned())
+            .or_else(|| zeebe.and_then(|z| z.attr("outputCollection")).map(str::to_owned));
+        let output_element = item_name("outputDataItem")
+            .or_else(|| zeebe.and_then(|z| z.attr("outputElement")).map(str::to_owned))
+            .and_then(|e| Expression::parse(&e).ok());
+        let completion = m.bpmn_child("completionCondition").and_then(|c| self.expr(strict, c, owner, "completion condition"));
+        let behavior = match m.attr("behavior") {
+            Some("None") => MiBehavior::None,
+            Some("One") => MiBehavior::One,
+            Some("Complex") => MiBehavior::Complex,
+            _ => MiBehavior::All,
+        };
+        self.g.nodes[nid.index()].looping = Some(Looping::MultiInstance(MultiInstance {
+            sequential: m.attr("isSequential") == Some("true"),
+            cardinality,
+            input_collection,
+            input_element,
+            output_collection,
+            output_element,
+            completion,
+            behavior,
+        }));
+    }
+
+    fn collaboration(&mut self, el: &Element) {
+        let participants = el
+            .bpmn_children("participant")
+            .map(|p| Participant {
+                id: p.attr("id").unwrap_or_default().to_owned(),
+                name: p.attr("name").map(str::to_owned),
+                process: p.attr("processRef").and_then(|r| {
+                    let r = local_ref(r);
+                    let found = self.g.process_ids.get(r).copied();
+                    if found.is_none() {
+                        self.sink.warning("dangling-reference", p.offset, p.attr("id"), format!("participant processRef `{r}` does not name a process of this model"));
+                    }
+                    found
+                }),
+            })
+            .collect();
+        let mut message_flows = Vec::new();
+        for f in el.bpmn_children("messageFlow") {
+            let id = f.attr("id").unwrap_or_default().to_owned();
+            let mut ends = Vec::new();
+            for attr in ["sourceRef", "targetRef"] {
+                let r = f.attr(attr).map(local_ref).unwrap_or_default().to_owned();
+                if !self.all_ids.contains_key(r.as_str()) {
+                    self.sink.error("dangling-reference", f.offset, Some(&id), format!("message flow {attr} `{r}` does not exist"));
+                }
+                ends.push(r);
+            }
+            let message = self.resolve(|b| &b.messages, f, "messageRef", &id);
+            let target = ends.pop().unwrap_or_default();
+            let source = ends.pop().unwrap_or_default();
+            message_flows.push(MessageFlow { id, source, target, message });
+        }
+        self.g.collaborations.push(Collaboration { id: el.attr("id").unwrap_or_default().to_owned(), participants, message_flows });
+    }
+}
+
+fn data_items(el: &Element, name: &str) -> Vec<DataItem> {
+    el.bpmn_children(name)
+        .map(|d| DataItem {
+            id: d.attr("id").unwrap_or_default().to_owned(),
+            name: d.attr("name").map(str::to_owned),
+            collection: d.attr("isCollection") == Some("true"),
+        })
+        .collect()
+}
