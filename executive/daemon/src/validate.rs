@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use codespan_reporting::diagnostic::{Diagnostic as Report, Label};
 use codespan_reporting::files::SimpleFile;
 use codespan_reporting::term::{self, Config};
-use executive_model::{Diagnostic, Loaded, Severity, load};
+use executive_model::{Category, Diagnostic, Loaded, Options, Severity, load_bundle};
 use serde::Serialize;
 
 /// The verdict on one file.
@@ -42,11 +42,26 @@ pub struct FileReport {
     pub diagnostics: Vec<Diagnostic>,
 }
 
+/// Loads the model at `path` with its imports, read from files relative to it.
+pub fn load_file(path: &Path, options: &Options) -> std::io::Result<Loaded> {
+    let bytes = std::fs::read(path)?;
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let max = options.limits.max_bytes as u64;
+    let mut resolve = |location: &str| -> Result<Vec<u8>, String> {
+        let file = dir.join(location);
+        let len = std::fs::metadata(&file).map_err(|e| format!("{}: {e}", file.display()))?.len();
+        if len > max {
+            return Err(format!("{} is {len} bytes; the limit is {max}", file.display()));
+        }
+        std::fs::read(&file).map_err(|e| format!("{}: {e}", file.display()))
+    };
+    Ok(load_bundle(&bytes, options, &mut resolve))
+}
+
 /// Loads `path`; a file that cannot be read becomes an `unreadable` diagnostic.
 pub fn check_file(path: &Path) -> (Verdict, Loaded) {
-    match std::fs::read(path) {
-        Ok(bytes) => {
-            let loaded = load(&bytes);
+    match load_file(path, &Options::default()) {
+        Ok(loaded) => {
             let verdict = if loaded.unreadable() {
                 Verdict::Unreadable
             } else if loaded.graph.is_some() {
@@ -60,23 +75,30 @@ pub fn check_file(path: &Path) -> (Verdict, Loaded) {
             let d = Diagnostic {
                 severity: Severity::Error,
                 code: "unreadable",
+                category: Category::Bpmn,
                 constraint: None,
                 message: format!("cannot read {}: {e}", path.display()),
+                file: None,
                 element: None,
                 offset: 0,
                 line: 1,
                 column: 1,
             };
-            (Verdict::Unreadable, Loaded { graph: None, diagnostics: vec![d], text: String::new() })
+            (Verdict::Unreadable, Loaded { graph: None, diagnostics: vec![d], text: String::new(), imports: Vec::new() })
         }
     }
 }
 
 /// Writes diagnostics the way rustc does: a headline, the source line and a caret.
 pub fn render(out: &mut dyn Write, path: &Path, loaded: &Loaded) -> std::io::Result<()> {
-    let file = SimpleFile::new(path.display().to_string(), loaded.text.as_str());
     let config = Config::default();
     for d in &loaded.diagnostics {
+        let text = loaded.text_of(d);
+        let name = match &d.file {
+            None => path.display().to_string(),
+            Some(f) => path.parent().unwrap_or(Path::new("")).join(f).display().to_string(),
+        };
+        let file = SimpleFile::new(name, text);
         let report = match d.severity {
             Severity::Error => Report::error(),
             Severity::Warning => Report::warning(),
@@ -86,9 +108,9 @@ pub fn render(out: &mut dyn Write, path: &Path, loaded: &Loaded) -> std::io::Res
             code = format!("{code}, {c}");
         }
         let mut report = report.with_code(code).with_message(&d.message);
-        if !loaded.text.is_empty() {
-            let start = d.offset.min(loaded.text.len());
-            let end = loaded.text[start..].find(['>', '\n']).map_or(start, |i| start + i + 1);
+        if !text.is_empty() {
+            let start = d.offset.min(text.len());
+            let end = text[start..].find(['>', '\n']).map_or(start, |i| start + i + 1);
             let label = match &d.element {
                 Some(e) => Label::primary((), start..end).with_message(format!("element `{e}`")),
                 None => Label::primary((), start..end),

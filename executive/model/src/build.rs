@@ -59,13 +59,25 @@ pub(crate) struct Builder<'d, 's> {
     /// Global tasks callable by call activities.
     global_tasks: BTreeMap<String, &'d Element>,
     /// Every BPMN id in the document, with the element name and offset.
-    pub(crate) all_ids: BTreeMap<&'d str, (&'d str, usize)>,
+    /// Ids are unique per target namespace: (namespace index, id) -> (element name, offset).
+    pub(crate) all_ids: BTreeMap<(usize, &'d str), (&'d str, usize)>,
+    /// First offset of each document of the bundle, ascending.
+    bases: Vec<usize>,
+    /// Namespace index of each document (documents with equal targetNamespace share one).
+    doc_namespace: Vec<usize>,
+    /// Flow nodes and processes by (document, id).
+    scoped_nodes: BTreeMap<(usize, String), NodeId>,
+    scoped_processes: BTreeMap<(usize, String), ProcessId>,
+    /// Names of link event definitions by id (a link throw may name its catch by `<target>`).
+    link_names: BTreeMap<&'d str, &'d str>,
+    /// Foreign scripts are run by a script connector (see [`crate::Options`]).
+    script_connector: bool,
 }
 
 /// Builds the graph from a parsed document. Returns `None` only when the root is not a BPMN
 /// `definitions` element; every other problem is a diagnostic in `sink`.
-pub(crate) fn build<'d>(doc: &'d Document, sink: &mut Sink) -> Option<ProcessGraph> {
-    let root = &doc.root;
+pub(crate) fn build<'d>(docs: &[&'d Document], sink: &mut Sink, options: &crate::Options) -> Option<ProcessGraph> {
+    let root = &docs.first()?.root;
     if !root.is_bpmn("definitions") {
         let what = match &root.ns {
             Ns::Other(uri) => format!("<{}> in namespace {uri}", root.name),
@@ -103,25 +115,70 @@ pub(crate) fn build<'d>(doc: &'d Document, sink: &mut Sink) -> Option<ProcessGra
         global_event_defs: BTreeMap::new(),
         global_tasks: BTreeMap::new(),
         all_ids: BTreeMap::new(),
+        bases: docs.iter().map(|d| d.root.offset).collect(),
+        doc_namespace: {
+            let mut seen: Vec<Option<&str>> = Vec::new();
+            docs.iter()
+                .map(|d| {
+                    let ns = d.root.attr("targetNamespace");
+                    seen.iter().position(|s| *s == ns).unwrap_or_else(|| {
+                        seen.push(ns);
+                        seen.len() - 1
+                    })
+                })
+                .collect()
+        },
+        scoped_nodes: BTreeMap::new(),
+        scoped_processes: BTreeMap::new(),
+        link_names: BTreeMap::new(),
+        script_connector: options.script_connector,
     };
-    b.collect_ids(root);
-    b.globals(root);
-    for el in root.bpmn_children("process") {
-        b.process(el);
+    for (i, doc) in docs.iter().enumerate() {
+        if i > 0 && !doc.root.is_bpmn("definitions") {
+            continue;
+        }
+        b.collect_ids(&doc.root);
+        b.globals(&doc.root);
+    }
+    for (i, doc) in docs.iter().enumerate() {
+        if i > 0 && !doc.root.is_bpmn("definitions") {
+            continue;
+        }
+        for el in doc.root.bpmn_children("process") {
+            b.process(el, i > 0);
+        }
     }
     b.flows();
     for i in 0..b.node_src.len() {
         b.node_details(NodeId(i as u32));
     }
     b.compensation_associations();
-    for el in root.bpmn_children("collaboration") {
-        b.collaboration(el);
+    for doc in docs {
+        for el in doc.root.bpmn_children("collaboration") {
+            b.collaboration(el);
+        }
     }
     b.unknown_definitions_children(root);
     Some(b.g)
 }
 
 impl<'d> Builder<'d, '_> {
+    /// Which document of the bundle an offset lies in.
+    fn doc_of(&self, offset: usize) -> usize {
+        self.bases.partition_point(|b| *b <= offset).saturating_sub(1)
+    }
+
+    /// The flow node `id` as seen from the element at `offset` (same document).
+    fn node_ref(&self, offset: usize, id: &str) -> Option<NodeId> {
+        self.scoped_nodes.get(&(self.doc_of(offset), local_ref(id).to_owned())).copied()
+    }
+
+    /// The element `id` in the namespace of the element at `offset`.
+    fn any_ref(&self, offset: usize, id: &str) -> Option<(&'d str, usize)> {
+        let ns = self.doc_namespace[self.doc_of(offset)];
+        self.all_ids.get(&(ns, local_ref(id))).copied()
+    }
+
     fn problem(&mut self, strict: bool, code: &'static str, offset: usize, element: Option<&str>, message: String) -> &mut crate::Diagnostic {
         if strict {
             self.sink.error(code, offset, element, message)
@@ -135,11 +192,15 @@ impl<'d> Builder<'d, '_> {
         while let Some(el) = stack.pop() {
             if el.ns == Ns::Bpmn {
                 if let Some(id) = el.attr("id") {
-                    if let Some((other, at)) = self.all_ids.get(id).copied() {
+                    let ns = self.doc_namespace[self.doc_of(el.offset)];
+                    if let Some((other, at)) = self.all_ids.get(&(ns, id)).copied() {
                         let msg = format!("id `{id}` is used twice: by <{}> and by <{other}> at byte {at}", el.name);
                         self.sink.error("duplicate-id", el.offset, Some(id), msg).constraint("EXT.002");
                     } else {
-                        self.all_ids.insert(id, (el.name.as_str(), el.offset));
+                        self.all_ids.insert((ns, id), (el.name.as_str(), el.offset));
+                    }
+                    if el.name == "linkEventDefinition" {
+                        self.link_names.insert(id, el.attr("name").unwrap_or(id));
                     }
                 }
             }
@@ -215,17 +276,19 @@ impl<'d> Builder<'d, '_> {
         }
     }
 
-    fn process(&mut self, el: &'d Element) {
+    fn process(&mut self, el: &'d Element, imported: bool) {
         let pid = ProcessId(self.g.processes.len() as u32);
         let id = el.attr("id").unwrap_or_default().to_owned();
         let strict = el.attr("isExecutable") != Some("false");
         if !id.is_empty() {
-            self.g.process_ids.insert(id.clone(), pid);
+            self.g.process_ids.entry(id.clone()).or_insert(pid);
+            self.scoped_processes.insert((self.doc_of(el.offset), id.clone()), pid);
         }
         self.g.processes.push(Process {
             id,
             name: el.attr("name").map(str::to_owned),
             executable: strict,
+            imported,
             nodes: Vec::new(),
             properties: data_items(el, "property"),
             data_objects: data_items(el, "dataObject"),
@@ -245,7 +308,7 @@ impl<'d> Builder<'d, '_> {
         for lane in set.bpmn_children("lane") {
             let nodes = lane
                 .bpmn_children("flowNodeRef")
-                .filter_map(|r| self.g.node_ids.get(local_ref(&r.text)).copied())
+                .filter_map(|r| self.node_ref(r.offset, &r.text))
                 .collect();
             out.push(Lane {
                 id: lane.attr("id").unwrap_or_default().to_owned(),
@@ -276,6 +339,7 @@ impl<'d> Builder<'d, '_> {
                     }
                 };
                 self.g.node_ids.entry(id.clone()).or_insert(nid);
+                self.scoped_nodes.insert((self.doc_of(child.offset), id.clone()), nid);
                 self.g.nodes.push(Node {
                     id,
                     name: child.attr("name").map(str::to_owned),
@@ -322,10 +386,10 @@ impl<'d> Builder<'d, '_> {
                     return None;
                 };
                 let r = local_ref(r);
-                match b.g.node_ids.get(r) {
-                    Some(n) => Some(*n),
+                match b.node_ref(el.offset, r) {
+                    Some(n) => Some(n),
                     None => {
-                        let what = match b.all_ids.get(r) {
+                        let what = match b.any_ref(el.offset, r) {
                             Some((name, _)) => format!("<{name}> `{r}`, which is not a flow node (activity, event or gateway)"),
                             None => format!("`{r}`, which does not exist"),
                         };
@@ -373,7 +437,7 @@ impl<'d> Builder<'d, '_> {
     /// Links each compensation boundary event to its handler through the association between them.
     fn compensation_associations(&mut self) {
         for a in std::mem::take(&mut self.associations) {
-            let end = |attr: &str| a.attr(attr).and_then(|r| self.g.node_ids.get(local_ref(r)).copied());
+            let end = |attr: &str| a.attr(attr).and_then(|r| self.node_ref(a.offset, r));
             let (Some(source), Some(target)) = (end("sourceRef"), end("targetRef")) else { continue };
             let NodeKind::Boundary(b) = &self.g.node(source).kind else { continue };
             if !b.triggers.iter().any(|t| matches!(t, EventDefinition::Compensate { .. })) {
@@ -395,6 +459,13 @@ impl<'d> Builder<'d, '_> {
                 }
             }
         }
+    }
+
+    /// A process by id: in document `doc` first (or last, when `prefer_other`), else anywhere.
+    fn find_process(&self, doc: usize, id: &str, prefer_other: bool) -> Option<ProcessId> {
+        let own = self.scoped_processes.get(&(doc, id.to_owned())).copied();
+        let other = self.scoped_processes.iter().find(|((d, i), _)| *d != doc && i == id).map(|(_, p)| *p);
+        if prefer_other { other.or(own) } else { own.or(other) }
     }
 
     fn expr(&mut self, strict: bool, el: &Element, owner: &str, what: &str) -> Option<Expression> {
@@ -441,8 +512,8 @@ impl<'d> Builder<'d, '_> {
                 "terminateEventDefinition" => EventDefinition::Terminate,
                 "cancelEventDefinition" => EventDefinition::Cancel,
                 "compensateEventDefinition" => {
-                    let activity = d.attr("activityRef").and_then(|r| match self.g.node_ids.get(local_ref(r)) {
-                        Some(n) => Some(*n),
+                    let activity = d.attr("activityRef").and_then(|r| match self.node_ref(d.offset, r) {
+                        Some(n) => Some(n),
                         None => {
                             self.sink.error("dangling-reference", d.offset, Some(owner), format!("activityRef `{r}` does not name an activity"));
                             None
@@ -450,7 +521,11 @@ impl<'d> Builder<'d, '_> {
                     });
                     EventDefinition::Compensate { activity, wait: d.attr("waitForCompletion") != Some("false") }
                 }
-                "linkEventDefinition" => EventDefinition::Link(d.attr("name").unwrap_or_default().to_owned()),
+                "linkEventDefinition" => {
+                    // A throw may name its catch explicitly; then the pair shares the catch's name.
+                    let target = d.bpmn_child("target").and_then(|t| self.link_names.get(local_ref(&t.text)).copied());
+                    EventDefinition::Link(target.or(d.attr("name")).unwrap_or_default().to_owned())
+                }
                 "conditionalEventDefinition" => match d.bpmn_child("condition") {
                     Some(c) => match self.expr(strict, c, owner, "condition of conditional event") {
                         Some(e) => EventDefinition::Conditional(e),
@@ -469,6 +544,7 @@ impl<'d> Builder<'d, '_> {
                     let [(kind, value)] = parts[..] else {
                         let msg = format!("timer event definition needs exactly one of timeDate, timeDuration, timeCycle (found {})", parts.len());
                         self.problem(strict, "bad-timer", d.offset, Some(owner), msg);
+                        out.push(EventDefinition::Timer(crate::timer::Timer { kind: TimerKind::Duration, value: crate::timer::TimerValue::Unparsed(String::new()) }));
                         continue;
                     };
                     match parse_timer(kind, value.trimmed_text()) {
@@ -505,7 +581,7 @@ impl<'d> Builder<'d, '_> {
             "boundaryEvent" => {
                 let triggers = self.event_definitions(el, &owner, strict);
                 let attached = el.attr("attachedToRef").map(local_ref);
-                let attached_to = match attached.and_then(|a| self.g.node_ids.get(a).copied()) {
+                let attached_to = match attached.and_then(|a| self.node_ref(el.offset, a)) {
                     Some(a) if self.g.node(a).is_activity() || matches!(self.node_src[a.index()].el.name.as_str(), "subProcess" | "transaction" | "adHocSubProcess" | "callActivity") => {
                         if self.g.node(a).scope != self.g.node(nid).scope {
                             self.sink.error("cross-scope-boundary", el.offset, Some(&owner), "boundary event is attached to an activity of another process or sub-process level".to_owned());
@@ -570,9 +646,12 @@ impl<'d> Builder<'d, '_> {
                 let called_attr = el
                     .attr("calledElement")
                     .or_else(|| el.extensions().find(|e| e.ns == Ns::Zeebe && e.name == "calledElement").and_then(|e| e.attr("processId")));
+                let doc = self.doc_of(el.offset);
+                // A prefixed reference (`ns1:Process`) prefers an imported document.
+                let prefixed = called_attr.is_some_and(|c| c.contains(':'));
                 let called = match called_attr.map(local_ref) {
-                    Some(c) => match (self.g.process_ids.get(c), self.global_tasks.contains_key(c)) {
-                        (Some(p), _) => Some(Called::Process(*p)),
+                    Some(c) => match (self.find_process(doc, c, prefixed), self.global_tasks.contains_key(c)) {
+                        (Some(p), _) => Some(Called::Process(p)),
                         (None, true) => Some(Called::GlobalTask(c.to_owned())),
                         (None, false) => {
                             let msg = format!("call activity calls `{c}`, which is not a process or global task of this mission bundle");
@@ -626,6 +705,11 @@ impl<'d> Builder<'d, '_> {
                 self.problem(strict, "bad-script", s.offset, Some(owner), format!("script: {e}"));
                 None
             }
+            Err(e) if format.is_none() && !self.script_connector => {
+                let msg = format!("the script has no scriptFormat and is not written in the expression language ({e}); write assignments `name = expression`, or name its language in scriptFormat");
+                self.problem(strict, "missing-script-format", s.offset, Some(owner), msg).constraint("EXT.053");
+                None
+            }
             // A script in another language runs through a script connector.
             Err(_) => None,
         };
@@ -675,7 +759,7 @@ impl<'d> Builder<'d, '_> {
                     None
                 }
             });
-        if input_collection.is_none() && cardinality.is_none() && strict {
+        if input_collection.is_none() && m.bpmn_child("loopCardinality").is_none() && strict {
             self.problem(strict, "missing-cardinality", m.offset, Some(owner), "multi-instance needs a loopCardinality or an input collection".to_owned()).constraint("EXT.067");
             input_collection = None;
         }
@@ -717,7 +801,7 @@ impl<'d> Builder<'d, '_> {
                 name: p.attr("name").map(str::to_owned),
                 process: p.attr("processRef").and_then(|r| {
                     let r = local_ref(r);
-                    let found = self.g.process_ids.get(r).copied();
+                    let found = self.find_process(self.doc_of(p.offset), r, false);
                     if found.is_none() {
                         self.sink.warning("dangling-reference", p.offset, p.attr("id"), format!("participant processRef `{r}` does not name a process of this model"));
                     }
@@ -731,7 +815,7 @@ impl<'d> Builder<'d, '_> {
             let mut ends = Vec::new();
             for attr in ["sourceRef", "targetRef"] {
                 let r = f.attr(attr).map(local_ref).unwrap_or_default().to_owned();
-                if !self.all_ids.contains_key(r.as_str()) {
+                if self.any_ref(f.offset, &r).is_none() {
                     self.sink.error("dangling-reference", f.offset, Some(&id), format!("message flow {attr} `{r}` does not exist"));
                 }
                 ends.push(r);

@@ -12,6 +12,24 @@ pub enum Severity {
     Warning,
 }
 
+/// Whether a problem breaks BPMN 2.0 itself or only keeps this executive from running the model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Category {
+    /// The model violates BPMN 2.0 (schema, static constraints, broken references).
+    Bpmn,
+    /// Valid BPMN, but not executable as written: an expression that does not compile, a
+    /// service task without a resource name, an ambiguous gateway, a script no one can run.
+    Execution,
+}
+
+/// Codes of the checks that concern executability rather than BPMN validity.
+const EXECUTION_CODES: &[&str] = &[
+    "bad-expression", "missing-resource", "bad-timer", "unconditional-branch", "no-default-flow",
+    "bad-script", "missing-script", "unsupported", "bad-binding", "conflicting-bindings", "bad-type",
+    "unknown-element", "missing-activation-condition", "unknown-script-language",
+];
+
 /// One problem in a model.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize)]
 pub struct Diagnostic {
@@ -19,11 +37,16 @@ pub struct Diagnostic {
     pub severity: Severity,
     /// Stable kebab-case name of the check, e.g. `dangling-reference`.
     pub code: &'static str,
+    /// BPMN violation or executability problem.
+    pub category: Category,
     /// BPMN 2.0 static constraint this check enforces (BPMNspector numbering), if any.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub constraint: Option<&'static str>,
     /// What is wrong, in a plain sentence.
     pub message: String,
+    /// The imported file the problem is in; `None` for the model file itself.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub file: Option<String>,
     /// BPMN id of the element concerned, if it has one.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub element: Option<String>,
@@ -49,6 +72,14 @@ impl std::fmt::Display for Diagnostic {
     }
 }
 
+/// One text of a bundle and where its offsets start.
+pub(crate) struct SourceText<'a> {
+    /// `None` for the model itself, else the import location.
+    pub(crate) name: Option<&'a str>,
+    pub(crate) text: &'a str,
+    pub(crate) base: usize,
+}
+
 /// Collects diagnostics while a model is read, then fills in line and column.
 #[derive(Debug, Default)]
 pub(crate) struct Sink {
@@ -64,11 +95,14 @@ impl Sink {
         element: Option<&str>,
         message: String,
     ) -> &mut Diagnostic {
+        let category = if EXECUTION_CODES.contains(&code) { Category::Execution } else { Category::Bpmn };
         self.items.push(Diagnostic {
             severity,
             code,
+            category,
             constraint: None,
             message,
+            file: None,
             element: element.map(str::to_owned),
             offset,
             line: 0,
@@ -89,21 +123,22 @@ impl Sink {
         self.items.iter().any(|d| d.severity == Severity::Error)
     }
 
-    /// Fills in line and column from `text` and sorts by position (errors first on a tie).
-    pub(crate) fn finish(mut self, text: &str) -> Vec<Diagnostic> {
-        let starts: Vec<usize> = std::iter::once(0)
-            .chain(text.match_indices('\n').map(|(i, _)| i + 1))
-            .collect();
-        for d in &mut self.items {
-            let offset = d.offset.min(text.len());
-            let line = starts.partition_point(|&s| s <= offset).max(1);
-            let start = starts[line - 1];
-            let column = text.get(start..offset).map_or(offset - start, |s| s.chars().count()) + 1;
-            d.line = line;
-            d.column = column;
-        }
+    /// Fills in file, line and column and sorts by position (errors first on a tie). `files`
+    /// are the bundle's texts in offset order: the model first, then its imports.
+    pub(crate) fn finish(mut self, files: &[SourceText<'_>]) -> Vec<Diagnostic> {
         self.items.sort_by(|a, b| (a.offset, a.severity).cmp(&(b.offset, b.severity)));
         self.items.dedup();
+        for d in &mut self.items {
+            let Some(f) = files.iter().rev().find(|f| f.base <= d.offset) else { continue };
+            let text = f.text;
+            let offset = (d.offset - f.base).min(text.len());
+            let starts: Vec<usize> = std::iter::once(0).chain(text[..offset].match_indices('\n').map(|(i, _)| i + 1)).collect();
+            let start = *starts.last().unwrap_or(&0);
+            d.line = starts.len();
+            d.column = text.get(start..offset).map_or(offset - start, |s| s.chars().count()) + 1;
+            d.offset = offset;
+            d.file = f.name.map(str::to_owned);
+        }
         self.items
     }
 }

@@ -130,10 +130,14 @@ impl ProcessGraph {
         }
     }
 
-    /// Processes that start when the mission starts: the executable ones. Processes marked
-    /// `isExecutable="false"` are descriptive and never run.
+    /// Processes that start when the mission starts: the executable ones of the model file.
+    /// Processes marked `isExecutable="false"` are descriptive and never run; imported ones
+    /// run only when called.
     pub fn primary_processes(&self) -> Vec<ProcessId> {
-        (0..self.processes.len() as u32).map(ProcessId).filter(|p| self.process(*p).executable).collect()
+        (0..self.processes.len() as u32)
+            .map(ProcessId)
+            .filter(|p| self.process(*p).executable && !self.process(*p).imported)
+            .collect()
     }
 }
 
@@ -156,6 +160,8 @@ pub struct Process {
     /// Checked and run as executable: `isExecutable` is not `false` (absent counts as executable,
     /// as Camunda Modeler and the conformance suites assume).
     pub executable: bool,
+    /// Comes from an imported document: callable, but not started with the mission.
+    pub imported: bool,
     /// Nodes at the top level of the process.
     pub nodes: Vec<NodeId>,
     /// Process properties (variables declared by the model).

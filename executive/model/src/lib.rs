@@ -28,6 +28,7 @@
 
 pub mod binding;
 mod build;
+mod constraints;
 mod diagnostic;
 mod expr;
 mod graph;
@@ -35,7 +36,7 @@ pub mod timer;
 mod validate;
 mod xml;
 
-pub use diagnostic::{Diagnostic, Severity};
+pub use diagnostic::{Category, Diagnostic, Severity};
 pub use expr::{Expression, parse_assignments};
 pub use graph::*;
 pub use xml::{BPMN_NS, CAMUNDA_NS, Limits, TRACE_NS, XmlError, ZEEBE_NS};
@@ -51,6 +52,8 @@ pub struct Loaded {
     pub diagnostics: Vec<Diagnostic>,
     /// The decoded source text (for rendering diagnostics with source lines).
     pub text: String,
+    /// Imported documents as (location, decoded text), for rendering their diagnostics.
+    pub imports: Vec<(String, String)>,
 }
 
 impl Loaded {
@@ -61,54 +64,159 @@ impl Loaded {
 
     /// Did reading stop at the XML level (malformed, hostile or not BPMN)?
     pub fn unreadable(&self) -> bool {
-        self.diagnostics.iter().any(|d| matches!(d.code, "malformed-xml" | "not-bpmn"))
+        self.diagnostics.iter().any(|d| d.file.is_none() && matches!(d.code, "malformed-xml" | "not-bpmn"))
+    }
+
+    /// The text of the file a diagnostic points into.
+    pub fn text_of(&self, d: &Diagnostic) -> &str {
+        match &d.file {
+            None => &self.text,
+            Some(f) => self.imports.iter().find(|(l, _)| l == f).map_or("", |(_, t)| t.as_str()),
+        }
     }
 }
 
-/// Loads a mission model from its bytes with the default [`Limits`].
+/// How to load a model.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Options {
+    /// Hard limits on the input.
+    pub limits: Limits,
+    /// A script connector is present: scripts that are not written in the expression language
+    /// (and carry no `scriptFormat`) are accepted and run by it instead of being refused.
+    pub script_connector: bool,
+}
+
+/// Loads a mission model with the default [`Options`]; imports cannot be resolved.
 pub fn load(bytes: &[u8]) -> Loaded {
-    load_with(bytes, &Limits::default())
+    load_with(bytes, &Options::default())
 }
 
-/// Loads a mission model from its bytes with explicit limits.
-pub fn load_with(bytes: &[u8], limits: &Limits) -> Loaded {
+/// Loads a mission model with explicit options; imports cannot be resolved.
+pub fn load_with(bytes: &[u8], options: &Options) -> Loaded {
+    load_bundle(bytes, options, &mut |location: &str| Err(format!("no import resolver was given for `{location}`")))
+}
+
+/// Most documents one bundle may import (transitively).
+const MAX_IMPORTS: usize = 64;
+
+/// A decoded, parsed document of a bundle.
+struct Part {
+    name: Option<String>,
+    text: String,
+    base: usize,
+    doc: Option<xml::Document>,
+}
+
+/// Loads a mission bundle: the model and the documents it imports (`<bpmn:import location=…>`),
+/// which `resolve` reads (the caller decides where from; this crate does no I/O). Call
+/// activities may call processes of imported BPMN documents.
+pub fn load_bundle(bytes: &[u8], options: &Options, resolve: &mut dyn FnMut(&str) -> Result<Vec<u8>, String>) -> Loaded {
+    let limits = &options.limits;
     let mut sink = Sink::default();
-    let mut warnings = Vec::new();
-    if bytes.len() > limits.max_bytes {
-        sink.error("malformed-xml", 0, None, format!("the file is {} bytes; the limit is {}", bytes.len(), limits.max_bytes));
-        return Loaded { graph: None, diagnostics: sink.finish(""), text: String::new() };
-    }
-    let text = match xml::decode(bytes, &mut warnings) {
-        Ok(t) => t,
-        Err(e) => {
-            sink.error("malformed-xml", 0, None, e.message);
-            return Loaded { graph: None, diagnostics: sink.finish(""), text: String::new() };
+    let mut parts: Vec<Part> = Vec::new();
+    let main = read_part(bytes, None, 0, limits, &mut sink);
+    let main_ok = main.doc.is_some();
+    parts.push(main);
+    // Resolve imports breadth-first; each document gets its own offset range.
+    let mut next = 0;
+    while next < parts.len() && parts.len() <= MAX_IMPORTS {
+        let imports: Vec<(usize, String, bool)> = parts[next]
+            .doc
+            .iter()
+            .flat_map(|d| d.root.bpmn_children("import"))
+            .map(|i| {
+                let location = i.attr("location").unwrap_or_default().to_owned();
+                let bpmn = i.attr("importType") == Some(BPMN_NS) || location.ends_with(".bpmn");
+                (i.offset, location, bpmn)
+            })
+            .collect();
+        for (offset, location, bpmn) in imports {
+            if parts.iter().any(|p| p.name.as_deref() == Some(location.as_str())) {
+                continue;
+            }
+            let bytes = if location.contains("://") {
+                Err("imports by URL are not fetched; put the file beside the model".to_owned())
+            } else {
+                resolve(&location)
+            };
+            let bytes = match bytes {
+                Ok(b) => b,
+                Err(why) => {
+                    sink.error("unresolved-import", offset, None, format!("import `{location}` cannot be resolved: {why}")).constraint("EXT.001");
+                    continue;
+                }
+            };
+            let base = parts.last().map_or(0, |p| p.base + p.text.len() + 1);
+            let part = read_part(&bytes, Some(location.clone()), base, limits, &mut sink);
+            match &part.doc {
+                None => {
+                    sink.error("broken-import", offset, None, format!("imported file `{location}` is not well-formed XML"));
+                }
+                Some(d) if bpmn && !d.root.is_bpmn("definitions") => {
+                    sink.error("broken-import", offset, None, format!("imported file `{location}` is not a BPMN model"));
+                }
+                Some(_) => {}
+            }
+            // Only BPMN documents join the model; XSD and WSDL are checked for well-formedness.
+            let part = if bpmn { part } else { Part { doc: None, ..part } };
+            parts.push(part);
         }
-    };
-    let doc = match xml::parse(&text, limits, warnings) {
-        Ok(d) => d,
-        Err(e) => {
-            sink.error("malformed-xml", e.offset, None, e.message);
-            let diagnostics = sink.finish(&text);
-            return Loaded { graph: None, diagnostics, text };
-        }
-    };
-    for (offset, w) in &doc.warnings {
-        sink.warning("xml", *offset, None, w.clone());
+        next += 1;
     }
-    let graph = {
-        let built = build::build(&doc, &mut sink);
+    let graph = if main_ok {
+        let docs: Vec<&xml::Document> = parts.iter().filter_map(|p| p.doc.as_ref()).collect();
+        for d in &docs {
+            for (offset, w) in &d.warnings {
+                sink.warning("xml", *offset, None, w.clone());
+            }
+        }
+        let built = build::build(&docs, &mut sink, options);
         if let Some(g) = &built {
             validate::Checker { g, sink: &mut sink }.run();
-            validate::element_checks(&doc.root, &mut sink);
+            for d in &docs {
+                validate::element_checks(&d.root, &mut sink);
+                constraints::check(&d.root, &mut sink);
+                constraints::event_data(&d.root, &mut sink);
+            }
         }
         built
+    } else {
+        None
     };
     let ok = !sink.has_errors();
-    let diagnostics = sink.finish(&text);
+    let texts: Vec<diagnostic::SourceText<'_>> =
+        parts.iter().map(|p| diagnostic::SourceText { name: p.name.as_deref(), text: &p.text, base: p.base }).collect();
+    let diagnostics = sink.finish(&texts);
     let graph = graph.filter(|_| ok).map(|mut g| {
         g.warnings = diagnostics.clone();
         g
     });
-    Loaded { graph, diagnostics, text }
+    let mut parts = parts.into_iter();
+    let text = parts.next().map(|p| p.text).unwrap_or_default();
+    let imports = parts.filter_map(|p| Some((p.name?, p.text))).collect();
+    Loaded { graph, diagnostics, text, imports }
+}
+
+/// Decodes and parses one document; problems go to `sink`.
+fn read_part(bytes: &[u8], name: Option<String>, base: usize, limits: &Limits, sink: &mut Sink) -> Part {
+    let mut warnings = Vec::new();
+    if bytes.len() > limits.max_bytes {
+        sink.error("malformed-xml", base, None, format!("the file is {} bytes; the limit is {}", bytes.len(), limits.max_bytes));
+        return Part { name, text: String::new(), base, doc: None };
+    }
+    let text = match xml::decode(bytes, &mut warnings) {
+        Ok(t) => t,
+        Err(e) => {
+            sink.error("malformed-xml", base, None, e.message);
+            return Part { name, text: String::new(), base, doc: None };
+        }
+    };
+    let warnings = warnings.into_iter().map(|(o, w)| (o + base, w)).collect();
+    match xml::parse(&text, base, limits, warnings) {
+        Ok(doc) => Part { name, text, base, doc: Some(doc) },
+        Err(e) => {
+            sink.error("malformed-xml", e.offset, None, e.message);
+            Part { name, text, base, doc: None }
+        }
+    }
 }

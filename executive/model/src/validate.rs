@@ -74,9 +74,22 @@ impl Checker<'_> {
                 if ins > 0 {
                     self.hard(n, "flow-into-start", Some("EXT.056"), "a start event cannot have incoming sequence flows".to_owned());
                 }
+                if outs == 0 {
+                    self.hard(n, "no-outgoing", Some("EXT.101"), "a start event needs an outgoing sequence flow".to_owned());
+                }
                 if event_sub {
                     if s.triggers.is_empty() {
                         self.hard(n, "event-subprocess-start", Some("EXT.059"), "the start event of an event sub-process needs a trigger (message, timer, signal, error, escalation, conditional or compensation)".to_owned());
+                    }
+                    if let Some(bad) = s.triggers.iter().find(|t| matches!(t, EventDefinition::Cancel | EventDefinition::Link(_) | EventDefinition::Terminate)) {
+                        let msg = format!("an event sub-process cannot be started by {}", bad.element_name());
+                        self.hard(n, "event-subprocess-start", Some("EXT.059"), msg);
+                    }
+                    if !s.interrupting {
+                        if let Some(bad) = s.triggers.iter().find(|t| matches!(t, EventDefinition::Error(_) | EventDefinition::Compensate { .. })) {
+                            let msg = format!("a {} start event always interrupts (isInterrupting cannot be false)", bad.element_name());
+                            self.hard(n, "event-subprocess-start", Some("EXT.059"), msg);
+                        }
                     }
                 } else if in_subprocess.is_some() {
                     if let Some(t) = s.triggers.first() {
@@ -89,6 +102,9 @@ impl Checker<'_> {
                 }
             }
             NodeKind::End(results) => {
+                if ins == 0 {
+                    self.hard(n, "no-incoming", Some("EXT.107"), "an end event needs an incoming sequence flow".to_owned());
+                }
                 if outs > 0 {
                     self.hard(n, "flow-from-end", Some("EXT.007"), "an end event cannot have outgoing sequence flows".to_owned());
                 }
@@ -173,7 +189,18 @@ impl Checker<'_> {
                     }
                 }
             }
-            NodeKind::CallActivity(_) => {}
+            NodeKind::CallActivity(c) => {
+                if let Some(Called::Process(p)) = c.called {
+                    let starts: Vec<&StartEvent> = g.process(p).nodes.iter().filter_map(|s| match &g.node(*s).kind {
+                        NodeKind::Start(s) => Some(s),
+                        _ => None,
+                    }).collect();
+                    if !starts.is_empty() && starts.iter().all(|s| !s.triggers.is_empty()) {
+                        let msg = format!("calls process `{}`, which has no none start event to be started by a call activity", g.process(p).id);
+                        self.hard(n, "called-process-start", Some("EXT.099"), msg);
+                    }
+                }
+            }
         }
         if let Some(d) = node.default_flow {
             if g.flow(d).condition.is_some() {
@@ -403,8 +430,21 @@ impl Checker<'_> {
                 self.report(*n, "unreachable", Some("EXT.150"), msg);
             }
         }
-        // With end events in use, every node needs an outgoing flow (EXT.151).
+        // Start and end events come together at one process level (EXT.097, EXT.105).
         let has_end = nodes.iter().any(|n| matches!(g.node(*n).kind, NodeKind::End(_)));
+        let owner = match scope {
+            Scope::Process(p) => (g.process(p).offset, g.process(p).id.clone()),
+            Scope::SubProcess(s) => (g.node(s).offset, g.node(s).id.clone()),
+        };
+        if !adhoc && !matches!(scope, Scope::SubProcess(s) if matches!(&g.node(s).kind, NodeKind::SubProcess(SubProcess { kind: SubProcessKind::Event, .. }))) {
+            if has_end && !has_start {
+                self.sink.error("end-without-start", owner.0, Some(&owner.1), "this process level has end events but no start event".to_owned()).constraint("EXT.097");
+            }
+            if has_start && !has_end {
+                self.sink.error("start-without-end", owner.0, Some(&owner.1), "this process level has a start event but no end event".to_owned()).constraint("EXT.105");
+            }
+        }
+        // With end events in use, every node needs an outgoing flow (EXT.151).
         if has_end {
             for n in nodes {
                 let node = g.node(*n);
@@ -476,11 +516,6 @@ pub(crate) fn element_checks(root: &Element, sink: &mut Sink) {
                         if !s.trimmed_text().is_empty() && el.attr("scriptFormat").is_some_and(|f| f.trim().is_empty()) {
                             sink.error("empty-script-format", el.offset, id, "scriptFormat is empty".to_owned()).constraint("EXT.053");
                         }
-                    }
-                }
-                "conditionExpression" | "condition" | "loopCondition" | "completionCondition" | "activationCondition" if executable => {
-                    if el.attrs.iter().any(|a| a.name == "type" && a.value.ends_with("tExpression") && !a.value.ends_with("tFormalExpression")) {
-                        sink.error("natural-language-expression", el.offset, id, "a natural-language expression (tExpression) cannot be executed; use a formal expression".to_owned()).constraint("EXT.012");
                     }
                 }
                 _ => {}

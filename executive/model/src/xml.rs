@@ -237,9 +237,11 @@ impl Scope {
 }
 
 /// Parses decoded text into a [`Document`], enforcing `limits`.
-pub(crate) fn parse(text: &str, limits: &Limits, mut warnings: Vec<(usize, String)>) -> Result<Document, XmlError> {
+/// Offsets are `base` plus the position in `text`, so several documents of a bundle share one
+/// offset space.
+pub(crate) fn parse(text: &str, base: usize, limits: &Limits, mut warnings: Vec<(usize, String)>) -> Result<Document, XmlError> {
     if text.len() > limits.max_bytes {
-        return Err(err(0, format!("document is {} bytes; the limit is {}", text.len(), limits.max_bytes)));
+        return Err(err(base, format!("document is {} bytes; the limit is {}", text.len(), limits.max_bytes)));
     }
     let mut reader = Reader::from_str(text);
     reader.config_mut().check_end_names = true;
@@ -251,9 +253,9 @@ pub(crate) fn parse(text: &str, limits: &Limits, mut warnings: Vec<(usize, Strin
     let mut root: Option<Element> = None;
     let mut elements = 0usize;
     loop {
-        let offset = reader.buffer_position() as usize;
+        let offset = base + reader.buffer_position() as usize;
         let event = reader.read_event().map_err(|e| {
-            err(reader.error_position() as usize, format!("malformed XML: {e}"))
+            err(base + reader.error_position() as usize, format!("malformed XML: {e}"))
         })?;
         match event {
             Event::Start(start) | Event::Empty(start) if root.is_some() => {
@@ -334,9 +336,9 @@ pub(crate) fn parse(text: &str, limits: &Limits, mut warnings: Vec<(usize, Strin
         }
     }
     if let Some(open) = stack.last() {
-        return Err(err(text.len(), format!("document ends inside <{}>", open.name)));
+        return Err(err(base + text.len(), format!("document ends inside <{}>", open.name)));
     }
-    let root = root.ok_or_else(|| err(0, "no root element: this is not an XML document"))?;
+    let root = root.ok_or_else(|| err(base, "no root element: this is not an XML document"))?;
     Ok(Document { root, warnings })
 }
 
@@ -426,7 +428,7 @@ mod tests {
     use super::*;
 
     fn read(text: &str) -> Result<Document, XmlError> {
-        parse(text, &Limits::default(), Vec::new())
+        parse(text, 0, &Limits::default(), Vec::new())
     }
 
     #[test]

@@ -1,0 +1,568 @@
+//! BPMN 2.0 static constraints read off the element tree: typed references, data
+//! (ioSpecification, item definitions, data associations), collaborations and message flows,
+//! and the attributes the graph does not keep.
+//!
+//! Each check carries the BPMNspector number (`EXT.nnn`) of the constraint it enforces. The
+//! constraints deliberately **not** enforced are listed in `docs/bpmn-constraints.md` with the
+//! reason (e.g. EXT.128: WSDL `operationRef` on message events; the executive correlates
+//! messages by name).
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use crate::build::local_ref;
+use crate::diagnostic::Sink;
+use crate::xml::{Element, Ns};
+
+/// What kind of element a reference must name.
+const ITEM_AWARE: &[&str] = &["dataObject", "dataObjectReference", "property", "dataStore", "dataStoreReference", "dataInput", "dataOutput"];
+const FLOW_NODES: &[&str] = &[
+    "startEvent", "endEvent", "intermediateCatchEvent", "intermediateThrowEvent", "boundaryEvent",
+    "exclusiveGateway", "inclusiveGateway", "parallelGateway", "eventBasedGateway", "complexGateway",
+    "task", "serviceTask", "userTask", "scriptTask", "sendTask", "receiveTask", "manualTask",
+    "businessRuleTask", "subProcess", "transaction", "adHocSubProcess", "callActivity",
+];
+const ACTIVITIES: &[&str] = &[
+    "task", "serviceTask", "userTask", "scriptTask", "sendTask", "receiveTask", "manualTask",
+    "businessRuleTask", "subProcess", "transaction", "adHocSubProcess", "callActivity",
+];
+
+/// Allowed target kinds for a reference held in a child element (`<x>id</x>`) or an attribute.
+fn ref_targets(owner: &str, name: &str) -> Option<&'static [&'static str]> {
+    Some(match (owner, name) {
+        (_, "participantRef") | (_, "initiatingParticipantRef") => &["participant"],
+        (_, "errorRef") => &["error"],
+        (_, "messageRef" | "inMessageRef" | "outMessageRef") => &["message"],
+        (_, "signalRef") => &["signal"],
+        (_, "escalationRef") => &["escalation"],
+        (_, "itemRef" | "itemSubjectRef") => &["itemDefinition"],
+        ("error" | "signal" | "escalation", "structureRef") => &["itemDefinition"],
+        (_, "operationRef") => &["operation"],
+        (_, "interfaceRef" | "supportedInterfaceRef") => &["interface"],
+        ("participant", "processRef") => &["process"],
+        (_, "dataObjectRef") => &["dataObject"],
+        (_, "dataStoreRef") => &["dataStore"],
+        ("dataInputAssociation" | "dataOutputAssociation", "sourceRef" | "targetRef") => ITEM_AWARE,
+        (_, "dataInputRefs" | "optionalInputRefs" | "whileExecutingInputRefs") => &["dataInput"],
+        (_, "dataOutputRefs" | "optionalOutputRefs" | "whileExecutingOutputRefs") => &["dataOutput"],
+        (_, "inputSetRefs") => &["inputSet"],
+        (_, "outputSetRefs") => &["outputSet"],
+        (_, "flowNodeRef") => FLOW_NODES,
+        (_, "resourceRef") => &["resource"],
+        (_, "parameterRef") => &["resourceParameter"],
+        (_, "choreographyRef") => &["choreography"],
+        (_, "categoryValueRef") => &["categoryValue"],
+        (_, "messageFlowRef") => &["messageFlow"],
+        (_, "incoming" | "outgoing") if FLOW_NODES.contains(&owner) => &["sequenceFlow"],
+        ("multiInstanceLoopCharacteristics", "loopDataInputRef" | "loopDataOutputRef") => ITEM_AWARE,
+        (_, "activityRef") => ACTIVITIES,
+        _ => return None,
+    })
+}
+
+struct Index<'d> {
+    /// Every BPMN element with an id.
+    by_id: BTreeMap<&'d str, &'d Element>,
+    /// The process each element lies in, by element id.
+    process_of: BTreeMap<&'d str, &'d str>,
+    /// Participant of each process.
+    pool_of_process: BTreeMap<&'d str, &'d str>,
+}
+
+impl<'d> Index<'d> {
+    fn new(root: &'d Element) -> Index<'d> {
+        let mut ix = Index { by_id: BTreeMap::new(), process_of: BTreeMap::new(), pool_of_process: BTreeMap::new() };
+        let mut stack: Vec<(&Element, Option<&str>)> = vec![(root, None)];
+        while let Some((el, process)) = stack.pop() {
+            if el.ns != Ns::Bpmn {
+                continue;
+            }
+            let id = el.attr("id");
+            let process = if el.name == "process" { id } else { process };
+            if let Some(id) = id {
+                ix.by_id.entry(id).or_insert(el);
+                if let Some(p) = process {
+                    ix.process_of.insert(id, p);
+                }
+            }
+            if el.name == "participant" {
+                if let (Some(id), Some(p)) = (id, el.attr("processRef")) {
+                    ix.pool_of_process.insert(local_ref(p), id);
+                }
+            }
+            stack.extend(el.children.iter().map(|c| (c, process)));
+        }
+        ix
+    }
+
+    fn kind(&self, id: &str) -> Option<&'d str> {
+        self.by_id.get(local_ref(id)).map(|e| e.name.as_str())
+    }
+
+    /// The pool an element belongs to: a participant itself, or the participant of its process.
+    fn pool(&self, id: &str) -> Option<&'d str> {
+        let id = local_ref(id);
+        let el = self.by_id.get(id)?;
+        if el.name == "participant" {
+            return Some(el.attr("id")?);
+        }
+        let p = self.process_of.get(id)?;
+        Some(self.pool_of_process.get(p).copied().unwrap_or(p))
+    }
+}
+
+fn is_formal(el: &Element) -> bool {
+    el.attrs.iter().any(|a| a.ns == Ns::Xsi && a.name == "type" && local_ref(&a.value) == "tFormalExpression")
+}
+
+/// A literal that can never be a condition (a number or a quoted string).
+fn non_boolean_literal(text: &str) -> bool {
+    let t = text.trim();
+    t.parse::<f64>().is_ok() || (t.len() >= 2 && (t.starts_with('"') && t.ends_with('"') || t.starts_with('\'') && t.ends_with('\'')))
+}
+
+fn is_mime_type(v: &str) -> bool {
+    let Some((ty, sub)) = v.split_once('/') else { return false };
+    let token = |s: &str| !s.is_empty() && s.chars().all(|c| c.is_ascii_alphanumeric() || "!#$&^_.+-".contains(c));
+    token(ty) && token(sub.split(';').next().unwrap_or_default().trim())
+}
+
+fn is_uri(v: &str) -> bool {
+    if v.starts_with("##") {
+        return true;
+    }
+    let Some((scheme, _)) = v.split_once(':') else { return false };
+    scheme.chars().next().is_some_and(|c| c.is_ascii_alphabetic())
+        && scheme.chars().all(|c| c.is_ascii_alphanumeric() || "+.-".contains(c))
+        && !v.contains(char::is_whitespace)
+}
+
+/// Runs every element-level constraint over the document.
+pub(crate) fn check(root: &Element, sink: &mut Sink) {
+    let ix = Index::new(root);
+    let mut stack: Vec<(&Element, Option<&Element>, bool)> = vec![(root, None, false)];
+    while let Some((el, parent, executable)) = stack.pop() {
+        if el.ns != Ns::Bpmn {
+            continue;
+        }
+        let executable = if el.name == "process" { el.attr("isExecutable") != Some("false") } else { executable };
+        let id = el.attr("id");
+        let mut err = |code: &'static str, constraint: &'static str, msg: String| {
+            sink.error(code, el.offset, id, msg).constraint(constraint);
+        };
+        // Typed references in attributes.
+        for a in el.attrs.iter().filter(|a| a.ns == Ns::None) {
+            if let Some(kinds) = ref_targets(&el.name, &a.name) {
+                check_ref(&ix, &a.name, &a.value, kinds, &mut err);
+            }
+        }
+        // Typed references in child elements.
+        for c in el.children.iter().filter(|c| c.ns == Ns::Bpmn && c.children.is_empty()) {
+            if let Some(kinds) = ref_targets(&el.name, &c.name) {
+                check_ref(&ix, &c.name, c.trimmed_text(), kinds, &mut err);
+            }
+        }
+        if FLOW_NODES.contains(&el.name.as_str()) {
+            flow_node_refs(el, &ix, &mut err);
+        }
+        match el.name.as_str() {
+            "documentation" | "textAnnotation" => {
+                if let Some(f) = el.attr("textFormat") {
+                    if !is_mime_type(f) {
+                        let c = if el.name == "documentation" { "EXT.004" } else { "EXT.010" };
+                        err("bad-mime-type", c, format!("textFormat=\"{f}\" is not a MIME type such as text/plain"));
+                    }
+                }
+            }
+            "scriptTask" => {
+                const LANGUAGES: &[&str] = &["cel", "trace", "javascript", "js", "groovy", "python", "juel", "feel", "ecmascript", "jruby", "ruby", "lua"];
+                if let Some(f) = el.attr("scriptFormat") {
+                    if !is_mime_type(f) && !LANGUAGES.contains(&f.to_ascii_lowercase().as_str()) {
+                        err("unknown-script-language", "EXT.145", format!("scriptFormat=\"{f}\" is neither a MIME type (e.g. text/x-cel) nor a known script language"));
+                    }
+                }
+            }
+            "transaction" => {
+                if let Some(m) = el.attr("method") {
+                    if !is_uri(m) {
+                        err("bad-uri", "EXT.060", format!("transaction method=\"{m}\" is not a URI (e.g. ##Compensate)"));
+                    }
+                }
+            }
+            "participantMultiplicity" => {
+                let num = |a: &str| el.attr(a).and_then(|v| v.trim().parse::<i64>().ok());
+                if num("minimum").is_some_and(|m| m < 0) {
+                    err("bad-multiplicity", "EXT.029", "participant multiplicity minimum cannot be negative".to_owned());
+                }
+                if let (Some(min), Some(max)) = (num("minimum"), num("maximum")) {
+                    if max < min || max < 1 {
+                        err("bad-multiplicity", "EXT.030", format!("participant multiplicity maximum {max} is below the minimum {min} or below 1"));
+                    }
+                }
+            }
+            "choreography" | "globalConversation" => {
+                if el.bpmn_child("choreographyRef").is_some() {
+                    err("choreography-ref", "EXT.027", format!("a {} cannot reference a choreography", el.name));
+                }
+            }
+            "collaboration" => {
+                for r in el.bpmn_children("choreographyRef") {
+                    if let Some(ch) = ix.by_id.get(local_ref(&r.text)) {
+                        let closed = |e: &Element| e.attr("isClosed") == Some("true");
+                        if ch.name == "choreography" && closed(ch) != closed(el) {
+                            err("is-closed-mismatch", "EXT.033", "the collaboration and the choreography it references must agree on isClosed".to_owned());
+                        }
+                    }
+                }
+            }
+            "messageFlow" => message_flow(el, &ix, &mut err),
+            "performer" | "humanPerformer" | "potentialOwner" | "resourceRole" => {
+                let has_ref = el.bpmn_child("resourceRef").is_some();
+                if has_ref && el.bpmn_child("resourceAssignmentExpression").is_some() {
+                    err("resource-ambiguous", "EXT.039", "a resource role has either a resourceRef or a resourceAssignmentExpression, not both".to_owned());
+                }
+                if !has_ref && el.bpmn_child("resourceParameterBinding").is_some() {
+                    err("resource-binding-without-ref", "EXT.040", "resource parameter bindings need a resourceRef".to_owned());
+                }
+            }
+            "dataInputAssociation" | "dataOutputAssociation" => data_association(el, parent, &ix, &mut err),
+            "ioSpecification" => io_specification(el, &mut err),
+            "dataObject" | "dataInput" | "dataOutput" | "inputDataItem" | "outputDataItem" => {
+                if let Some(item) = el.attr("itemSubjectRef").and_then(|r| ix.by_id.get(local_ref(r))) {
+                    let coll = |e: &Element| e.attr("isCollection") == Some("true");
+                    if item.name == "itemDefinition" && coll(item) != coll(el) {
+                        let c = match el.name.as_str() {
+                            "dataObject" => "EXT.077",
+                            "dataInput" => "EXT.081",
+                            _ => "EXT.083",
+                        };
+                        err("collection-mismatch", if el.name == "dataObject" { "EXT.020" } else { c }, format!(
+                            "isCollection of {} does not match its itemDefinition `{}`", el.name, item.attr("id").unwrap_or_default()
+                        ));
+                    }
+                }
+            }
+            "multiInstanceLoopCharacteristics" => multi_instance(el, parent, executable, &ix, &mut err),
+            "sendTask" | "receiveTask" if el.attr("messageRef").is_some() => {
+                if let Some(io) = el.bpmn_child("ioSpecification") {
+                    let send = el.name == "sendTask";
+                    let (sets, items, c1, c2) = if send { ("inputSet", "dataInput", "EXT.046", "EXT.047") } else { ("outputSet", "dataOutput", "EXT.050", "EXT.051") };
+                    if io.bpmn_children(sets).count() > 1 {
+                        err("message-task-io", c1, format!("a {} with a message has at most one {sets}", el.name));
+                    }
+                    if io.bpmn_children(items).count() > 1 {
+                        err("message-task-io", c2, format!("a {} with a message has at most one {items}", el.name));
+                    }
+                }
+            }
+            "messageEventDefinition" if executable && el.attr("messageRef").is_none() => {
+                err("missing-message", "EXT.127", "a message event in an executable process must name its message (messageRef)".to_owned());
+            }
+            "standardLoopCharacteristics" => {
+                if parent.is_some_and(|p| p.bpmn_child("multiInstanceLoopCharacteristics").is_some()) {
+                    err("two-loop-markers", "EXT.041", "an activity has either standard loop or multi-instance characteristics, not both".to_owned());
+                }
+            }
+            "ioBinding" => io_binding(el, parent, &ix, &mut err),
+            "conditionExpression" | "condition" | "loopCondition" | "completionCondition" | "activationCondition" => {
+                let text = el.trimmed_text();
+                if non_boolean_literal(text) {
+                    let c = if parent.is_some_and(|p| p.name == "complexBehaviorDefinition") { "EXT.072" } else { "EXT.071" };
+                    err("non-boolean-condition", c, format!("condition `{text}` is not a boolean expression"));
+                }
+            }
+            _ => {}
+        }
+        // Natural-language expressions cannot be executed (EXT.012).
+        const EXPRESSIONS: &[&str] = &[
+            "conditionExpression", "condition", "loopCondition", "completionCondition",
+            "activationCondition", "loopCardinality", "timeDate", "timeDuration", "timeCycle", "from", "to",
+        ];
+        let formal_by_schema = el.name == "condition" && parent.is_some_and(|p| p.name == "complexBehaviorDefinition");
+        if executable && EXPRESSIONS.contains(&el.name.as_str()) && !formal_by_schema && !is_formal(&el) && !el.trimmed_text().is_empty() {
+            err("natural-language-expression", "EXT.012", format!(
+                "<{}> is a natural-language expression (no xsi:type=\"tFormalExpression\"), which an executable process cannot evaluate", el.name
+            ));
+        }
+        stack.extend(el.children.iter().map(|c| (c, Some(el), executable)));
+    }
+    listed_flows(root, &ix, sink);
+}
+
+/// Where a document lists `<incoming>`/`<outgoing>` on its flow nodes, every sequence flow must
+/// be listed at both of its ends (EXT.101 for start events, EXT.107 for end events).
+fn listed_flows(root: &Element, ix: &Index<'_>, sink: &mut Sink) {
+    let mut listed: BTreeSet<(String, &'static str, String)> = BTreeSet::new();
+    let mut flows: Vec<&Element> = Vec::new();
+    for el in ix.by_id.values() {
+        if el.name == "sequenceFlow" {
+            flows.push(el);
+        }
+        if el.bpmn_child("incoming").is_some() || el.bpmn_child("outgoing").is_some() {
+            let id = el.attr("id").unwrap_or_default().to_owned();
+            for (child, end) in [("incoming", "targetRef"), ("outgoing", "sourceRef")] {
+                for r in el.bpmn_children(child) {
+                    listed.insert((id.clone(), end, local_ref(&r.text).to_owned()));
+                }
+            }
+        }
+    }
+    let _ = root;
+    if listed.is_empty() {
+        return;
+    }
+    for f in flows {
+        let fid = f.attr("id").unwrap_or_default();
+        for (end, child) in [("sourceRef", "outgoing"), ("targetRef", "incoming")] {
+            let Some(node) = f.attr(end).map(local_ref) else { continue };
+            let Some(kind) = ix.kind(node) else { continue };
+            if !listed.contains(&(node.to_owned(), end, fid.to_owned())) {
+                let c = match (kind, child) {
+                    ("startEvent", "outgoing") => "EXT.101",
+                    ("endEvent", "incoming") => "EXT.107",
+                    _ => "EXT.023",
+                };
+                let msg = format!("sequence flow `{fid}` is not listed in the <{child}> elements of `{node}`");
+                if let Some(n) = ix.by_id.get(node) {
+                    sink.error("flow-mismatch", n.offset, Some(node), msg).constraint(c);
+                }
+            }
+        }
+    }
+}
+
+fn check_ref(ix: &Index<'_>, what: &str, value: &str, kinds: &[&str], err: &mut impl FnMut(&'static str, &'static str, String)) {
+    for r in value.split_whitespace() {
+        match ix.kind(r) {
+            // Operations and structures may live in imported WSDL or XSD documents.
+            None if matches!(what, "operationRef" | "structureRef") => {}
+            None => err("dangling-reference", "REF", format!("{what} `{}` does not exist", local_ref(r))),
+            Some(k) if !kinds.contains(&k) => err("wrong-reference", "REF", format!("{what} `{}` names a <{k}>, not {}", local_ref(r), kinds.join(" or "))),
+            Some(_) => {}
+        }
+    }
+}
+
+/// `<incoming>` / `<outgoing>` must list flows that really enter / leave the node (EXT.023).
+fn flow_node_refs(el: &Element, ix: &Index<'_>, err: &mut impl FnMut(&'static str, &'static str, String)) {
+    let id = el.attr("id").unwrap_or_default();
+    for (child, attr) in [("incoming", "targetRef"), ("outgoing", "sourceRef")] {
+        for r in el.bpmn_children(child) {
+            let f = local_ref(&r.text);
+            if let Some(flow) = ix.by_id.get(f) {
+                if flow.name == "sequenceFlow" && flow.attr(attr).map(local_ref) != Some(id) {
+                    err("flow-mismatch", "EXT.023", format!("<{child}> lists sequence flow `{f}`, whose {attr} is not this element"));
+                }
+            }
+        }
+    }
+}
+
+fn message_flow(el: &Element, ix: &Index<'_>, err: &mut impl FnMut(&'static str, &'static str, String)) {
+    let (Some(s), Some(t)) = (el.attr("sourceRef").map(local_ref), el.attr("targetRef").map(local_ref)) else { return };
+    let interaction = |k: &str| k == "participant" || ACTIVITIES.contains(&k) || k.ends_with("Event") || k == "choreographyTask";
+    for (end, role) in [(s, "source"), (t, "target")] {
+        if let Some(k) = ix.kind(end) {
+            if !interaction(k) {
+                err("bad-message-flow-end", "EXT.009", format!("a message flow cannot connect <{k}> `{end}` (its {role}); only pools, activities and events exchange messages"));
+            }
+        }
+    }
+    if s == t || ix.pool(s).is_some_and(|p| Some(p) == ix.pool(t)) {
+        err("message-flow-same-pool", "EXT.031", "a message flow must connect two different pools".to_owned());
+    }
+    let msg_def = |id: &str| {
+        ix.by_id.get(id).is_some_and(|e| {
+            e.bpmn_child("messageEventDefinition").is_some()
+                || e.bpmn_children("eventDefinitionRef").any(|r| ix.kind(&r.text) == Some("messageEventDefinition"))
+        })
+    };
+    if let Some(k) = ix.kind(s) {
+        if matches!(k, "startEvent" | "intermediateCatchEvent" | "boundaryEvent") {
+            err("bad-message-flow-end", "EXT.102", format!("<{k}> `{s}` catches events and cannot send a message flow"));
+        } else if matches!(k, "endEvent" | "intermediateThrowEvent") && !msg_def(s) {
+            err("bad-message-flow-end", "EXT.109", format!("<{k}> `{s}` sends a message flow but is not a message event"));
+        }
+    }
+    if let Some(k) = ix.kind(t) {
+        if matches!(k, "endEvent" | "intermediateThrowEvent") {
+            err("bad-message-flow-end", "EXT.102", format!("<{k}> `{t}` throws events and cannot receive a message flow"));
+        } else if matches!(k, "startEvent" | "intermediateCatchEvent" | "boundaryEvent") && !msg_def(t) {
+            err("bad-message-flow-end", "EXT.109", format!("<{k}> `{t}` receives a message flow but is not a message event"));
+        }
+    }
+}
+
+fn data_association(el: &Element, owner: Option<&Element>, ix: &Index<'_>, err: &mut impl FnMut(&'static str, &'static str, String)) {
+    let sources: Vec<&str> = el.bpmn_children("sourceRef").map(|r| local_ref(&r.text)).collect();
+    if sources.len() > 1 && el.bpmn_child("transformation").is_none() {
+        err("many-sources", "EXT.092", "a data association without a transformation has a single sourceRef".to_owned());
+    }
+    let input = el.name == "dataInputAssociation";
+    let owner_id = owner.and_then(|o| o.attr("id")).unwrap_or_default();
+    // Inputs declared by the owner's own ioSpecification (or directly, for events).
+    let own: BTreeSet<&str> = owner
+        .map(|o| {
+            let direct = o.bpmn_children(if input { "dataInput" } else { "dataOutput" });
+            let spec = o.bpmn_children("ioSpecification").flat_map(|s| s.bpmn_children(if input { "dataInput" } else { "dataOutput" }));
+            direct.chain(spec).filter_map(|d| d.attr("id")).collect()
+        })
+        .unwrap_or_default();
+    let outside: Vec<&str> = if input { sources.clone() } else { el.bpmn_children("targetRef").map(|r| local_ref(&r.text)).collect() };
+    for r in outside {
+        let Some(target) = ix.by_id.get(r) else { continue };
+        let kind = target.name.as_str();
+        if input && kind == "dataOutput" {
+            err("bad-data-association", "EXT.082", format!("data input association reads `{r}`, a data output, which cannot be read"));
+        }
+        if !input && kind == "dataInput" {
+            err("bad-data-association", "EXT.080", format!("data output association writes `{r}`, a data input, which cannot be written"));
+        }
+        // A sub-process's own data inputs/outputs are not visible to the activities inside it.
+        if matches!(kind, "dataInput" | "dataOutput") && !own.contains(r) {
+            let holder_is_process = ix.process_of.get(r).is_some_and(|p| ix.by_id.get(p).is_some_and(|pe| pe.bpmn_children("ioSpecification").any(|s| s.children.iter().any(|d| d.attr("id") == Some(r)))));
+            if !holder_is_process {
+                err("invisible-data", "EXT.079", format!("`{r}` is a data {} of another activity and is not visible from `{owner_id}`", if kind == "dataInput" { "input" } else { "output" }));
+            }
+        }
+    }
+}
+
+fn io_specification(el: &Element, err: &mut impl FnMut(&'static str, &'static str, String)) {
+    let ids = |set: &Element, child: &str| -> BTreeSet<String> { set.bpmn_children(child).map(|r| local_ref(&r.text).to_owned()).collect() };
+    for (set, main, rules) in [
+        ("inputSet", "dataInputRefs", [("optionalInputRefs", "EXT.085"), ("whileExecutingInputRefs", "EXT.086")]),
+        ("outputSet", "dataOutputRefs", [("optionalOutputRefs", "EXT.089"), ("whileExecutingOutputRefs", "EXT.090")]),
+    ] {
+        for s in el.bpmn_children(set) {
+            let listed = ids(s, main);
+            for (child, c) in rules {
+                for r in ids(s, child) {
+                    if !listed.contains(&r) {
+                        err("io-set", c, format!("`{r}` is listed in {child} but not in the {main} of the same {set}"));
+                    }
+                }
+            }
+        }
+    }
+    // Every data input/output belongs to at least one input/output set (EXT.088).
+    for (item, set, refs) in [("dataInput", "inputSet", "dataInputRefs"), ("dataOutput", "outputSet", "dataOutputRefs")] {
+        let listed: BTreeSet<String> = el.bpmn_children(set).flat_map(|s| ids(s, refs)).collect();
+        for d in el.bpmn_children(item) {
+            if let Some(id) = d.attr("id") {
+                if !listed.contains(id) {
+                    err("io-set", "EXT.088", format!("{item} `{id}` is not part of any {set}"));
+                }
+            }
+        }
+    }
+    // inputSet.outputSetRefs and outputSet.inputSetRefs must mirror each other (EXT.087).
+    let sets = |name: &str| -> Vec<(String, BTreeSet<String>)> {
+        let other = if name == "inputSet" { "outputSetRefs" } else { "inputSetRefs" };
+        el.bpmn_children(name).map(|s| (s.attr("id").unwrap_or_default().to_owned(), ids(s, other))).collect()
+    };
+    let (ins, outs) = (sets("inputSet"), sets("outputSet"));
+    for (i, i_refs) in &ins {
+        for o in i_refs {
+            if !outs.iter().any(|(oid, o_refs)| oid == o && o_refs.contains(i)) {
+                err("io-set", "EXT.087", format!("inputSet `{i}` names outputSet `{o}`, which does not name it back"));
+            }
+        }
+    }
+    for (o, o_refs) in &outs {
+        for i in o_refs {
+            if !ins.iter().any(|(iid, i_refs)| iid == i && i_refs.contains(o)) {
+                err("io-set", "EXT.087", format!("outputSet `{o}` names inputSet `{i}`, which does not name it back"));
+            }
+        }
+    }
+}
+
+fn item_of<'d>(ix: &Index<'d>, el: &Element) -> Option<&'d Element> {
+    let r = el.attr("itemSubjectRef")?;
+    ix.by_id.get(local_ref(r)).copied().filter(|i| i.name == "itemDefinition")
+}
+
+fn multi_instance(el: &Element, activity: Option<&Element>, executable: bool, ix: &Index<'_>, err: &mut impl FnMut(&'static str, &'static str, String)) {
+    let Some(activity) = activity else { return };
+    let spec_items = |kind: &'static str| -> Vec<&Element> { activity.bpmn_children("ioSpecification").flat_map(|s| s.bpmn_children(kind)).collect::<Vec<_>>() };
+    for (reference, kind, item, c_exec, c_type) in [
+        ("loopDataInputRef", "dataInput", "inputDataItem", "EXT.068", "EXT.070"),
+        ("loopDataOutputRef", "dataOutput", "outputDataItem", "EXT.068", "EXT.069"),
+    ] {
+        let Some(r) = el.bpmn_child(reference).map(|r| local_ref(&r.text).to_owned()) else { continue };
+        let target = spec_items(kind).into_iter().find(|d| d.attr("id") == Some(r.as_str()));
+        if executable && target.is_none() && reference == "loopDataInputRef" && ix.kind(&r) != Some("property") && ix.kind(&r) != Some("dataObject") {
+            err("bad-loop-data", c_exec, format!("{reference} `{r}` must name a {kind} of the activity's ioSpecification"));
+        }
+        let (Some(coll), Some(elem)) = (target, el.bpmn_child(item)) else { continue };
+        if elem.attr("isCollection") == Some("true") {
+            err("bad-loop-data", c_type, format!("{item} must be a single element of `{r}`, not a collection"));
+        }
+        if let (Some(ci), Some(ei)) = (item_of(ix, coll), item_of(ix, elem)) {
+            if ci.attr("structureRef") != ei.attr("structureRef") {
+                err("bad-loop-data", c_type, format!("{item} has another structure than the elements of `{r}`"));
+            }
+        }
+    }
+}
+
+/// An ioBinding must bind a data input and output whose items match the operation's messages.
+fn io_binding(el: &Element, owner: Option<&Element>, ix: &Index<'_>, err: &mut impl FnMut(&'static str, &'static str, String)) {
+    let Some(op) = el.attr("operationRef").and_then(|r| ix.by_id.get(local_ref(r))) else { return };
+    let _ = owner;
+    for (data_attr, msg_child) in [("inputDataRef", "inMessageRef"), ("outputDataRef", "outMessageRef")] {
+        let data = el.attr(data_attr).and_then(|r| ix.by_id.get(local_ref(r)));
+        let msg = op.bpmn_child(msg_child).and_then(|m| ix.by_id.get(local_ref(&m.text)));
+        if let (Some(data), Some(msg)) = (data, msg) {
+            let data_item = data.attr("itemSubjectRef").map(local_ref);
+            let msg_item = msg.attr("itemRef").map(local_ref);
+            if data_item.is_some() && msg_item.is_some() && data_item != msg_item {
+                err("bad-io-binding", "EXT.065", format!("{data_attr} `{}` does not carry the item of the operation's {msg_child}", data.attr("id").unwrap_or_default()));
+            }
+        }
+    }
+}
+
+/// Events with data: one data output (catch) or input (throw) per event definition, whose item
+/// matches the definition's item (EXT.093, EXT.094).
+pub(crate) fn event_data(root: &Element, sink: &mut Sink) {
+    let ix = Index::new(root);
+    let mut stack = vec![root];
+    while let Some(el) = stack.pop() {
+        if el.ns != Ns::Bpmn {
+            continue;
+        }
+        stack.extend(el.children.iter());
+        let catch = matches!(el.name.as_str(), "startEvent" | "intermediateCatchEvent" | "boundaryEvent");
+        let throw = matches!(el.name.as_str(), "endEvent" | "intermediateThrowEvent");
+        if !catch && !throw {
+            continue;
+        }
+        let data: Vec<&Element> = el.bpmn_children(if catch { "dataOutput" } else { "dataInput" }).collect();
+        if data.is_empty() {
+            continue;
+        }
+        let defs: Vec<&Element> = el.children.iter().filter(|c| c.ns == Ns::Bpmn && c.name.ends_with("EventDefinition")).collect();
+        if defs.len() != data.len() {
+            let msg = format!("the event has {} event definitions but {} data {}s: each definition needs its own", defs.len(), data.len(), if catch { "output" } else { "input" });
+            sink.error("event-data", el.offset, el.attr("id"), msg).constraint("EXT.093");
+        }
+        for (d, data) in defs.iter().zip(&data) {
+            let item = match d.name.as_str() {
+                "messageEventDefinition" => d.attr("messageRef").and_then(|m| ix.by_id.get(local_ref(m))).and_then(|m| m.attr("itemRef")),
+                "errorEventDefinition" => d.attr("errorRef").and_then(|m| ix.by_id.get(local_ref(m))).and_then(|m| m.attr("structureRef")),
+                "escalationEventDefinition" => d.attr("escalationRef").and_then(|m| ix.by_id.get(local_ref(m))).and_then(|m| m.attr("structureRef")),
+                "signalEventDefinition" => d.attr("signalRef").and_then(|m| ix.by_id.get(local_ref(m))).and_then(|m| m.attr("structureRef")),
+                _ => None,
+            };
+            if let (Some(item), Some(own)) = (item, data.attr("itemSubjectRef")) {
+                // Item definitions are equivalent when they name the same structure.
+                let structure = |i: &str| ix.by_id.get(local_ref(i)).and_then(|d| d.attr("structureRef")).map(local_ref).unwrap_or(local_ref(i)).to_owned();
+                if structure(item) != structure(own) {
+                    let msg = format!("the data of the {} must have its item `{}`, not `{}`", d.name, local_ref(item), local_ref(own));
+                    sink.error("event-data", el.offset, el.attr("id"), msg).constraint("EXT.094");
+                }
+            }
+        }
+    }
+}
