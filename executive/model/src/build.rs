@@ -507,7 +507,14 @@ impl<'d> Builder<'d, '_> {
             let def = match d.name.as_str() {
                 "messageEventDefinition" => EventDefinition::Message(self.resolve(|b| &b.messages, d, "messageRef", owner)),
                 "signalEventDefinition" => EventDefinition::Signal(self.resolve(|b| &b.signals, d, "signalRef", owner)),
-                "errorEventDefinition" => EventDefinition::Error(self.resolve(|b| &b.errors, d, "errorRef", owner)),
+                "errorEventDefinition" => {
+                    let var = |name: &str| d.attr_ns(&Ns::Trace, name).or_else(|| d.attr_ns(&Ns::Camunda, name)).map(str::to_owned);
+                    EventDefinition::Error {
+                        error: self.resolve(|b| &b.errors, d, "errorRef", owner),
+                        code_variable: var("errorCodeVariable"),
+                        message_variable: var("errorMessageVariable"),
+                    }
+                }
                 "escalationEventDefinition" => EventDefinition::Escalation(self.resolve(|b| &b.escalations, d, "escalationRef", owner)),
                 "terminateEventDefinition" => EventDefinition::Terminate,
                 "cancelEventDefinition" => EventDefinition::Cancel,

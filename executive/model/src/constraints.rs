@@ -26,6 +26,28 @@ const ACTIVITIES: &[&str] = &[
     "businessRuleTask", "subProcess", "transaction", "adHocSubProcess", "callActivity",
 ];
 
+/// Every unqualified attribute the BPMN 2.0 schema defines, on any element.
+const SCHEMA_ATTRIBUTES: &[&str] = &[
+    "id", "name", "isExecutable", "processType", "isClosed", "definitionalCollaborationRef",
+    "implementation", "sourceRef", "targetRef", "isImmediate", "default", "gatewayDirection",
+    "eventGatewayType", "instantiate", "attachedToRef", "cancelActivity", "parallelMultiple",
+    "isInterrupting", "isForCompensation", "startQuantity", "completionQuantity", "triggeredByEvent",
+    "calledElement", "scriptFormat", "messageRef", "operationRef", "errorRef", "signalRef",
+    "escalationRef", "activityRef", "waitForCompletion", "errorCode", "escalationCode",
+    "structureRef", "itemKind", "isCollection", "itemSubjectRef", "itemRef", "dataObjectRef",
+    "dataStoreRef", "capacity", "isUnlimited", "processRef", "textFormat", "associationDirection",
+    "categoryValueRef", "value", "targetNamespace", "expressionLanguage", "typeLanguage", "exporter",
+    "exporterVersion", "location", "namespace", "importType", "method", "ordering",
+    "cancelRemainingInstances", "isSequential", "behavior", "testBefore", "loopMaximum",
+    "oneBehaviorEventRef", "noneBehaviorEventRef", "evaluatesToTypeRef", "language",
+    "inputDataRef", "outputDataRef", "initiatingParticipantRef", "loopType", "minimum", "maximum",
+    "parameterRef", "implementationRef", "isRequired", "correlationKeyRef", "definition",
+    "mustUnderstand", "type", "inMessageRef", "outMessageRef", "calledChoreographyRef",
+    "calledCollaborationRef", "processRef", "resourceRef", "partnerRoleRef", "partnerEntityRef",
+    "participantRef", "interfaceRef", "messageFlowRef", "conversationNodeRef", "direction",
+    "dataStateRef", "dataInputRefs", "dataOutputRefs",
+];
+
 /// Allowed target kinds for a reference held in a child element (`<x>id</x>`) or an attribute.
 fn ref_targets(owner: &str, name: &str) -> Option<&'static [&'static str]> {
     Some(match (owner, name) {
@@ -146,9 +168,22 @@ pub(crate) fn check(root: &Element, sink: &mut Sink) {
         }
         let executable = if el.name == "process" { el.attr("isExecutable") != Some("false") } else { executable };
         let id = el.attr("id");
+        let in_process = ix.process_of.contains_key(id.unwrap_or_default()) || el.name == "process";
         let mut err = |code: &'static str, constraint: &'static str, msg: String| {
-            sink.error(code, el.offset, id, msg).constraint(constraint);
+            // Descriptive processes (isExecutable="false") are drawings: a broken reference there is
+            // worth a warning, not a refusal, as vendor exports are full of them.
+            if constraint == "REF" && in_process && !executable {
+                sink.warning(code, el.offset, id, msg).constraint(constraint);
+            } else {
+                sink.error(code, el.offset, id, msg).constraint(constraint);
+            }
         };
+        // Attributes the schema does not define, unqualified (vendor ones carry a namespace).
+        if executable {
+            for a in el.attrs.iter().filter(|a| a.ns == Ns::None && !SCHEMA_ATTRIBUTES.contains(&a.name.as_str())) {
+                err("unknown-attribute", "XSD", format!("<{}> has no attribute `{}` in BPMN 2.0; put tool-specific attributes in their own namespace", el.name, a.name));
+            }
+        }
         // Typed references in attributes.
         for a in el.attrs.iter().filter(|a| a.ns == Ns::None) {
             if let Some(kinds) = ref_targets(&el.name, &a.name) {
@@ -542,7 +577,12 @@ pub(crate) fn event_data(root: &Element, sink: &mut Sink) {
         if data.is_empty() {
             continue;
         }
-        let defs: Vec<&Element> = el.children.iter().filter(|c| c.ns == Ns::Bpmn && c.name.ends_with("EventDefinition")).collect();
+        let defs: Vec<&Element> = el
+            .children
+            .iter()
+            .filter(|c| c.ns == Ns::Bpmn)
+            .filter_map(|c| if c.name == "eventDefinitionRef" { ix.by_id.get(local_ref(&c.text)).copied() } else { c.name.ends_with("EventDefinition").then_some(c) })
+            .collect();
         if defs.len() != data.len() {
             let msg = format!("the event has {} event definitions but {} data {}s: each definition needs its own", defs.len(), data.len(), if catch { "output" } else { "input" });
             sink.error("event-data", el.offset, el.attr("id"), msg).constraint("EXT.093");

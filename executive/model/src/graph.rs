@@ -130,13 +130,21 @@ impl ProcessGraph {
         }
     }
 
-    /// Processes that start when the mission starts: the executable ones of the model file.
-    /// Processes marked `isExecutable="false"` are descriptive and never run; imported ones
-    /// run only when called.
+    /// Processes that start when the mission starts: the executable ones of the model file
+    /// that no call activity calls. Processes marked `isExecutable="false"` are descriptive
+    /// and never run; imported and called ones run only when called.
     pub fn primary_processes(&self) -> Vec<ProcessId> {
+        let called: Vec<ProcessId> = self
+            .nodes
+            .iter()
+            .filter_map(|n| match &n.kind {
+                NodeKind::CallActivity(CallActivity { called: Some(Called::Process(p)), .. }) => Some(*p),
+                _ => None,
+            })
+            .collect();
         (0..self.processes.len() as u32)
             .map(ProcessId)
-            .filter(|p| self.process(*p).executable && !self.process(*p).imported)
+            .filter(|p| self.process(*p).executable && !self.process(*p).imported && !called.contains(p))
             .collect()
     }
 }
@@ -419,8 +427,16 @@ pub enum EventDefinition {
     Timer(Timer),
     /// Conditional, with its condition.
     Conditional(Expression),
-    /// Error; `None` catches every error.
-    Error(Option<ErrorId>),
+    /// Error.
+    Error {
+        /// The error; `None` catches every error.
+        error: Option<ErrorId>,
+        /// Catching: variable that receives the caught error code
+        /// (`trace:errorCodeVariable` or `camunda:errorCodeVariable`).
+        code_variable: Option<String>,
+        /// Catching: variable that receives the error message.
+        message_variable: Option<String>,
+    },
     /// Escalation; `None` catches every escalation.
     Escalation(Option<EscalationId>),
     /// Terminate (end events).
@@ -446,7 +462,7 @@ impl EventDefinition {
             EventDefinition::Signal(_) => "signalEventDefinition",
             EventDefinition::Timer(_) => "timerEventDefinition",
             EventDefinition::Conditional(_) => "conditionalEventDefinition",
-            EventDefinition::Error(_) => "errorEventDefinition",
+            EventDefinition::Error { .. } => "errorEventDefinition",
             EventDefinition::Escalation(_) => "escalationEventDefinition",
             EventDefinition::Terminate => "terminateEventDefinition",
             EventDefinition::Cancel => "cancelEventDefinition",

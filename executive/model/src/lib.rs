@@ -36,6 +36,9 @@ pub mod timer;
 mod validate;
 mod xml;
 
+#[cfg(test)]
+mod tests;
+
 pub use diagnostic::{Category, Diagnostic, Severity};
 pub use expr::{Expression, parse_assignments};
 pub use graph::*;

@@ -86,7 +86,7 @@ impl Checker<'_> {
                         self.hard(n, "event-subprocess-start", Some("EXT.059"), msg);
                     }
                     if !s.interrupting {
-                        if let Some(bad) = s.triggers.iter().find(|t| matches!(t, EventDefinition::Error(_) | EventDefinition::Compensate { .. })) {
+                        if let Some(bad) = s.triggers.iter().find(|t| matches!(t, EventDefinition::Error { .. } | EventDefinition::Compensate { .. })) {
                             let msg = format!("a {} start event always interrupts (isInterrupting cannot be false)", bad.element_name());
                             self.hard(n, "event-subprocess-start", Some("EXT.059"), msg);
                         }
@@ -158,7 +158,7 @@ impl Checker<'_> {
                     let msg = format!("a boundary event cannot wait for {}", bad.element_name());
                     self.hard(n, "bad-boundary-trigger", Some("EXT.110"), msg);
                 }
-                if !b.interrupting && has_trigger(&b.triggers, |t| matches!(t, EventDefinition::Error(_) | EventDefinition::Cancel | EventDefinition::Compensate { .. })) {
+                if !b.interrupting && has_trigger(&b.triggers, |t| matches!(t, EventDefinition::Error { .. } | EventDefinition::Cancel | EventDefinition::Compensate { .. })) {
                     self.hard(n, "non-interrupting-error", Some("EXT.110"), "error, cancel and compensation boundary events are always interrupting (cancelActivity cannot be false)".to_owned());
                 }
                 let attached = g.node(b.attached_to);

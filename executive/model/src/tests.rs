@@ -1,0 +1,280 @@
+//! Unit tests of the loader: one small model per element kind, one per diagnostic.
+
+use crate::*;
+
+const HEAD: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
+<bpmn:definitions xmlns:bpmn="http://www.omg.org/spec/BPMN/20100524/MODEL"
+  xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance" xmlns:trace="urn:trace:bpmn:1.0"
+  xmlns:zeebe="http://camunda.org/schema/zeebe/1.0" xmlns:camunda="http://camunda.org/schema/1.0/bpmn"
+  id="d" targetNamespace="urn:test">"#;
+
+/// A document with `globals` at definitions level and `body` inside process `p`.
+fn doc(globals: &str, body: &str) -> String {
+    format!(r#"{HEAD}{globals}<bpmn:process id="p" isExecutable="true">{body}</bpmn:process></bpmn:definitions>"#)
+}
+
+/// start -> `middle` (elements with id `x`) -> end, with flows s->x and x->e.
+fn around(middle: &str) -> String {
+    doc(
+        "",
+        &format!(
+            r#"<bpmn:startEvent id="s"/>{middle}<bpmn:endEvent id="e"/>
+            <bpmn:sequenceFlow id="f1" sourceRef="s" targetRef="x"/><bpmn:sequenceFlow id="f2" sourceRef="x" targetRef="e"/>"#
+        ),
+    )
+}
+
+fn ok(xml: &str) -> ProcessGraph {
+    let loaded = load(xml.as_bytes());
+    match loaded.graph {
+        Some(g) => g,
+        None => panic!("expected a valid model, got {:#?}", loaded.diagnostics),
+    }
+}
+
+/// The codes of the errors found in `xml`.
+fn errors(xml: &str) -> Vec<&'static str> {
+    load(xml.as_bytes()).errors().map(|d| d.code).collect()
+}
+
+fn kind<'g>(g: &'g ProcessGraph, id: &str) -> &'g NodeKind {
+    &g.node(g.node_by_id(id).expect("node exists")).kind
+}
+
+#[test]
+fn tasks_of_every_kind() {
+    for (tag, want) in [
+        ("task", TaskKind::Plain),
+        ("manualTask", TaskKind::Manual),
+        ("receiveTask", TaskKind::Receive),
+        ("userTask", TaskKind::User),
+    ] {
+        let g = ok(&around(&format!(r#"<bpmn:{tag} id="x"/>"#)));
+        assert!(matches!(kind(&g, "x"), NodeKind::Task(t) if t.kind == want), "{tag}");
+    }
+    let service = r#"<bpmn:serviceTask id="x"><bpmn:extensionElements><trace:task resource="arm.stow"/></bpmn:extensionElements></bpmn:serviceTask>"#;
+    let g = ok(&around(service));
+    let NodeKind::Task(t) = kind(&g, "x") else { panic!() };
+    assert_eq!(t.binding.as_ref().and_then(|b| b.resource.as_deref()), Some("arm.stow"));
+    let script = r#"<bpmn:scriptTask id="x" scriptFormat="cel"><bpmn:script>n = 1; m = n + 1</bpmn:script></bpmn:scriptTask>"#;
+    let g = ok(&around(script));
+    let NodeKind::Task(t) = kind(&g, "x") else { panic!() };
+    assert_eq!(t.script.as_ref().and_then(|s| s.assignments.as_ref()).map(Vec::len), Some(2));
+}
+
+#[test]
+fn task_bindings_in_three_dialects() {
+    let ours = r#"<bpmn:serviceTask id="x"><bpmn:extensionElements><trace:task resource="excavation.excavate">
+        <trace:input target="selected_site.site_id" source="site.id" type="int"/>
+        <trace:output source="achieved_depth_cm" target="depth" type="f64"/></trace:task></bpmn:extensionElements></bpmn:serviceTask>"#;
+    let zeebe = r#"<bpmn:serviceTask id="x"><bpmn:extensionElements><zeebe:taskDefinition type="excavate" retries="3"/>
+        <zeebe:ioMapping><zeebe:input source="=site.id" target="site_id"/><zeebe:output source="=depth" target="depth"/></zeebe:ioMapping>
+        </bpmn:extensionElements></bpmn:serviceTask>"#;
+    let camunda = r#"<bpmn:serviceTask id="x" camunda:type="external" camunda:topic="excavate"><bpmn:extensionElements>
+        <camunda:inputOutput><camunda:inputParameter name="site_id">${site.id}</camunda:inputParameter>
+        <camunda:inputParameter name="mode">fast</camunda:inputParameter></camunda:inputOutput></bpmn:extensionElements></bpmn:serviceTask>"#;
+    for (xml, resource, inputs) in [(ours, "excavation.excavate", 1), (zeebe, "excavate", 1), (camunda, "excavate", 2)] {
+        let g = ok(&around(xml));
+        let NodeKind::Task(t) = kind(&g, "x") else { panic!() };
+        let b = t.binding.as_ref().expect("binding");
+        assert_eq!(b.resource.as_deref(), Some(resource));
+        assert_eq!(b.inputs.len(), inputs);
+    }
+    let g = ok(&around(ours));
+    let NodeKind::Task(t) = kind(&g, "x") else { panic!() };
+    let b = t.binding.as_ref().unwrap();
+    assert_eq!(b.inputs[0].target, "selected_site.site_id");
+    assert_eq!(b.inputs[0].ty, Some(binding::FieldType::Int));
+    assert_eq!(b.outputs[0].source.text, "achieved_depth_cm");
+    // A Camunda static value is a string literal.
+    let g = ok(&around(camunda));
+    let NodeKind::Task(t) = kind(&g, "x") else { panic!() };
+    assert_eq!(t.binding.as_ref().unwrap().inputs[1].source.text, "\"fast\"");
+}
+
+#[test]
+fn gateways_of_every_kind() {
+    for (tag, want) in [
+        ("exclusiveGateway", GatewayKind::Exclusive),
+        ("inclusiveGateway", GatewayKind::Inclusive),
+        ("parallelGateway", GatewayKind::Parallel),
+        ("complexGateway", GatewayKind::Complex),
+    ] {
+        let xml = doc("", &format!(
+            r#"<bpmn:startEvent id="s"/><bpmn:{tag} id="g"/><bpmn:{tag} id="j"/><bpmn:endEvent id="e"/>
+            <bpmn:sequenceFlow id="f0" sourceRef="s" targetRef="g"/>
+            <bpmn:sequenceFlow id="f1" sourceRef="g" targetRef="j"><bpmn:conditionExpression xsi:type="bpmn:tFormalExpression">a &gt; 1</bpmn:conditionExpression></bpmn:sequenceFlow>
+            <bpmn:sequenceFlow id="f2" sourceRef="g" targetRef="j"/><bpmn:sequenceFlow id="f3" sourceRef="j" targetRef="e"/>"#
+        ));
+        let xml = xml.replace(&format!(r#"<bpmn:{tag} id="g"/>"#), &format!(r#"<bpmn:{tag} id="g" default="f2"/>"#));
+        let xml = xml.replace(r#"<bpmn:complexGateway id="j"/>"#, r#"<bpmn:complexGateway id="j"><bpmn:activationCondition xsi:type="bpmn:tFormalExpression">activationCount &gt;= 1</bpmn:activationCondition></bpmn:complexGateway>"#);
+        let xml = if tag == "parallelGateway" { xml.replace(r#" default="f2""#, "").replace(r#"<bpmn:conditionExpression xsi:type="bpmn:tFormalExpression">a &gt; 1</bpmn:conditionExpression>"#, "") } else { xml };
+        let g = ok(&xml);
+        assert!(matches!(kind(&g, "g"), NodeKind::Gateway(gw) if gw.kind == want), "{tag}");
+    }
+    let eb = doc("<bpmn:message id=\"m\" name=\"go\"/>", r#"<bpmn:startEvent id="s"/><bpmn:eventBasedGateway id="g"/>
+        <bpmn:intermediateCatchEvent id="c1"><bpmn:messageEventDefinition messageRef="m"/></bpmn:intermediateCatchEvent>
+        <bpmn:intermediateCatchEvent id="c2"><bpmn:timerEventDefinition><bpmn:timeDuration xsi:type="bpmn:tFormalExpression">PT5M</bpmn:timeDuration></bpmn:timerEventDefinition></bpmn:intermediateCatchEvent>
+        <bpmn:endEvent id="e"/>
+        <bpmn:sequenceFlow id="f0" sourceRef="s" targetRef="g"/><bpmn:sequenceFlow id="f1" sourceRef="g" targetRef="c1"/>
+        <bpmn:sequenceFlow id="f2" sourceRef="g" targetRef="c2"/><bpmn:sequenceFlow id="f3" sourceRef="c1" targetRef="e"/>
+        <bpmn:sequenceFlow id="f4" sourceRef="c2" targetRef="e"/>"#);
+    let g = ok(&eb);
+    assert!(matches!(kind(&g, "g"), NodeKind::Gateway(gw) if gw.kind == GatewayKind::EventBased { parallel: false }));
+}
+
+#[test]
+fn events_with_every_definition() {
+    let globals = r#"<bpmn:message id="m" name="msg"/><bpmn:signal id="sig" name="BATTERY_LOW"/>
+        <bpmn:error id="err" errorCode="TOOL_STUCK"/><bpmn:escalation id="esc" escalationCode="FAILED"/>"#;
+    let body = r#"<bpmn:startEvent id="s"/>
+        <bpmn:intermediateThrowEvent id="t1"><bpmn:signalEventDefinition signalRef="sig"/></bpmn:intermediateThrowEvent>
+        <bpmn:intermediateThrowEvent id="t2"><bpmn:escalationEventDefinition escalationRef="esc"/></bpmn:intermediateThrowEvent>
+        <bpmn:intermediateCatchEvent id="c1"><bpmn:messageEventDefinition messageRef="m"/></bpmn:intermediateCatchEvent>
+        <bpmn:intermediateCatchEvent id="c2"><bpmn:conditionalEventDefinition><bpmn:condition xsi:type="bpmn:tFormalExpression">battery.soc &lt; 30.0</bpmn:condition></bpmn:conditionalEventDefinition></bpmn:intermediateCatchEvent>
+        <bpmn:intermediateCatchEvent id="c3"><bpmn:timerEventDefinition><bpmn:timeCycle xsi:type="bpmn:tFormalExpression">R3/PT1H</bpmn:timeCycle></bpmn:timerEventDefinition></bpmn:intermediateCatchEvent>
+        <bpmn:intermediateThrowEvent id="l1"><bpmn:linkEventDefinition name="L"/></bpmn:intermediateThrowEvent>
+        <bpmn:intermediateCatchEvent id="l2"><bpmn:linkEventDefinition name="L"/></bpmn:intermediateCatchEvent>
+        <bpmn:task id="a"/>
+        <bpmn:boundaryEvent id="b1" attachedToRef="a"><bpmn:errorEventDefinition errorRef="err" trace:errorCodeVariable="code"/></bpmn:boundaryEvent>
+        <bpmn:boundaryEvent id="b2" attachedToRef="a" cancelActivity="false"><bpmn:signalEventDefinition signalRef="sig"/></bpmn:boundaryEvent>
+        <bpmn:endEvent id="e"><bpmn:terminateEventDefinition/></bpmn:endEvent>
+        <bpmn:endEvent id="e2"><bpmn:errorEventDefinition errorRef="err"/></bpmn:endEvent>
+        <bpmn:sequenceFlow id="f1" sourceRef="s" targetRef="t1"/><bpmn:sequenceFlow id="f2" sourceRef="t1" targetRef="t2"/>
+        <bpmn:sequenceFlow id="f3" sourceRef="t2" targetRef="c1"/><bpmn:sequenceFlow id="f4" sourceRef="c1" targetRef="c2"/>
+        <bpmn:sequenceFlow id="f5" sourceRef="c2" targetRef="c3"/><bpmn:sequenceFlow id="f6" sourceRef="c3" targetRef="l1"/>
+        <bpmn:sequenceFlow id="f7" sourceRef="l2" targetRef="a"/><bpmn:sequenceFlow id="f8" sourceRef="a" targetRef="e"/>
+        <bpmn:sequenceFlow id="f9" sourceRef="b1" targetRef="e2"/><bpmn:sequenceFlow id="f10" sourceRef="b2" targetRef="e"/>"#;
+    let g = ok(&doc(globals, body));
+    assert!(matches!(kind(&g, "t1"), NodeKind::Throw(r) if matches!(r[..], [EventDefinition::Signal(Some(_))])));
+    assert!(matches!(kind(&g, "c2"), NodeKind::Catch(c) if matches!(&c.triggers[..], [EventDefinition::Conditional(e)] if e.variables == ["battery"])));
+    assert!(matches!(kind(&g, "c3"), NodeKind::Catch(c) if matches!(&c.triggers[..], [EventDefinition::Timer(_)])));
+    assert!(matches!(kind(&g, "b1"), NodeKind::Boundary(b) if b.interrupting && matches!(&b.triggers[..], [EventDefinition::Error { code_variable: Some(v), .. }] if v == "code")));
+    assert!(matches!(kind(&g, "b2"), NodeKind::Boundary(b) if !b.interrupting));
+    let a = g.node(g.node_by_id("a").unwrap());
+    assert_eq!(a.boundaries.len(), 2);
+    assert!(matches!(kind(&g, "e"), NodeKind::End(r) if matches!(r[..], [EventDefinition::Terminate])));
+}
+
+#[test]
+fn subprocesses_call_activities_and_loops() {
+    let body = r#"<bpmn:startEvent id="s"/>
+        <bpmn:subProcess id="sub"><bpmn:startEvent id="s2"/><bpmn:task id="inner"/><bpmn:endEvent id="e2"/>
+          <bpmn:sequenceFlow id="g1" sourceRef="s2" targetRef="inner"/><bpmn:sequenceFlow id="g2" sourceRef="inner" targetRef="e2"/>
+          <bpmn:multiInstanceLoopCharacteristics isSequential="true"><bpmn:loopCardinality xsi:type="bpmn:tFormalExpression">3</bpmn:loopCardinality>
+          <bpmn:completionCondition xsi:type="bpmn:tFormalExpression">nrOfCompletedInstances &gt;= 2</bpmn:completionCondition></bpmn:multiInstanceLoopCharacteristics>
+        </bpmn:subProcess>
+        <bpmn:callActivity id="call" calledElement="q"><bpmn:standardLoopCharacteristics testBefore="true" loopMaximum="5">
+          <bpmn:loopCondition xsi:type="bpmn:tFormalExpression">n &lt; 3</bpmn:loopCondition></bpmn:standardLoopCharacteristics></bpmn:callActivity>
+        <bpmn:transaction id="tx"><bpmn:startEvent id="s3"/><bpmn:endEvent id="e3"/><bpmn:sequenceFlow id="h1" sourceRef="s3" targetRef="e3"/></bpmn:transaction>
+        <bpmn:adHocSubProcess id="adhoc" ordering="Sequential"><bpmn:task id="free"/></bpmn:adHocSubProcess>
+        <bpmn:subProcess id="esp" triggeredByEvent="true"><bpmn:startEvent id="s4" isInterrupting="false">
+          <bpmn:timerEventDefinition><bpmn:timeDuration xsi:type="bpmn:tFormalExpression">PT1H</bpmn:timeDuration></bpmn:timerEventDefinition></bpmn:startEvent>
+          <bpmn:endEvent id="e4"/><bpmn:sequenceFlow id="k1" sourceRef="s4" targetRef="e4"/></bpmn:subProcess>
+        <bpmn:endEvent id="e"/>
+        <bpmn:sequenceFlow id="f1" sourceRef="s" targetRef="sub"/><bpmn:sequenceFlow id="f2" sourceRef="sub" targetRef="call"/>
+        <bpmn:sequenceFlow id="f3" sourceRef="call" targetRef="tx"/><bpmn:sequenceFlow id="f4" sourceRef="tx" targetRef="adhoc"/>
+        <bpmn:sequenceFlow id="f5" sourceRef="adhoc" targetRef="e"/>"#;
+    let called = r#"<bpmn:process id="q" isExecutable="true"><bpmn:startEvent id="qs"/><bpmn:endEvent id="qe"/>
+        <bpmn:sequenceFlow id="q1" sourceRef="qs" targetRef="qe"/></bpmn:process>"#;
+    let xml = doc("", body).replace("</bpmn:definitions>", &format!("{called}</bpmn:definitions>"));
+    let g = ok(&xml);
+    let sub = g.node_by_id("sub").unwrap();
+    assert!(matches!(&g.node(sub).looping, Some(Looping::MultiInstance(m)) if m.sequential && m.completion.is_some()));
+    assert_eq!(g.node(g.node_by_id("inner").unwrap()).scope, Scope::SubProcess(sub));
+    assert!(matches!(kind(&g, "call"), NodeKind::CallActivity(c) if c.called == Some(Called::Process(g.process_by_id("q").unwrap()))));
+    assert!(matches!(&g.node(g.node_by_id("call").unwrap()).looping, Some(Looping::Standard { test_before: true, maximum: Some(5), condition: Some(_) })));
+    assert!(matches!(kind(&g, "tx"), NodeKind::SubProcess(s) if matches!(s.kind, SubProcessKind::Transaction)));
+    assert!(matches!(kind(&g, "adhoc"), NodeKind::SubProcess(s) if matches!(s.kind, SubProcessKind::AdHoc { sequential: true, .. })));
+    assert!(matches!(kind(&g, "esp"), NodeKind::SubProcess(s) if matches!(s.kind, SubProcessKind::Event)));
+    // The called process is not started with the mission.
+    assert_eq!(g.primary_processes(), vec![g.process_by_id("p").unwrap()]);
+}
+
+#[test]
+fn collaborations_lanes_and_data() {
+    let xml = format!(
+        r#"{HEAD}<bpmn:message id="m" name="ping"/>
+        <bpmn:collaboration id="c"><bpmn:participant id="pa" processRef="p"/><bpmn:participant id="pb" name="Ground"/>
+          <bpmn:messageFlow id="mf" sourceRef="x" targetRef="pb" messageRef="m"/></bpmn:collaboration>
+        <bpmn:process id="p" isExecutable="true"><bpmn:laneSet><bpmn:lane id="lane" name="Arm"><bpmn:flowNodeRef>x</bpmn:flowNodeRef></bpmn:lane></bpmn:laneSet>
+          <bpmn:property id="prop" name="battery"/><bpmn:dataObject id="do" name="samples" isCollection="true"/>
+          <bpmn:startEvent id="s"/><bpmn:sendTask id="x" messageRef="m"/><bpmn:endEvent id="e"/>
+          <bpmn:sequenceFlow id="f1" sourceRef="s" targetRef="x"/><bpmn:sequenceFlow id="f2" sourceRef="x" targetRef="e"/></bpmn:process></bpmn:definitions>"#
+    );
+    let g = ok(&xml);
+    let c = &g.collaborations[0];
+    assert_eq!(c.participants.len(), 2);
+    assert_eq!(c.message_flows[0].message, Some(MessageId(0)));
+    let p = g.process(g.process_by_id("p").unwrap());
+    assert_eq!(p.lanes[0].nodes, vec![g.node_by_id("x").unwrap()]);
+    assert_eq!(p.properties[0].name.as_deref(), Some("battery"));
+    assert!(p.data_objects[0].collection);
+}
+
+#[test]
+fn each_diagnostic_fires_on_its_minimal_model() {
+    let cases: Vec<(&str, String)> = vec![
+        ("duplicate-id", around(r#"<bpmn:task id="x"/><bpmn:task id="x"/>"#)),
+        ("dangling-reference", doc("", r#"<bpmn:startEvent id="s"/><bpmn:sequenceFlow id="f" sourceRef="s" targetRef="nowhere"/>"#)),
+        ("unreachable", around(r#"<bpmn:task id="x"/><bpmn:task id="island"><bpmn:outgoing>z</bpmn:outgoing></bpmn:task><bpmn:sequenceFlow id="z" sourceRef="island" targetRef="e"/>"#)),
+        ("boundary-on-non-activity", around(r#"<bpmn:task id="x"/><bpmn:boundaryEvent id="b" attachedToRef="s"><bpmn:timerEventDefinition><bpmn:timeDuration xsi:type="bpmn:tFormalExpression">PT1M</bpmn:timeDuration></bpmn:timerEventDefinition></bpmn:boundaryEvent>"#)),
+        ("missing-called-process", around(r#"<bpmn:callActivity id="x" calledElement="ghost"/>"#)),
+        ("bad-timer", around(r#"<bpmn:intermediateCatchEvent id="x"><bpmn:timerEventDefinition><bpmn:timeDuration xsi:type="bpmn:tFormalExpression">soon</bpmn:timeDuration></bpmn:timerEventDefinition></bpmn:intermediateCatchEvent>"#)),
+        ("bad-expression", around(r#"<bpmn:scriptTask id="x" scriptFormat="cel"><bpmn:script>a = (</bpmn:script></bpmn:scriptTask>"#).replace("bad-script", "")),
+        ("missing-resource", around(r#"<bpmn:serviceTask id="x"/>"#)),
+        ("unsupported-element", around(r#"<bpmn:task id="x"/><bpmn:choreographyTask id="ct"/>"#)),
+        ("no-outgoing", doc("", r#"<bpmn:startEvent id="s"/><bpmn:exclusiveGateway id="g"/><bpmn:endEvent id="e"/><bpmn:sequenceFlow id="f" sourceRef="s" targetRef="g"/>"#)),
+        ("start-without-end", doc("", r#"<bpmn:startEvent id="s"/><bpmn:task id="t"/><bpmn:sequenceFlow id="f" sourceRef="s" targetRef="t"/>"#)),
+        ("end-without-start", doc("", r#"<bpmn:task id="t"/><bpmn:endEvent id="e"/><bpmn:sequenceFlow id="f" sourceRef="t" targetRef="e"/>"#)),
+        ("malformed-xml", "<bpmn:definitions".to_owned()),
+        ("not-bpmn", "<html/>".to_owned()),
+    ];
+    for (code, xml) in cases {
+        let found = errors(&xml);
+        let found = if code == "bad-expression" { found.into_iter().map(|c| if c == "bad-script" { "bad-expression" } else { c }).collect() } else { found };
+        assert!(found.contains(&code), "{code}: expected it among {found:?}");
+    }
+}
+
+#[test]
+fn a_gateway_without_default_is_a_warning_that_names_it() {
+    let xml = doc("", r#"<bpmn:startEvent id="s"/><bpmn:exclusiveGateway id="g"/><bpmn:endEvent id="e"/><bpmn:endEvent id="e2"/>
+        <bpmn:sequenceFlow id="f0" sourceRef="s" targetRef="g"/>
+        <bpmn:sequenceFlow id="f1" sourceRef="g" targetRef="e"><bpmn:conditionExpression xsi:type="bpmn:tFormalExpression">a</bpmn:conditionExpression></bpmn:sequenceFlow>
+        <bpmn:sequenceFlow id="f2" sourceRef="g" targetRef="e2"><bpmn:conditionExpression xsi:type="bpmn:tFormalExpression">!a</bpmn:conditionExpression></bpmn:sequenceFlow>"#);
+    let loaded = load(xml.as_bytes());
+    assert!(loaded.graph.is_some());
+    let w = loaded.diagnostics.iter().find(|d| d.code == "no-default-flow").expect("warning");
+    assert_eq!((w.severity, w.element.as_deref()), (Severity::Warning, Some("g")));
+}
+
+#[test]
+fn every_problem_is_listed_with_line_and_column() {
+    let xml = format!(
+        "{HEAD}\n<bpmn:process id=\"p\" isExecutable=\"true\">\n<bpmn:startEvent id=\"s\"/>\n<bpmn:serviceTask id=\"t\"/>\n<bpmn:endEvent id=\"e\"/>\n<bpmn:sequenceFlow id=\"f1\" sourceRef=\"s\" targetRef=\"t\"/>\n<bpmn:sequenceFlow id=\"f2\" sourceRef=\"t\" targetRef=\"gone\"/>\n</bpmn:process></bpmn:definitions>"
+    );
+    let loaded = load(xml.as_bytes());
+    let head_lines = HEAD.lines().count();
+    let missing = loaded.errors().find(|d| d.code == "missing-resource").expect("missing resource");
+    assert_eq!((missing.line, missing.column), (head_lines + 3, 1));
+    let dangling = loaded.errors().find(|d| d.code == "dangling-reference").expect("dangling");
+    assert_eq!((dangling.line, dangling.element.as_deref()), (head_lines + 6, Some("f2")));
+}
+
+#[test]
+fn imports_resolve_through_the_callers_resolver() {
+    let lib = format!(r#"{HEAD}<bpmn:process id="lib" isExecutable="true"><bpmn:startEvent id="ls"/><bpmn:endEvent id="le"/>
+        <bpmn:sequenceFlow id="l1" sourceRef="ls" targetRef="le"/></bpmn:process></bpmn:definitions>"#).replace("urn:test", "urn:lib");
+    let main = around(r#"<bpmn:callActivity id="x" calledElement="lib"/>"#)
+        .replace("<bpmn:process", r#"<bpmn:import importType="http://www.omg.org/spec/BPMN/20100524/MODEL" location="lib.bpmn" namespace="urn:lib"/><bpmn:process"#);
+    let loaded = load_bundle(main.as_bytes(), &Options::default(), &mut |loc| {
+        if loc == "lib.bpmn" { Ok(lib.clone().into_bytes()) } else { Err("no such file".into()) }
+    });
+    let g = loaded.graph.unwrap_or_else(|| panic!("{:#?}", loaded.diagnostics));
+    let lib_id = g.process_by_id("lib").unwrap();
+    assert!(g.process(lib_id).imported);
+    assert_eq!(g.primary_processes(), vec![g.process_by_id("p").unwrap()]);
+    let missing = load(main.as_bytes());
+    assert!(missing.errors().any(|d| d.code == "unresolved-import" && d.constraint == Some("EXT.001")));
+}

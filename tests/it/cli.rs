@@ -1,0 +1,69 @@
+//! The `trace validate` command as users run it: exit codes, rustc-style diagnostics with
+//! line:column and a caret, and `--json` for tools.
+
+use std::process::Command;
+
+use mission_tests::{bin, repo};
+
+const BROKEN: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
+<bpmn:definitions xmlns:bpmn="http://www.omg.org/spec/BPMN/20100524/MODEL" xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance" id="d" targetNamespace="urn:t">
+  <bpmn:process id="p" isExecutable="true">
+    <bpmn:startEvent id="start"/>
+    <bpmn:serviceTask id="drill" name="Drill"/>
+    <bpmn:intermediateCatchEvent id="wait"><bpmn:timerEventDefinition><bpmn:timeDuration xsi:type="bpmn:tFormalExpression">two days</bpmn:timeDuration></bpmn:timerEventDefinition></bpmn:intermediateCatchEvent>
+    <bpmn:endEvent id="end"/>
+    <bpmn:sequenceFlow id="f1" sourceRef="start" targetRef="drill"/>
+    <bpmn:sequenceFlow id="f2" sourceRef="drill" targetRef="wait"/>
+    <bpmn:sequenceFlow id="f3" sourceRef="wait" targetRef="nowhere"/>
+  </bpmn:process>
+</bpmn:definitions>
+"#;
+
+fn trace(args: &[&str]) -> (i32, String) {
+    let out = Command::new(bin("trace")).args(args).output().expect("trace runs");
+    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stdout).into_owned())
+}
+
+fn temp_model(name: &str, text: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("trace-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+#[test]
+fn the_europa_mission_is_valid() {
+    let mission = repo().join("deploy/missions/europa-bsm1.bpmn");
+    let (code, out) = trace(&["validate", mission.to_str().unwrap()]);
+    assert_eq!(code, 0, "{out}");
+    assert!(out.trim_end().ends_with("europa-bsm1.bpmn: valid"), "{out}");
+}
+
+#[test]
+fn a_broken_model_gets_every_problem_with_its_position() {
+    let path = temp_model("broken.bpmn", BROKEN);
+    let (code, out) = trace(&["validate", path.to_str().unwrap()]);
+    assert_eq!(code, 1, "{out}");
+    for (code, line) in [("missing-resource", 5), ("bad-timer", 6), ("dangling-reference", 10)] {
+        assert!(out.contains(&format!("[{code}")), "{code} missing from:\n{out}");
+        assert!(out.contains(&format!("broken.bpmn:{line}:")), "line {line} missing from:\n{out}");
+    }
+    assert!(out.contains('^'), "a caret under the source line:\n{out}");
+    assert!(out.contains("error(s)"), "{out}");
+}
+
+#[test]
+fn json_output_and_exit_codes_for_tools() {
+    let broken = temp_model("broken-json.bpmn", BROKEN);
+    let garbage = temp_model("garbage.bpmn", "not xml at all");
+    let (code, out) = trace(&["validate", "--json", broken.to_str().unwrap(), garbage.to_str().unwrap()]);
+    assert_eq!(code, 2, "the worst verdict decides: unreadable");
+    let reports: serde_json::Value = serde_json::from_str(&out).expect("JSON");
+    assert_eq!(reports[0]["verdict"], "invalid");
+    assert!(reports[0]["diagnostics"].as_array().unwrap().len() >= 3);
+    assert_eq!(reports[0]["diagnostics"][0]["line"], 5);
+    assert_eq!(reports[1]["verdict"], "unreadable");
+    let (code, _) = trace(&["validate", "/nonexistent/mission.bpmn"]);
+    assert_eq!(code, 2);
+}

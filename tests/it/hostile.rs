@@ -1,0 +1,77 @@
+//! Hostile and broken input: entity bombs, XXE, deep nesting, huge files, attribute floods and
+//! random bytes are refused with a clear message in bounded time, never a panic.
+
+use executive_model::{Limits, Options, load, load_with};
+use mission_tests::repo;
+use proptest::prelude::*;
+
+fn refused(bytes: &[u8]) -> String {
+    let loaded = load(bytes);
+    assert!(loaded.graph.is_none());
+    loaded.errors().map(|d| d.message.clone()).collect::<Vec<_>>().join("\n")
+}
+
+#[test]
+fn entity_expansion_bomb_is_refused() {
+    let mut bomb = String::from("<?xml version=\"1.0\"?><!DOCTYPE lolz [<!ENTITY lol \"lol\">");
+    for i in 1..10 {
+        bomb.push_str(&format!("<!ENTITY lol{i} \"{}\">", format!("&lol{};", i - 1).repeat(10)));
+    }
+    bomb.push_str("]><definitions>&lol9;</definitions>");
+    assert!(refused(bomb.as_bytes()).contains("DOCTYPE"));
+}
+
+#[test]
+fn external_entities_are_never_read() {
+    let dir = std::env::temp_dir().join(format!("trace-xxe-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let secret = dir.join("secret.txt");
+    std::fs::write(&secret, "TOP-SECRET-PAYLOAD").unwrap();
+    let xml = format!(
+        "<?xml version=\"1.0\"?><!DOCTYPE d [<!ENTITY xxe SYSTEM \"file://{}\">]><bpmn:definitions xmlns:bpmn=\"http://www.omg.org/spec/BPMN/20100524/MODEL\"><bpmn:process id=\"&xxe;\"/></bpmn:definitions>",
+        secret.display()
+    );
+    let message = refused(xml.as_bytes());
+    assert!(!message.contains("TOP-SECRET"), "{message}");
+    // Without a DOCTYPE, an undeclared entity is an error too.
+    assert!(refused(b"<bpmn:definitions xmlns:bpmn=\"http://www.omg.org/spec/BPMN/20100524/MODEL\">&xxe;</bpmn:definitions>").contains("undefined entity"));
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn deep_nesting_is_refused() {
+    let deep = "<a>".repeat(100_000) + &"</a>".repeat(100_000);
+    assert!(refused(deep.as_bytes()).contains("nested deeper"));
+}
+
+#[test]
+fn oversized_input_and_attribute_floods_are_refused() {
+    let small = Options { limits: Limits { max_bytes: 1 << 20, ..Limits::default() }, ..Options::default() };
+    let big = vec![b' '; (1 << 20) + 1];
+    assert!(load_with(&big, &small).errors().any(|d| d.message.contains("limit")));
+    let attrs: String = (0..10_000).map(|i| format!(" custom:a{i}=\"v\"")).collect();
+    let flood = format!("<bpmn:definitions xmlns:bpmn=\"http://www.omg.org/spec/BPMN/20100524/MODEL\" xmlns:custom=\"urn:x\"><bpmn:startEvent{attrs}/></bpmn:definitions>");
+    assert!(refused(flood.as_bytes()).contains("attributes"));
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+
+    #[test]
+    fn random_bytes_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..2048)) {
+        let loaded = load(&bytes);
+        prop_assert!(loaded.graph.is_none() || !loaded.diagnostics.iter().any(|d| d.severity == executive_model::Severity::Error));
+    }
+
+    #[test]
+    fn damaged_missions_never_panic(cut in 0usize..100_000, flip in 0usize..100_000, byte in any::<u8>()) {
+        let mut bytes = std::fs::read(repo().join("deploy/missions/europa-bsm1.bpmn")).unwrap();
+        let i = flip % bytes.len();
+        bytes[i] = byte;
+        bytes.truncate(cut % bytes.len() + 1);
+        let loaded = load(&bytes);
+        for d in &loaded.diagnostics {
+            prop_assert!(d.line >= 1 && d.column >= 1);
+        }
+    }
+}

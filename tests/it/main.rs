@@ -1,0 +1,8 @@
+//! Integration tier `it`: the loader against external corpora, the shipped missions, hostile
+//! input and the `trace` command, all in one test binary.
+
+mod cli;
+mod conformance;
+mod hostile;
+mod missions;
+mod tidy;

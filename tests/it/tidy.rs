@@ -1,0 +1,31 @@
+//! Tidy checks on the repository itself: every Rust source file starts with a `//!` line
+//! saying what it holds.
+
+use mission_tests::repo;
+
+fn rust_files(dir: &std::path::Path, out: &mut Vec<std::path::PathBuf>) {
+    for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+        let path = entry.path();
+        let name = entry.file_name();
+        if path.is_dir() && name != "target" && !name.to_string_lossy().starts_with('.') {
+            rust_files(&path, out);
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            out.push(path);
+        }
+    }
+}
+
+#[test]
+fn every_source_file_says_what_it_holds() {
+    let mut files = Vec::new();
+    for top in ["executive", "connectors", "elap-sim", "ground-station", "tests"] {
+        rust_files(&repo().join(top), &mut files);
+    }
+    let missing: Vec<String> = files
+        .iter()
+        .filter(|f| !std::fs::read_to_string(f).unwrap_or_default().starts_with("//!"))
+        .map(|f| f.display().to_string())
+        .collect();
+    assert!(files.len() > 10);
+    assert!(missing.is_empty(), "files without a leading //! line: {missing:?}");
+}

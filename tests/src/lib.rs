@@ -1,0 +1,47 @@
+//! mission-tests: shared helpers for the integration tiers (paths, the `trace` binary, corpora).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+
+/// The repository root.
+pub fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("tests/ sits in the repository").to_path_buf()
+}
+
+/// The shared test material (`../shared` beside the repository, or `$TRACE_SHARED`).
+pub fn shared() -> PathBuf {
+    match std::env::var_os("TRACE_SHARED") {
+        Some(p) => PathBuf::from(p),
+        None => repo().join("../shared"),
+    }
+}
+
+/// A conformance corpus folder.
+pub fn conformance(sub: &str) -> PathBuf {
+    shared().join("conformance").join(sub)
+}
+
+/// Reads a JSON file that is an array of objects.
+pub fn json_array(path: &Path) -> Vec<serde_json::Value> {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// Path of a workspace binary, built once per test run with the test's own cargo and profile.
+pub fn bin(name: &str) -> PathBuf {
+    static BUILT: OnceLock<()> = OnceLock::new();
+    BUILT.get_or_init(|| {
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let status = Command::new(cargo)
+            .args(["build", "--quiet", "--workspace", "--bins"])
+            .current_dir(repo())
+            .status()
+            .expect("cargo runs");
+        assert!(status.success(), "building the workspace binaries failed");
+    });
+    // The test binary lives in <target>/<profile>/deps; binaries one level up.
+    let exe = std::env::current_exe().expect("test binary path");
+    let dir = exe.parent().and_then(Path::parent).expect("target/<profile>");
+    dir.join(name)
+}
