@@ -20,8 +20,14 @@ const BROKEN: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
 "#;
 
 fn trace(args: &[&str]) -> (i32, String) {
-    let out = Command::new(bin("trace")).args(args).output().expect("trace runs");
-    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stdout).into_owned())
+    let out = Command::new(bin("trace"))
+        .args(args)
+        .output()
+        .expect("trace runs");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+    )
 }
 
 fn temp_model(name: &str, text: &str) -> std::path::PathBuf {
@@ -45,9 +51,19 @@ fn a_broken_model_gets_every_problem_with_its_position() {
     let path = temp_model("broken.bpmn", BROKEN);
     let (code, out) = trace(&["validate", path.to_str().unwrap()]);
     assert_eq!(code, 1, "{out}");
-    for (code, line) in [("missing-resource", 5), ("bad-timer", 6), ("dangling-reference", 10)] {
-        assert!(out.contains(&format!("[{code}")), "{code} missing from:\n{out}");
-        assert!(out.contains(&format!("broken.bpmn:{line}:")), "line {line} missing from:\n{out}");
+    for (code, line) in [
+        ("missing-resource", 5),
+        ("bad-timer", 6),
+        ("dangling-reference", 10),
+    ] {
+        assert!(
+            out.contains(&format!("[{code}")),
+            "{code} missing from:\n{out}"
+        );
+        assert!(
+            out.contains(&format!("broken.bpmn:{line}:")),
+            "line {line} missing from:\n{out}"
+        );
     }
     assert!(out.contains('^'), "a caret under the source line:\n{out}");
     assert!(out.contains("error(s)"), "{out}");
@@ -57,7 +73,12 @@ fn a_broken_model_gets_every_problem_with_its_position() {
 fn json_output_and_exit_codes_for_tools() {
     let broken = temp_model("broken-json.bpmn", BROKEN);
     let garbage = temp_model("garbage.bpmn", "not xml at all");
-    let (code, out) = trace(&["validate", "--json", broken.to_str().unwrap(), garbage.to_str().unwrap()]);
+    let (code, out) = trace(&[
+        "validate",
+        "--json",
+        broken.to_str().unwrap(),
+        garbage.to_str().unwrap(),
+    ]);
     assert_eq!(code, 2, "the worst verdict decides: unreadable");
     let reports: serde_json::Value = serde_json::from_str(&out).expect("JSON");
     assert_eq!(reports[0]["verdict"], "invalid");

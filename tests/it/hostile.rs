@@ -8,14 +8,21 @@ use proptest::prelude::*;
 fn refused(bytes: &[u8]) -> String {
     let loaded = load(bytes);
     assert!(loaded.graph.is_none());
-    loaded.errors().map(|d| d.message.clone()).collect::<Vec<_>>().join("\n")
+    loaded
+        .errors()
+        .map(|d| d.message.clone())
+        .collect::<Vec<_>>()
+        .join("\n")
 }
 
 #[test]
 fn entity_expansion_bomb_is_refused() {
     let mut bomb = String::from("<?xml version=\"1.0\"?><!DOCTYPE lolz [<!ENTITY lol \"lol\">");
     for i in 1..10 {
-        bomb.push_str(&format!("<!ENTITY lol{i} \"{}\">", format!("&lol{};", i - 1).repeat(10)));
+        bomb.push_str(&format!(
+            "<!ENTITY lol{i} \"{}\">",
+            format!("&lol{};", i - 1).repeat(10)
+        ));
     }
     bomb.push_str("]><definitions>&lol9;</definitions>");
     assert!(refused(bomb.as_bytes()).contains("DOCTYPE"));
@@ -46,11 +53,23 @@ fn deep_nesting_is_refused() {
 
 #[test]
 fn oversized_input_and_attribute_floods_are_refused() {
-    let small = Options { limits: Limits { max_bytes: 1 << 20, ..Limits::default() }, ..Options::default() };
+    let small = Options {
+        limits: Limits {
+            max_bytes: 1 << 20,
+            ..Limits::default()
+        },
+        ..Options::default()
+    };
     let big = vec![b' '; (1 << 20) + 1];
-    assert!(load_with(&big, &small).errors().any(|d| d.message.contains("limit")));
+    assert!(
+        load_with(&big, &small)
+            .errors()
+            .any(|d| d.message.contains("limit"))
+    );
     let attrs: String = (0..10_000).map(|i| format!(" custom:a{i}=\"v\"")).collect();
-    let flood = format!("<bpmn:definitions xmlns:bpmn=\"http://www.omg.org/spec/BPMN/20100524/MODEL\" xmlns:custom=\"urn:x\"><bpmn:startEvent{attrs}/></bpmn:definitions>");
+    let flood = format!(
+        "<bpmn:definitions xmlns:bpmn=\"http://www.omg.org/spec/BPMN/20100524/MODEL\" xmlns:custom=\"urn:x\"><bpmn:startEvent{attrs}/></bpmn:definitions>"
+    );
     assert!(refused(flood.as_bytes()).contains("attributes"));
 }
 

@@ -18,14 +18,27 @@ fn rust_files(dir: &std::path::Path, out: &mut Vec<std::path::PathBuf>) {
 #[test]
 fn every_source_file_says_what_it_holds() {
     let mut files = Vec::new();
-    for top in ["executive", "connectors", "elap-sim", "ground-station", "tests"] {
+    for top in [
+        "executive",
+        "connectors",
+        "elap-sim",
+        "ground-station",
+        "tests",
+    ] {
         rust_files(&repo().join(top), &mut files);
     }
     let missing: Vec<String> = files
         .iter()
-        .filter(|f| !std::fs::read_to_string(f).unwrap_or_default().starts_with("//!"))
+        .filter(|f| {
+            !std::fs::read_to_string(f)
+                .unwrap_or_default()
+                .starts_with("//!")
+        })
         .map(|f| f.display().to_string())
         .collect();
     assert!(files.len() > 10);
-    assert!(missing.is_empty(), "files without a leading //! line: {missing:?}");
+    assert!(
+        missing.is_empty(),
+        "files without a leading //! line: {missing:?}"
+    );
 }

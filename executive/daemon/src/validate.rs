@@ -49,9 +49,14 @@ pub fn load_file(path: &Path, options: &Options) -> std::io::Result<Loaded> {
     let max = options.limits.max_bytes as u64;
     let mut resolve = |location: &str| -> Result<Vec<u8>, String> {
         let file = dir.join(location);
-        let len = std::fs::metadata(&file).map_err(|e| format!("{}: {e}", file.display()))?.len();
+        let len = std::fs::metadata(&file)
+            .map_err(|e| format!("{}: {e}", file.display()))?
+            .len();
         if len > max {
-            return Err(format!("{} is {len} bytes; the limit is {max}", file.display()));
+            return Err(format!(
+                "{} is {len} bytes; the limit is {max}",
+                file.display()
+            ));
         }
         std::fs::read(&file).map_err(|e| format!("{}: {e}", file.display()))
     };
@@ -84,7 +89,15 @@ pub fn check_file(path: &Path) -> (Verdict, Loaded) {
                 line: 1,
                 column: 1,
             };
-            (Verdict::Unreadable, Loaded { graph: None, diagnostics: vec![d], text: String::new(), imports: Vec::new() })
+            (
+                Verdict::Unreadable,
+                Loaded {
+                    graph: None,
+                    diagnostics: vec![d],
+                    text: String::new(),
+                    imports: Vec::new(),
+                },
+            )
         }
     }
 }
@@ -96,7 +109,12 @@ pub fn render(out: &mut dyn Write, path: &Path, loaded: &Loaded) -> std::io::Res
         let text = loaded.text_of(d);
         let name = match &d.file {
             None => path.display().to_string(),
-            Some(f) => path.parent().unwrap_or(Path::new("")).join(f).display().to_string(),
+            Some(f) => path
+                .parent()
+                .unwrap_or(Path::new(""))
+                .join(f)
+                .display()
+                .to_string(),
         };
         let file = SimpleFile::new(name, text);
         let report = match d.severity {
@@ -110,7 +128,9 @@ pub fn render(out: &mut dyn Write, path: &Path, loaded: &Loaded) -> std::io::Res
         let mut report = report.with_code(code).with_message(&d.message);
         if !text.is_empty() {
             let start = d.offset.min(text.len());
-            let end = text[start..].find(['>', '\n']).map_or(start, |i| start + i + 1);
+            let end = text[start..]
+                .find(['>', '\n'])
+                .map_or(start, |i| start + i + 1);
             let label = match &d.element {
                 Some(e) => Label::primary((), start..end).with_message(format!("element `{e}`")),
                 None => Label::primary((), start..end),
@@ -130,6 +150,7 @@ pub fn run(files: &[PathBuf], json: bool, out: &mut dyn Write) -> std::io::Resul
     let mut reports = Vec::new();
     for path in files {
         let (verdict, loaded) = check_file(path);
+        tracing::debug!(file = %path.display(), ?verdict, diagnostics = loaded.diagnostics.len(), "validated");
         worst = worst.max(verdict);
         if json {
             let verdict = match verdict {
@@ -137,15 +158,25 @@ pub fn run(files: &[PathBuf], json: bool, out: &mut dyn Write) -> std::io::Resul
                 Verdict::Invalid => "invalid",
                 Verdict::Unreadable => "unreadable",
             };
-            reports.push(FileReport { file: path.clone(), verdict, diagnostics: loaded.diagnostics });
+            reports.push(FileReport {
+                file: path.clone(),
+                verdict,
+                diagnostics: loaded.diagnostics,
+            });
         } else {
             render(out, path, &loaded)?;
             let errors = loaded.errors().count();
             let warnings = loaded.diagnostics.len() - errors;
             match verdict {
                 Verdict::Valid if warnings == 0 => writeln!(out, "{}: valid", path.display())?,
-                Verdict::Valid => writeln!(out, "{}: valid, {warnings} warning(s)", path.display())?,
-                _ => writeln!(out, "{}: {errors} error(s), {warnings} warning(s)", path.display())?,
+                Verdict::Valid => {
+                    writeln!(out, "{}: valid, {warnings} warning(s)", path.display())?
+                }
+                _ => writeln!(
+                    out,
+                    "{}: {errors} error(s), {warnings} warning(s)",
+                    path.display()
+                )?,
             }
         }
     }

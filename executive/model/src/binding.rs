@@ -127,7 +127,15 @@ pub struct TaskBinding {
 
 impl TaskBinding {
     fn new(dialect: Dialect) -> TaskBinding {
-        TaskBinding { dialect, resource: None, inputs: Vec::new(), outputs: Vec::new(), retries: None, all_in: false, all_out: false }
+        TaskBinding {
+            dialect,
+            resource: None,
+            inputs: Vec::new(),
+            outputs: Vec::new(),
+            retries: None,
+            all_in: false,
+            all_out: false,
+        }
     }
 }
 
@@ -142,9 +150,11 @@ pub(crate) struct Reader<'a> {
 impl Reader<'_> {
     fn problem(&mut self, offset: usize, code: &'static str, message: String) {
         if self.strict {
-            self.sink.error(code, offset, Some(self.element_id), message);
+            self.sink
+                .error(code, offset, Some(self.element_id), message);
         } else {
-            self.sink.warning(code, offset, Some(self.element_id), message);
+            self.sink
+                .warning(code, offset, Some(self.element_id), message);
         }
     }
 
@@ -193,13 +203,19 @@ impl Reader<'_> {
     }
 
     fn read_trace(&mut self, el: &Element) -> Option<TaskBinding> {
-        let task = el.extensions().find(|e| e.ns == Ns::Trace && e.name == "task")?;
+        let task = el
+            .extensions()
+            .find(|e| e.ns == Ns::Trace && e.name == "task")?;
         let mut b = TaskBinding::new(Dialect::Trace);
         b.resource = task.attr("resource").map(str::to_owned);
         if let Some(r) = task.attr("retries") {
             match r.parse() {
                 Ok(n) => b.retries = Some(n),
-                Err(_) => self.problem(task.offset, "bad-attribute", format!("retries=\"{r}\" is not a whole number")),
+                Err(_) => self.problem(
+                    task.offset,
+                    "bad-attribute",
+                    format!("retries=\"{r}\" is not a whole number"),
+                ),
             }
         }
         for child in &task.children {
@@ -210,19 +226,37 @@ impl Reader<'_> {
             match child.name.as_str() {
                 "input" | "output" => {
                     let (Some(target), Some(source)) = (target, source) else {
-                        self.problem(child.offset, "bad-binding", format!("trace:{} needs both source and target", child.name));
+                        self.problem(
+                            child.offset,
+                            "bad-binding",
+                            format!("trace:{} needs both source and target", child.name),
+                        );
                         continue;
                     };
                     let ty = self.ty(child, &Ns::Trace);
                     let what = format!("trace:{} {target}", child.name);
-                    let Some(source) = self.expr(child.offset, source, &what) else { continue };
+                    let Some(source) = self.expr(child.offset, source, &what) else {
+                        continue;
+                    };
                     if child.name == "input" {
-                        b.inputs.push(InputMapping { target: target.to_owned(), source, ty });
+                        b.inputs.push(InputMapping {
+                            target: target.to_owned(),
+                            source,
+                            ty,
+                        });
                     } else {
-                        b.outputs.push(OutputMapping { source, target: target.to_owned(), ty });
+                        b.outputs.push(OutputMapping {
+                            source,
+                            target: target.to_owned(),
+                            ty,
+                        });
                     }
                 }
-                other => self.problem(child.offset, "unknown-element", format!("trace:{other} is not part of the trace vocabulary (input, output)")),
+                other => self.problem(
+                    child.offset,
+                    "unknown-element",
+                    format!("trace:{other} is not part of the trace vocabulary (input, output)"),
+                ),
             }
         }
         Some(b)
@@ -245,9 +279,14 @@ impl Reader<'_> {
                 "ioMapping" => {
                     relevant = true;
                     for m in &z.children {
-                        let (Some(source), Some(target)) = (m.attr("source"), m.attr("target")) else {
+                        let (Some(source), Some(target)) = (m.attr("source"), m.attr("target"))
+                        else {
                             if m.ns == Ns::Zeebe {
-                                self.problem(m.offset, "bad-binding", format!("zeebe:{} needs source and target", m.name));
+                                self.problem(
+                                    m.offset,
+                                    "bad-binding",
+                                    format!("zeebe:{} needs source and target", m.name),
+                                );
                             }
                             continue;
                         };
@@ -259,8 +298,16 @@ impl Reader<'_> {
                         };
                         let Some(source) = source else { continue };
                         match m.name.as_str() {
-                            "input" => b.inputs.push(InputMapping { target: target.to_owned(), source, ty: None }),
-                            "output" => b.outputs.push(OutputMapping { source, target: target.to_owned(), ty: None }),
+                            "input" => b.inputs.push(InputMapping {
+                                target: target.to_owned(),
+                                source,
+                                ty: None,
+                            }),
+                            "output" => b.outputs.push(OutputMapping {
+                                source,
+                                target: target.to_owned(),
+                                ty: None,
+                            }),
                             _ => {}
                         }
                     }
@@ -279,7 +326,13 @@ impl Reader<'_> {
     fn read_camunda(&mut self, el: &Element) -> Option<TaskBinding> {
         let mut b = TaskBinding::new(Dialect::Camunda7);
         let mut relevant = false;
-        for attr in ["topic", "class", "delegateExpression", "expression", "decisionRef"] {
+        for attr in [
+            "topic",
+            "class",
+            "delegateExpression",
+            "expression",
+            "decisionRef",
+        ] {
             if let Some(v) = el.attr_ns(&Ns::Camunda, attr) {
                 b.resource = Some(v.to_owned());
                 relevant = true;
@@ -292,7 +345,11 @@ impl Reader<'_> {
                     relevant = true;
                     for p in ext.children.iter().filter(|p| p.ns == Ns::Camunda) {
                         let Some(name) = p.attr("name") else {
-                            self.problem(p.offset, "bad-binding", format!("camunda:{} needs a name", p.name));
+                            self.problem(
+                                p.offset,
+                                "bad-binding",
+                                format!("camunda:{} needs a name", p.name),
+                            );
                             continue;
                         };
                         if let Some(nested) = p.children.iter().find(|c| c.ns == Ns::Camunda) {
@@ -311,8 +368,16 @@ impl Reader<'_> {
                         };
                         let Some(value) = value else { continue };
                         match p.name.as_str() {
-                            "inputParameter" => b.inputs.push(InputMapping { target: name.to_owned(), source: value, ty: None }),
-                            "outputParameter" => b.outputs.push(OutputMapping { source: value, target: name.to_owned(), ty: None }),
+                            "inputParameter" => b.inputs.push(InputMapping {
+                                target: name.to_owned(),
+                                source: value,
+                                ty: None,
+                            }),
+                            "outputParameter" => b.outputs.push(OutputMapping {
+                                source: value,
+                                target: name.to_owned(),
+                                ty: None,
+                            }),
                             _ => {}
                         }
                     }
@@ -321,13 +386,23 @@ impl Reader<'_> {
                     relevant = true;
                     let inbound = ext.name == "in";
                     if ext.attr("variables") == Some("all") {
-                        if inbound { b.all_in = true } else { b.all_out = true }
+                        if inbound {
+                            b.all_in = true
+                        } else {
+                            b.all_out = true
+                        }
                         continue;
                     }
                     let target = ext.attr("target");
                     let source = match (ext.attr("source"), ext.attr("sourceExpression")) {
-                        (Some(s), None) => self.expr(ext.offset, s, &format!("camunda:{} source", ext.name)),
-                        (None, Some(s)) => self.expr(ext.offset, s, &format!("camunda:{} sourceExpression", ext.name)),
+                        (Some(s), None) => {
+                            self.expr(ext.offset, s, &format!("camunda:{} source", ext.name))
+                        }
+                        (None, Some(s)) => self.expr(
+                            ext.offset,
+                            s,
+                            &format!("camunda:{} sourceExpression", ext.name),
+                        ),
                         _ => {
                             self.problem(ext.offset, "bad-binding", format!("camunda:{} needs exactly one of source, sourceExpression, or variables=\"all\"", ext.name));
                             continue;
@@ -335,14 +410,26 @@ impl Reader<'_> {
                     };
                     let (Some(source), Some(target)) = (source, target) else {
                         if target.is_none() {
-                            self.problem(ext.offset, "bad-binding", format!("camunda:{} needs a target", ext.name));
+                            self.problem(
+                                ext.offset,
+                                "bad-binding",
+                                format!("camunda:{} needs a target", ext.name),
+                            );
                         }
                         continue;
                     };
                     if inbound {
-                        b.inputs.push(InputMapping { target: target.to_owned(), source, ty: None });
+                        b.inputs.push(InputMapping {
+                            target: target.to_owned(),
+                            source,
+                            ty: None,
+                        });
                     } else {
-                        b.outputs.push(OutputMapping { source, target: target.to_owned(), ty: None });
+                        b.outputs.push(OutputMapping {
+                            source,
+                            target: target.to_owned(),
+                            ty: None,
+                        });
                     }
                 }
                 _ => {}

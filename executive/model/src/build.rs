@@ -16,21 +16,67 @@ use crate::xml::{Document, Element, Ns};
 
 /// BPMN flow-node element names.
 const FLOW_NODES: &[&str] = &[
-    "startEvent", "endEvent", "intermediateCatchEvent", "intermediateThrowEvent", "boundaryEvent",
-    "exclusiveGateway", "inclusiveGateway", "parallelGateway", "eventBasedGateway", "complexGateway",
-    "task", "serviceTask", "userTask", "scriptTask", "sendTask", "receiveTask", "manualTask",
-    "businessRuleTask", "subProcess", "transaction", "adHocSubProcess", "callActivity",
+    "startEvent",
+    "endEvent",
+    "intermediateCatchEvent",
+    "intermediateThrowEvent",
+    "boundaryEvent",
+    "exclusiveGateway",
+    "inclusiveGateway",
+    "parallelGateway",
+    "eventBasedGateway",
+    "complexGateway",
+    "task",
+    "serviceTask",
+    "userTask",
+    "scriptTask",
+    "sendTask",
+    "receiveTask",
+    "manualTask",
+    "businessRuleTask",
+    "subProcess",
+    "transaction",
+    "adHocSubProcess",
+    "callActivity",
 ];
 
 /// BPMN elements that may stand in a process or sub-process and carry no control flow.
 const PASSIVE: &[&str] = &[
-    "sequenceFlow", "dataObject", "dataObjectReference", "dataStoreReference", "textAnnotation",
-    "association", "group", "laneSet", "property", "ioSpecification", "documentation",
-    "extensionElements", "dataInputAssociation", "dataOutputAssociation", "auditing", "monitoring",
-    "correlationSubscription", "supports", "category", "ioBinding", "resourceRole", "performer",
-    "humanPerformer", "potentialOwner", "dataInput", "dataOutput", "inputSet", "outputSet",
-    "standardLoopCharacteristics", "multiInstanceLoopCharacteristics", "incoming", "outgoing",
-    "completionCondition", "renderings", "rendering",
+    "sequenceFlow",
+    "dataObject",
+    "dataObjectReference",
+    "dataStoreReference",
+    "textAnnotation",
+    "association",
+    "group",
+    "laneSet",
+    "property",
+    "ioSpecification",
+    "documentation",
+    "extensionElements",
+    "dataInputAssociation",
+    "dataOutputAssociation",
+    "auditing",
+    "monitoring",
+    "correlationSubscription",
+    "supports",
+    "category",
+    "ioBinding",
+    "resourceRole",
+    "performer",
+    "humanPerformer",
+    "potentialOwner",
+    "dataInput",
+    "dataOutput",
+    "inputSet",
+    "outputSet",
+    "standardLoopCharacteristics",
+    "multiInstanceLoopCharacteristics",
+    "incoming",
+    "outgoing",
+    "completionCondition",
+    "renderings",
+    "rendering",
 ];
 
 /// Strips a QName prefix from a reference (`tns:Message_1` -> `Message_1`).
@@ -76,7 +122,11 @@ pub(crate) struct Builder<'d, 's> {
 
 /// Builds the graph from a parsed document. Returns `None` only when the root is not a BPMN
 /// `definitions` element; every other problem is a diagnostic in `sink`.
-pub(crate) fn build<'d>(docs: &[&'d Document], sink: &mut Sink, options: &crate::Options) -> Option<ProcessGraph> {
+pub(crate) fn build(
+    docs: &[&Document],
+    sink: &mut Sink,
+    options: &crate::Options,
+) -> Option<ProcessGraph> {
     let root = &docs.first()?.root;
     if !root.is_bpmn("definitions") {
         let what = match &root.ns {
@@ -165,12 +215,16 @@ pub(crate) fn build<'d>(docs: &[&'d Document], sink: &mut Sink, options: &crate:
 impl<'d> Builder<'d, '_> {
     /// Which document of the bundle an offset lies in.
     fn doc_of(&self, offset: usize) -> usize {
-        self.bases.partition_point(|b| *b <= offset).saturating_sub(1)
+        self.bases
+            .partition_point(|b| *b <= offset)
+            .saturating_sub(1)
     }
 
     /// The flow node `id` as seen from the element at `offset` (same document).
     fn node_ref(&self, offset: usize, id: &str) -> Option<NodeId> {
-        self.scoped_nodes.get(&(self.doc_of(offset), local_ref(id).to_owned())).copied()
+        self.scoped_nodes
+            .get(&(self.doc_of(offset), local_ref(id).to_owned()))
+            .copied()
     }
 
     /// The element `id` in the namespace of the element at `offset`.
@@ -179,7 +233,14 @@ impl<'d> Builder<'d, '_> {
         self.all_ids.get(&(ns, local_ref(id))).copied()
     }
 
-    fn problem(&mut self, strict: bool, code: &'static str, offset: usize, element: Option<&str>, message: String) -> &mut crate::Diagnostic {
+    fn problem(
+        &mut self,
+        strict: bool,
+        code: &'static str,
+        offset: usize,
+        element: Option<&str>,
+        message: String,
+    ) -> &mut crate::Diagnostic {
         if strict {
             self.sink.error(code, offset, element, message)
         } else {
@@ -190,18 +251,23 @@ impl<'d> Builder<'d, '_> {
     fn collect_ids(&mut self, root: &'d Element) {
         let mut stack = vec![root];
         while let Some(el) = stack.pop() {
-            if el.ns == Ns::Bpmn {
-                if let Some(id) = el.attr("id") {
-                    let ns = self.doc_namespace[self.doc_of(el.offset)];
-                    if let Some((other, at)) = self.all_ids.get(&(ns, id)).copied() {
-                        let msg = format!("id `{id}` is used twice: by <{}> and by <{other}> at byte {at}", el.name);
-                        self.sink.error("duplicate-id", el.offset, Some(id), msg).constraint("EXT.002");
-                    } else {
-                        self.all_ids.insert((ns, id), (el.name.as_str(), el.offset));
-                    }
-                    if el.name == "linkEventDefinition" {
-                        self.link_names.insert(id, el.attr("name").unwrap_or(id));
-                    }
+            if el.ns == Ns::Bpmn
+                && let Some(id) = el.attr("id")
+            {
+                let ns = self.doc_namespace[self.doc_of(el.offset)];
+                if let Some((other, at)) = self.all_ids.get(&(ns, id)).copied() {
+                    let msg = format!(
+                        "id `{id}` is used twice: by <{}> and by <{other}> at byte {at}",
+                        el.name
+                    );
+                    self.sink
+                        .error("duplicate-id", el.offset, Some(id), msg)
+                        .constraint("EXT.002");
+                } else {
+                    self.all_ids.insert((ns, id), (el.name.as_str(), el.offset));
+                }
+                if el.name == "linkEventDefinition" {
+                    self.link_names.insert(id, el.attr("name").unwrap_or(id));
                 }
             }
             // BPMN DI and foreign extensions hold no BPMN ids of their own.
@@ -219,22 +285,35 @@ impl<'d> Builder<'d, '_> {
             let id = el.attr("id").unwrap_or_default().to_owned();
             match el.name.as_str() {
                 "message" => {
-                    let name = el.attr("name").map(str::to_owned).unwrap_or_else(|| id.clone());
+                    let name = el
+                        .attr("name")
+                        .map(str::to_owned)
+                        .unwrap_or_else(|| id.clone());
                     let correlation_key = el
                         .extensions()
                         .find(|e| e.ns == Ns::Zeebe && e.name == "subscription")
                         .and_then(|s| s.attr("correlationKey"))
                         .and_then(|k| Expression::parse(k).ok());
-                    self.messages.insert(id.clone(), MessageId(self.g.messages.len() as u32));
-                    self.g.messages.push(Message { id, name, correlation_key });
+                    self.messages
+                        .insert(id.clone(), MessageId(self.g.messages.len() as u32));
+                    self.g.messages.push(Message {
+                        id,
+                        name,
+                        correlation_key,
+                    });
                 }
                 "signal" => {
-                    let name = el.attr("name").map(str::to_owned).unwrap_or_else(|| id.clone());
-                    self.signals.insert(id.clone(), SignalId(self.g.signals.len() as u32));
+                    let name = el
+                        .attr("name")
+                        .map(str::to_owned)
+                        .unwrap_or_else(|| id.clone());
+                    self.signals
+                        .insert(id.clone(), SignalId(self.g.signals.len() as u32));
                     self.g.signals.push(Signal { id, name });
                 }
                 "error" => {
-                    self.errors.insert(id.clone(), ErrorId(self.g.errors.len() as u32));
+                    self.errors
+                        .insert(id.clone(), ErrorId(self.g.errors.len() as u32));
                     self.g.errors.push(ErrorDef {
                         id,
                         name: el.attr("name").map(str::to_owned),
@@ -242,7 +321,8 @@ impl<'d> Builder<'d, '_> {
                     });
                 }
                 "escalation" => {
-                    self.escalations.insert(id.clone(), EscalationId(self.g.escalations.len() as u32));
+                    self.escalations
+                        .insert(id.clone(), EscalationId(self.g.escalations.len() as u32));
                     self.g.escalations.push(Escalation {
                         id,
                         name: el.attr("name").map(str::to_owned),
@@ -262,16 +342,49 @@ impl<'d> Builder<'d, '_> {
 
     fn unknown_definitions_children(&mut self, root: &Element) {
         const KNOWN: &[&str] = &[
-            "process", "collaboration", "message", "signal", "error", "escalation", "itemDefinition",
-            "interface", "dataStore", "import", "extension", "documentation", "extensionElements",
-            "choreography", "globalConversation", "correlationProperty", "category", "resource",
-            "partnerEntity", "partnerRole", "endPoint", "relationship", "eventDefinition",
-            "globalTask", "globalScriptTask", "globalUserTask", "globalManualTask",
+            "process",
+            "collaboration",
+            "message",
+            "signal",
+            "error",
+            "escalation",
+            "itemDefinition",
+            "interface",
+            "dataStore",
+            "import",
+            "extension",
+            "documentation",
+            "extensionElements",
+            "choreography",
+            "globalConversation",
+            "correlationProperty",
+            "category",
+            "resource",
+            "partnerEntity",
+            "partnerRole",
+            "endPoint",
+            "relationship",
+            "eventDefinition",
+            "globalTask",
+            "globalScriptTask",
+            "globalUserTask",
+            "globalManualTask",
             "globalBusinessRuleTask",
         ];
         for el in &root.children {
-            if el.ns == Ns::Bpmn && !KNOWN.contains(&el.name.as_str()) && !el.name.ends_with("EventDefinition") {
-                self.sink.warning("unknown-element", el.offset, el.attr("id"), format!("<{}> is not a BPMN 2.0 root element; it is ignored", el.name));
+            if el.ns == Ns::Bpmn
+                && !KNOWN.contains(&el.name.as_str())
+                && !el.name.ends_with("EventDefinition")
+            {
+                self.sink.warning(
+                    "unknown-element",
+                    el.offset,
+                    el.attr("id"),
+                    format!(
+                        "<{}> is not a BPMN 2.0 root element; it is ignored",
+                        el.name
+                    ),
+                );
             }
         }
     }
@@ -282,7 +395,8 @@ impl<'d> Builder<'d, '_> {
         let strict = el.attr("isExecutable") != Some("false");
         if !id.is_empty() {
             self.g.process_ids.entry(id.clone()).or_insert(pid);
-            self.scoped_processes.insert((self.doc_of(el.offset), id.clone()), pid);
+            self.scoped_processes
+                .insert((self.doc_of(el.offset), id.clone()), pid);
         }
         self.g.processes.push(Process {
             id,
@@ -334,12 +448,20 @@ impl<'d> Builder<'d, '_> {
                 let id = match child.attr("id") {
                     Some(id) => id.to_owned(),
                     None => {
-                        self.sink.error("missing-id", child.offset, None, format!("<{name}> has no id")).constraint("EXT.003");
+                        self.sink
+                            .error(
+                                "missing-id",
+                                child.offset,
+                                None,
+                                format!("<{name}> has no id"),
+                            )
+                            .constraint("EXT.003");
                         format!("<{name} at byte {}>", child.offset)
                     }
                 };
                 self.g.node_ids.entry(id.clone()).or_insert(nid);
-                self.scoped_nodes.insert((self.doc_of(child.offset), id.clone()), nid);
+                self.scoped_nodes
+                    .insert((self.doc_of(child.offset), id.clone()), nid);
                 self.g.nodes.push(Node {
                     id,
                     name: child.attr("name").map(str::to_owned),
@@ -369,8 +491,16 @@ impl<'d> Builder<'d, '_> {
             } else if name == "association" {
                 self.associations.push(child);
             } else if !PASSIVE.contains(&name) {
-                let msg = format!("<{name}> is not a flow element the executive knows; the model cannot run with it");
-                self.problem(strict, "unsupported-element", child.offset, child.attr("id"), msg);
+                let msg = format!(
+                    "<{name}> is not a flow element the executive knows; the model cannot run with it"
+                );
+                self.problem(
+                    strict,
+                    "unsupported-element",
+                    child.offset,
+                    child.attr("id"),
+                    msg,
+                );
             }
         }
         nodes
@@ -382,7 +512,12 @@ impl<'d> Builder<'d, '_> {
             let id = el.attr("id").unwrap_or_default().to_owned();
             let end = |b: &mut Self, attr: &str| -> Option<NodeId> {
                 let Some(r) = el.attr(attr) else {
-                    b.sink.error("missing-reference", el.offset, Some(&id), format!("sequence flow has no {attr}"));
+                    b.sink.error(
+                        "missing-reference",
+                        el.offset,
+                        Some(&id),
+                        format!("sequence flow has no {attr}"),
+                    );
                     return None;
                 };
                 let r = local_ref(r);
@@ -390,21 +525,40 @@ impl<'d> Builder<'d, '_> {
                     Some(n) => Some(n),
                     None => {
                         let what = match b.any_ref(el.offset, r) {
-                            Some((name, _)) => format!("<{name}> `{r}`, which is not a flow node (activity, event or gateway)"),
+                            Some((name, _)) => format!(
+                                "<{name}> `{r}`, which is not a flow node (activity, event or gateway)"
+                            ),
                             None => format!("`{r}`, which does not exist"),
                         };
-                        let constraint = if attr == "sourceRef" { "EXT.007" } else { "EXT.006" };
-                        b.sink.error("dangling-reference", el.offset, Some(&id), format!("sequence flow {attr} names {what}")).constraint(constraint);
+                        let constraint = if attr == "sourceRef" {
+                            "EXT.007"
+                        } else {
+                            "EXT.006"
+                        };
+                        b.sink
+                            .error(
+                                "dangling-reference",
+                                el.offset,
+                                Some(&id),
+                                format!("sequence flow {attr} names {what}"),
+                            )
+                            .constraint(constraint);
                         None
                     }
                 }
             };
             let (source, target) = (end(self, "sourceRef"), end(self, "targetRef"));
-            let (Some(source), Some(target)) = (source, target) else { continue };
+            let (Some(source), Some(target)) = (source, target) else {
+                continue;
+            };
             for (n, role) in [(source, "source"), (target, "target")] {
                 if self.g.node(n).scope != scope {
-                    let msg = format!("sequence flow connects `{}` in another process or sub-process level (its {role}); flows cannot cross scope boundaries", self.g.node(n).id);
-                    self.sink.error("cross-scope-flow", el.offset, Some(&id), msg);
+                    let msg = format!(
+                        "sequence flow connects `{}` in another process or sub-process level (its {role}); flows cannot cross scope boundaries",
+                        self.g.node(n).id
+                    );
+                    self.sink
+                        .error("cross-scope-flow", el.offset, Some(&id), msg);
                 }
             }
             let condition = el.bpmn_child("conditionExpression").and_then(|c| {
@@ -415,7 +569,14 @@ impl<'d> Builder<'d, '_> {
                 match Expression::parse(text) {
                     Ok(e) => Some(e),
                     Err(e) => {
-                        self.problem(strict, "bad-expression", c.offset, Some(&id), format!("condition of sequence flow: {e}")).constraint("EXT.012");
+                        self.problem(
+                            strict,
+                            "bad-expression",
+                            c.offset,
+                            Some(&id),
+                            format!("condition of sequence flow: {e}"),
+                        )
+                        .constraint("EXT.012");
                         None
                     }
                 }
@@ -438,25 +599,48 @@ impl<'d> Builder<'d, '_> {
     fn compensation_associations(&mut self) {
         for a in std::mem::take(&mut self.associations) {
             let end = |attr: &str| a.attr(attr).and_then(|r| self.node_ref(a.offset, r));
-            let (Some(source), Some(target)) = (end("sourceRef"), end("targetRef")) else { continue };
-            let NodeKind::Boundary(b) = &self.g.node(source).kind else { continue };
-            if !b.triggers.iter().any(|t| matches!(t, EventDefinition::Compensate { .. })) {
+            let (Some(source), Some(target)) = (end("sourceRef"), end("targetRef")) else {
+                continue;
+            };
+            let NodeKind::Boundary(b) = &self.g.node(source).kind else {
+                continue;
+            };
+            if !b
+                .triggers
+                .iter()
+                .any(|t| matches!(t, EventDefinition::Compensate { .. }))
+            {
                 continue;
             }
             let activity = b.attached_to;
             if !self.g.node(target).for_compensation {
-                let msg = format!("compensation handler `{}` must be marked isForCompensation=\"true\"", self.g.node(target).id);
-                self.sink.error("handler-not-for-compensation", a.offset, a.attr("id"), msg).constraint("EXT.144");
+                let msg = format!(
+                    "compensation handler `{}` must be marked isForCompensation=\"true\"",
+                    self.g.node(target).id
+                );
+                self.sink
+                    .error("handler-not-for-compensation", a.offset, a.attr("id"), msg)
+                    .constraint("EXT.144");
             }
             self.g.nodes[activity.index()].compensation_handler = Some(target);
         }
         for i in 0..self.g.nodes.len() {
             let node = &self.g.nodes[i];
-            if let NodeKind::Boundary(b) = &node.kind {
-                if b.triggers.iter().any(|t| matches!(t, EventDefinition::Compensate { .. })) && self.g.node(b.attached_to).compensation_handler.is_none() {
-                    let msg = "a compensation boundary event must be connected by an association to its compensation handler".to_owned();
-                    self.sink.error("compensation-without-handler", node.offset, Some(&node.id.clone()), msg).constraint("EXT.143");
-                }
+            if let NodeKind::Boundary(b) = &node.kind
+                && b.triggers
+                    .iter()
+                    .any(|t| matches!(t, EventDefinition::Compensate { .. }))
+                && self.g.node(b.attached_to).compensation_handler.is_none()
+            {
+                let msg = "a compensation boundary event must be connected by an association to its compensation handler".to_owned();
+                self.sink
+                    .error(
+                        "compensation-without-handler",
+                        node.offset,
+                        Some(&node.id.clone()),
+                        msg,
+                    )
+                    .constraint("EXT.143");
             }
         }
     }
@@ -464,8 +648,16 @@ impl<'d> Builder<'d, '_> {
     /// A process by id: in document `doc` first (or last, when `prefer_other`), else anywhere.
     fn find_process(&self, doc: usize, id: &str, prefer_other: bool) -> Option<ProcessId> {
         let own = self.scoped_processes.get(&(doc, id.to_owned())).copied();
-        let other = self.scoped_processes.iter().find(|((d, i), _)| *d != doc && i == id).map(|(_, p)| *p);
-        if prefer_other { other.or(own) } else { own.or(other) }
+        let other = self
+            .scoped_processes
+            .iter()
+            .find(|((d, i), _)| *d != doc && i == id)
+            .map(|(_, p)| *p);
+        if prefer_other {
+            other.or(own)
+        } else {
+            own.or(other)
+        }
     }
 
     fn expr(&mut self, strict: bool, el: &Element, owner: &str, what: &str) -> Option<Expression> {
@@ -473,97 +665,180 @@ impl<'d> Builder<'d, '_> {
         match Expression::parse(text) {
             Ok(e) => Some(e),
             Err(e) => {
-                self.problem(strict, "bad-expression", el.offset, Some(owner), format!("{what}: {e}"));
+                self.problem(
+                    strict,
+                    "bad-expression",
+                    el.offset,
+                    Some(owner),
+                    format!("{what}: {e}"),
+                );
                 None
             }
         }
     }
 
-    fn resolve<T: Copy>(&mut self, map_of: fn(&Self) -> &BTreeMap<String, T>, el: &Element, attr: &str, owner: &str) -> Option<T> {
+    fn resolve<T: Copy>(
+        &mut self,
+        map_of: fn(&Self) -> &BTreeMap<String, T>,
+        el: &Element,
+        attr: &str,
+        owner: &str,
+    ) -> Option<T> {
         let r = el.attr(attr)?;
         let key = local_ref(r);
         match map_of(self).get(key) {
             Some(v) => Some(*v),
             None => {
-                let msg = format!("{attr} `{key}` does not name a {} defined in this model", attr.trim_end_matches("Ref"));
-                self.sink.error("dangling-reference", el.offset, Some(owner), msg);
+                let msg = format!(
+                    "{attr} `{key}` does not name a {} defined in this model",
+                    attr.trim_end_matches("Ref")
+                );
+                self.sink
+                    .error("dangling-reference", el.offset, Some(owner), msg);
                 None
             }
         }
     }
 
-    fn event_definitions(&mut self, el: &'d Element, owner: &str, strict: bool) -> Vec<EventDefinition> {
-        let mut defs: Vec<&'d Element> = el.children.iter().filter(|c| c.ns == Ns::Bpmn && c.name.ends_with("EventDefinition")).collect();
+    fn event_definitions(
+        &mut self,
+        el: &'d Element,
+        owner: &str,
+        strict: bool,
+    ) -> Vec<EventDefinition> {
+        let mut defs: Vec<&'d Element> = el
+            .children
+            .iter()
+            .filter(|c| c.ns == Ns::Bpmn && c.name.ends_with("EventDefinition"))
+            .collect();
         for r in el.bpmn_children("eventDefinitionRef") {
             match self.global_event_defs.get(local_ref(&r.text)) {
                 Some(d) => defs.push(d),
                 None => {
-                    self.sink.error("dangling-reference", r.offset, Some(owner), format!("eventDefinitionRef `{}` does not exist", r.trimmed_text()));
+                    self.sink.error(
+                        "dangling-reference",
+                        r.offset,
+                        Some(owner),
+                        format!("eventDefinitionRef `{}` does not exist", r.trimmed_text()),
+                    );
                 }
             }
         }
         let mut out = Vec::new();
         for d in defs {
             let def = match d.name.as_str() {
-                "messageEventDefinition" => EventDefinition::Message(self.resolve(|b| &b.messages, d, "messageRef", owner)),
-                "signalEventDefinition" => EventDefinition::Signal(self.resolve(|b| &b.signals, d, "signalRef", owner)),
+                "messageEventDefinition" => {
+                    EventDefinition::Message(self.resolve(|b| &b.messages, d, "messageRef", owner))
+                }
+                "signalEventDefinition" => {
+                    EventDefinition::Signal(self.resolve(|b| &b.signals, d, "signalRef", owner))
+                }
                 "errorEventDefinition" => {
-                    let var = |name: &str| d.attr_ns(&Ns::Trace, name).or_else(|| d.attr_ns(&Ns::Camunda, name)).map(str::to_owned);
+                    let var = |name: &str| {
+                        d.attr_ns(&Ns::Trace, name)
+                            .or_else(|| d.attr_ns(&Ns::Camunda, name))
+                            .map(str::to_owned)
+                    };
                     EventDefinition::Error {
                         error: self.resolve(|b| &b.errors, d, "errorRef", owner),
                         code_variable: var("errorCodeVariable"),
                         message_variable: var("errorMessageVariable"),
                     }
                 }
-                "escalationEventDefinition" => EventDefinition::Escalation(self.resolve(|b| &b.escalations, d, "escalationRef", owner)),
+                "escalationEventDefinition" => EventDefinition::Escalation(self.resolve(
+                    |b| &b.escalations,
+                    d,
+                    "escalationRef",
+                    owner,
+                )),
                 "terminateEventDefinition" => EventDefinition::Terminate,
                 "cancelEventDefinition" => EventDefinition::Cancel,
                 "compensateEventDefinition" => {
-                    let activity = d.attr("activityRef").and_then(|r| match self.node_ref(d.offset, r) {
-                        Some(n) => Some(n),
-                        None => {
-                            self.sink.error("dangling-reference", d.offset, Some(owner), format!("activityRef `{r}` does not name an activity"));
-                            None
-                        }
-                    });
-                    EventDefinition::Compensate { activity, wait: d.attr("waitForCompletion") != Some("false") }
+                    let activity =
+                        d.attr("activityRef")
+                            .and_then(|r| match self.node_ref(d.offset, r) {
+                                Some(n) => Some(n),
+                                None => {
+                                    self.sink.error(
+                                        "dangling-reference",
+                                        d.offset,
+                                        Some(owner),
+                                        format!("activityRef `{r}` does not name an activity"),
+                                    );
+                                    None
+                                }
+                            });
+                    EventDefinition::Compensate {
+                        activity,
+                        wait: d.attr("waitForCompletion") != Some("false"),
+                    }
                 }
                 "linkEventDefinition" => {
                     // A throw may name its catch explicitly; then the pair shares the catch's name.
-                    let target = d.bpmn_child("target").and_then(|t| self.link_names.get(local_ref(&t.text)).copied());
+                    let target = d
+                        .bpmn_child("target")
+                        .and_then(|t| self.link_names.get(local_ref(&t.text)).copied());
                     EventDefinition::Link(target.or(d.attr("name")).unwrap_or_default().to_owned())
                 }
                 "conditionalEventDefinition" => match d.bpmn_child("condition") {
-                    Some(c) => match self.expr(strict, c, owner, "condition of conditional event") {
-                        Some(e) => EventDefinition::Conditional(e),
-                        None => continue,
-                    },
+                    Some(c) => {
+                        match self.expr(strict, c, owner, "condition of conditional event") {
+                            Some(e) => EventDefinition::Conditional(e),
+                            None => continue,
+                        }
+                    }
                     None => {
-                        self.sink.error("missing-condition", d.offset, Some(owner), "conditional event definition has no <condition>".to_owned());
+                        self.sink.error(
+                            "missing-condition",
+                            d.offset,
+                            Some(owner),
+                            "conditional event definition has no <condition>".to_owned(),
+                        );
                         continue;
                     }
                 },
                 "timerEventDefinition" => {
-                    let parts: Vec<(TimerKind, &Element)> = [("timeDate", TimerKind::Date), ("timeDuration", TimerKind::Duration), ("timeCycle", TimerKind::Cycle)]
-                        .into_iter()
-                        .filter_map(|(n, k)| d.bpmn_child(n).map(|c| (k, c)))
-                        .collect();
+                    let parts: Vec<(TimerKind, &Element)> = [
+                        ("timeDate", TimerKind::Date),
+                        ("timeDuration", TimerKind::Duration),
+                        ("timeCycle", TimerKind::Cycle),
+                    ]
+                    .into_iter()
+                    .filter_map(|(n, k)| d.bpmn_child(n).map(|c| (k, c)))
+                    .collect();
                     let [(kind, value)] = parts[..] else {
-                        let msg = format!("timer event definition needs exactly one of timeDate, timeDuration, timeCycle (found {})", parts.len());
+                        let msg = format!(
+                            "timer event definition needs exactly one of timeDate, timeDuration, timeCycle (found {})",
+                            parts.len()
+                        );
                         self.problem(strict, "bad-timer", d.offset, Some(owner), msg);
-                        out.push(EventDefinition::Timer(crate::timer::Timer { kind: TimerKind::Duration, value: crate::timer::TimerValue::Unparsed(String::new()) }));
+                        out.push(EventDefinition::Timer(crate::timer::Timer {
+                            kind: TimerKind::Duration,
+                            value: crate::timer::TimerValue::Unparsed(String::new()),
+                        }));
                         continue;
                     };
                     match parse_timer(kind, value.trimmed_text()) {
                         Ok(t) => EventDefinition::Timer(t),
                         Err(e) => {
                             self.problem(strict, "bad-timer", value.offset, Some(owner), e);
-                            EventDefinition::Timer(crate::timer::Timer { kind, value: crate::timer::TimerValue::Unparsed(value.trimmed_text().to_owned()) })
+                            EventDefinition::Timer(crate::timer::Timer {
+                                kind,
+                                value: crate::timer::TimerValue::Unparsed(
+                                    value.trimmed_text().to_owned(),
+                                ),
+                            })
                         }
                     }
                 }
                 other => {
-                    self.problem(strict, "unsupported-element", d.offset, Some(owner), format!("<{other}> is not a BPMN event definition"));
+                    self.problem(
+                        strict,
+                        "unsupported-element",
+                        d.offset,
+                        Some(owner),
+                        format!("<{other}> is not a BPMN event definition"),
+                    );
                     continue;
                 }
             };
@@ -583,21 +858,35 @@ impl<'d> Builder<'d, '_> {
                 parallel_multiple,
             }),
             "endEvent" => NodeKind::End(self.event_definitions(el, &owner, strict)),
-            "intermediateCatchEvent" => NodeKind::Catch(CatchEvent { triggers: self.event_definitions(el, &owner, strict), parallel_multiple }),
+            "intermediateCatchEvent" => NodeKind::Catch(CatchEvent {
+                triggers: self.event_definitions(el, &owner, strict),
+                parallel_multiple,
+            }),
             "intermediateThrowEvent" => NodeKind::Throw(self.event_definitions(el, &owner, strict)),
             "boundaryEvent" => {
                 let triggers = self.event_definitions(el, &owner, strict);
                 let attached = el.attr("attachedToRef").map(local_ref);
                 let attached_to = match attached.and_then(|a| self.node_ref(el.offset, a)) {
-                    Some(a) if self.g.node(a).is_activity() || matches!(self.node_src[a.index()].el.name.as_str(), "subProcess" | "transaction" | "adHocSubProcess" | "callActivity") => {
+                    Some(a)
+                        if self.g.node(a).is_activity()
+                            || matches!(
+                                self.node_src[a.index()].el.name.as_str(),
+                                "subProcess" | "transaction" | "adHocSubProcess" | "callActivity"
+                            ) =>
+                    {
                         if self.g.node(a).scope != self.g.node(nid).scope {
                             self.sink.error("cross-scope-boundary", el.offset, Some(&owner), "boundary event is attached to an activity of another process or sub-process level".to_owned());
                         }
                         a
                     }
                     Some(a) => {
-                        let msg = format!("boundary event is attached to <{}> `{}`, which is not an activity", self.node_src[a.index()].el.name, self.g.node(a).id);
-                        self.sink.error("boundary-on-non-activity", el.offset, Some(&owner), msg);
+                        let msg = format!(
+                            "boundary event is attached to <{}> `{}`, which is not an activity",
+                            self.node_src[a.index()].el.name,
+                            self.g.node(a).id
+                        );
+                        self.sink
+                            .error("boundary-on-non-activity", el.offset, Some(&owner), msg);
                         nid
                     }
                     None => {
@@ -605,7 +894,8 @@ impl<'d> Builder<'d, '_> {
                             Some(a) => format!("attachedToRef `{a}` does not name an activity"),
                             None => "boundary event has no attachedToRef".to_owned(),
                         };
-                        self.sink.error("dangling-reference", el.offset, Some(&owner), msg);
+                        self.sink
+                            .error("dangling-reference", el.offset, Some(&owner), msg);
                         nid
                     }
                 };
@@ -619,23 +909,34 @@ impl<'d> Builder<'d, '_> {
                     parallel_multiple,
                 })
             }
-            g @ ("exclusiveGateway" | "inclusiveGateway" | "parallelGateway" | "eventBasedGateway" | "complexGateway") => {
+            g @ ("exclusiveGateway" | "inclusiveGateway" | "parallelGateway"
+            | "eventBasedGateway" | "complexGateway") => {
                 let kind = match g {
                     "exclusiveGateway" => GatewayKind::Exclusive,
                     "inclusiveGateway" => GatewayKind::Inclusive,
                     "parallelGateway" => GatewayKind::Parallel,
-                    "eventBasedGateway" => GatewayKind::EventBased { parallel: el.attr("eventGatewayType") == Some("Parallel") },
+                    "eventBasedGateway" => GatewayKind::EventBased {
+                        parallel: el.attr("eventGatewayType") == Some("Parallel"),
+                    },
                     _ => GatewayKind::Complex,
                 };
-                let activation = el.bpmn_child("activationCondition").and_then(|c| self.expr(strict, c, &owner, "activation condition"));
-                NodeKind::Gateway(Gateway { kind, activation, instantiate: el.attr("instantiate") == Some("true") })
+                let activation = el
+                    .bpmn_child("activationCondition")
+                    .and_then(|c| self.expr(strict, c, &owner, "activation condition"));
+                NodeKind::Gateway(Gateway {
+                    kind,
+                    activation,
+                    instantiate: el.attr("instantiate") == Some("true"),
+                })
             }
             "subProcess" | "transaction" | "adHocSubProcess" => {
                 let sub_kind = match el.name.as_str() {
                     "transaction" => SubProcessKind::Transaction,
                     "adHocSubProcess" => SubProcessKind::AdHoc {
                         sequential: el.attr("ordering") == Some("Sequential"),
-                        completion: el.bpmn_child("completionCondition").and_then(|c| self.expr(strict, c, &owner, "completion condition")),
+                        completion: el
+                            .bpmn_child("completionCondition")
+                            .and_then(|c| self.expr(strict, c, &owner, "completion condition")),
                         cancel_remaining: el.attr("cancelRemainingInstances") != Some("false"),
                     },
                     _ if el.attr("triggeredByEvent") == Some("true") => SubProcessKind::Event,
@@ -650,28 +951,52 @@ impl<'d> Builder<'d, '_> {
                 return;
             }
             "callActivity" => {
-                let called_attr = el
-                    .attr("calledElement")
-                    .or_else(|| el.extensions().find(|e| e.ns == Ns::Zeebe && e.name == "calledElement").and_then(|e| e.attr("processId")));
+                let called_attr = el.attr("calledElement").or_else(|| {
+                    el.extensions()
+                        .find(|e| e.ns == Ns::Zeebe && e.name == "calledElement")
+                        .and_then(|e| e.attr("processId"))
+                });
                 let doc = self.doc_of(el.offset);
                 // A prefixed reference (`ns1:Process`) prefers an imported document.
                 let prefixed = called_attr.is_some_and(|c| c.contains(':'));
                 let called = match called_attr.map(local_ref) {
-                    Some(c) => match (self.find_process(doc, c, prefixed), self.global_tasks.contains_key(c)) {
+                    Some(c) => match (
+                        self.find_process(doc, c, prefixed),
+                        self.global_tasks.contains_key(c),
+                    ) {
                         (Some(p), _) => Some(Called::Process(p)),
                         (None, true) => Some(Called::GlobalTask(c.to_owned())),
                         (None, false) => {
-                            let msg = format!("call activity calls `{c}`, which is not a process or global task of this mission bundle");
-                            self.problem(strict, "missing-called-process", el.offset, Some(&owner), msg);
+                            let msg = format!(
+                                "call activity calls `{c}`, which is not a process or global task of this mission bundle"
+                            );
+                            self.problem(
+                                strict,
+                                "missing-called-process",
+                                el.offset,
+                                Some(&owner),
+                                msg,
+                            );
                             None
                         }
                     },
                     None => {
-                        self.problem(strict, "missing-called-process", el.offset, Some(&owner), "call activity has no calledElement".to_owned());
+                        self.problem(
+                            strict,
+                            "missing-called-process",
+                            el.offset,
+                            Some(&owner),
+                            "call activity has no calledElement".to_owned(),
+                        );
                         None
                     }
                 };
-                let binding = BindingReader { sink: self.sink, element_id: &owner, strict }.read(el);
+                let binding = BindingReader {
+                    sink: self.sink,
+                    element_id: &owner,
+                    strict,
+                }
+                .read(el);
                 NodeKind::CallActivity(CallActivity { called, binding })
             }
             task => {
@@ -685,12 +1010,25 @@ impl<'d> Builder<'d, '_> {
                     "businessRuleTask" => TaskKind::BusinessRule,
                     _ => TaskKind::Plain,
                 };
-                let binding = BindingReader { sink: self.sink, element_id: &owner, strict }.read(el);
-                let script = (kind == TaskKind::Script).then(|| self.script(el, &owner, strict)).flatten();
+                let binding = BindingReader {
+                    sink: self.sink,
+                    element_id: &owner,
+                    strict,
+                }
+                .read(el);
+                let script = (kind == TaskKind::Script)
+                    .then(|| self.script(el, &owner, strict))
+                    .flatten();
                 let message = matches!(kind, TaskKind::Send | TaskKind::Receive)
                     .then(|| self.resolve(|b| &b.messages, el, "messageRef", &owner))
                     .flatten();
-                NodeKind::Task(Task { kind, binding, script, message, instantiate: el.attr("instantiate") == Some("true") })
+                NodeKind::Task(Task {
+                    kind,
+                    binding,
+                    script,
+                    message,
+                    instantiate: el.attr("instantiate") == Some("true"),
+                })
             }
         };
         self.g.nodes[nid.index()].kind = kind;
@@ -700,7 +1038,13 @@ impl<'d> Builder<'d, '_> {
 
     fn script(&mut self, el: &Element, owner: &str, strict: bool) -> Option<Script> {
         let Some(s) = el.bpmn_child("script") else {
-            self.problem(strict, "missing-script", el.offset, Some(owner), "script task has no <script>".to_owned());
+            self.problem(
+                strict,
+                "missing-script",
+                el.offset,
+                Some(owner),
+                "script task has no <script>".to_owned(),
+            );
             return None;
         };
         let format = el.attr("scriptFormat").map(str::to_owned);
@@ -709,28 +1053,52 @@ impl<'d> Builder<'d, '_> {
         let assignments = match parse_assignments(&text) {
             Ok(a) => Some(a),
             Err(e) if ours => {
-                self.problem(strict, "bad-script", s.offset, Some(owner), format!("script: {e}"));
+                self.problem(
+                    strict,
+                    "bad-script",
+                    s.offset,
+                    Some(owner),
+                    format!("script: {e}"),
+                );
                 None
             }
             Err(e) if format.is_none() && !self.script_connector => {
-                let msg = format!("the script has no scriptFormat and is not written in the expression language ({e}); write assignments `name = expression`, or name its language in scriptFormat");
-                self.problem(strict, "missing-script-format", s.offset, Some(owner), msg).constraint("EXT.053");
+                let msg = format!(
+                    "the script has no scriptFormat and is not written in the expression language ({e}); write assignments `name = expression`, or name its language in scriptFormat"
+                );
+                self.problem(strict, "missing-script-format", s.offset, Some(owner), msg)
+                    .constraint("EXT.053");
                 None
             }
             // A script in another language runs through a script connector.
             Err(_) => None,
         };
-        Some(Script { format, text, assignments })
+        Some(Script {
+            format,
+            text,
+            assignments,
+        })
     }
 
     fn default_flow(&mut self, nid: NodeId, el: &Element, owner: &str) {
         let Some(d) = el.attr("default") else { return };
         let d = local_ref(d);
-        let found = self.g.node(nid).outgoing.iter().copied().find(|f| self.g.flow(*f).id == d);
+        let found = self
+            .g
+            .node(nid)
+            .outgoing
+            .iter()
+            .copied()
+            .find(|f| self.g.flow(*f).id == d);
         match found {
             Some(f) => self.g.nodes[nid.index()].default_flow = Some(f),
             None => {
-                self.sink.error("bad-default-flow", el.offset, Some(owner), format!("default flow `{d}` is not an outgoing sequence flow of this element"));
+                self.sink.error(
+                    "bad-default-flow",
+                    el.offset,
+                    Some(owner),
+                    format!("default flow `{d}` is not an outgoing sequence flow of this element"),
+                );
             }
         }
     }
@@ -742,53 +1110,109 @@ impl<'d> Builder<'d, '_> {
                 Some(m) => match m.trim().parse::<u64>() {
                     Ok(v) => Some(v),
                     Err(_) => {
-                        self.problem(strict, "bad-attribute", l.offset, Some(owner), format!("loopMaximum=\"{m}\" is not a non-negative whole number"));
+                        self.problem(
+                            strict,
+                            "bad-attribute",
+                            l.offset,
+                            Some(owner),
+                            format!("loopMaximum=\"{m}\" is not a non-negative whole number"),
+                        );
                         None
                     }
                 },
             };
-            let condition = l.bpmn_child("loopCondition").and_then(|c| self.expr(strict, c, owner, "loop condition"));
-            self.g.nodes[nid.index()].looping = Some(Looping::Standard { test_before: l.attr("testBefore") == Some("true"), maximum, condition });
+            let condition = l
+                .bpmn_child("loopCondition")
+                .and_then(|c| self.expr(strict, c, owner, "loop condition"));
+            self.g.nodes[nid.index()].looping = Some(Looping::Standard {
+                test_before: l.attr("testBefore") == Some("true"),
+                maximum,
+                condition,
+            });
             return;
         }
-        let Some(m) = el.bpmn_child("multiInstanceLoopCharacteristics") else { return };
-        let zeebe = m.extensions().find(|e| e.ns == Ns::Zeebe && e.name == "loopCharacteristics");
-        let cardinality = m.bpmn_child("loopCardinality").and_then(|c| self.expr(strict, c, owner, "loop cardinality"));
+        let Some(m) = el.bpmn_child("multiInstanceLoopCharacteristics") else {
+            return;
+        };
+        let zeebe = m
+            .extensions()
+            .find(|e| e.ns == Ns::Zeebe && e.name == "loopCharacteristics");
+        let cardinality = m
+            .bpmn_child("loopCardinality")
+            .and_then(|c| self.expr(strict, c, owner, "loop cardinality"));
         let mut input_collection = m
             .bpmn_child("loopDataInputRef")
             .map(|r| local_ref(&r.text).to_owned())
             .or_else(|| m.attr_ns(&Ns::Camunda, "collection").map(str::to_owned))
-            .or_else(|| zeebe.and_then(|z| z.attr("inputCollection")).map(str::to_owned))
+            .or_else(|| {
+                zeebe
+                    .and_then(|z| z.attr("inputCollection"))
+                    .map(str::to_owned)
+            })
             .and_then(|c| match Expression::parse(&c) {
                 Ok(e) => Some(e),
                 Err(e) => {
-                    self.problem(strict, "bad-expression", m.offset, Some(owner), format!("input collection: {e}"));
+                    self.problem(
+                        strict,
+                        "bad-expression",
+                        m.offset,
+                        Some(owner),
+                        format!("input collection: {e}"),
+                    );
                     None
                 }
             });
         if input_collection.is_none() && m.bpmn_child("loopCardinality").is_none() && strict {
-            self.problem(strict, "missing-cardinality", m.offset, Some(owner), "multi-instance needs a loopCardinality or an input collection".to_owned()).constraint("EXT.067");
+            self.problem(
+                strict,
+                "missing-cardinality",
+                m.offset,
+                Some(owner),
+                "multi-instance needs a loopCardinality or an input collection".to_owned(),
+            )
+            .constraint("EXT.067");
             input_collection = None;
         }
-        let item_name = |child: &str| m.bpmn_child(child).and_then(|d| d.attr("name").or(d.attr("id"))).map(str::to_owned);
+        let item_name = |child: &str| {
+            m.bpmn_child(child)
+                .and_then(|d| d.attr("name").or(d.attr("id")))
+                .map(str::to_owned)
+        };
         let input_element = item_name("inputDataItem")
-            .or_else(|| m.attr_ns(&Ns::Camunda, "elementVariable").map(str::to_owned))
-            .or_else(|| zeebe.and_then(|z| z.attr("inputElement")).map(str::to_owned));
+            .or_else(|| {
+                m.attr_ns(&Ns::Camunda, "elementVariable")
+                    .map(str::to_owned)
+            })
+            .or_else(|| {
+                zeebe
+                    .and_then(|z| z.attr("inputElement"))
+                    .map(str::to_owned)
+            });
         let output_collection = m
             .bpmn_child("loopDataOutputRef")
             .map(|r| local_ref(&r.text).to_owned())
-            .or_else(|| zeebe.and_then(|z| z.attr("outputCollection")).map(str::to_owned));
+            .or_else(|| {
+                zeebe
+                    .and_then(|z| z.attr("outputCollection"))
+                    .map(str::to_owned)
+            });
         let output_element = item_name("outputDataItem")
-            .or_else(|| zeebe.and_then(|z| z.attr("outputElement")).map(str::to_owned))
+            .or_else(|| {
+                zeebe
+                    .and_then(|z| z.attr("outputElement"))
+                    .map(str::to_owned)
+            })
             .and_then(|e| Expression::parse(&e).ok());
-        let completion = m.bpmn_child("completionCondition").and_then(|c| self.expr(strict, c, owner, "completion condition"));
+        let completion = m
+            .bpmn_child("completionCondition")
+            .and_then(|c| self.expr(strict, c, owner, "completion condition"));
         let behavior = match m.attr("behavior") {
             Some("None") => MiBehavior::None,
             Some("One") => MiBehavior::One,
             Some("Complex") => MiBehavior::Complex,
             _ => MiBehavior::All,
         };
-        self.g.nodes[nid.index()].looping = Some(Looping::MultiInstance(MultiInstance {
+        self.g.nodes[nid.index()].looping = Some(Looping::MultiInstance(Box::new(MultiInstance {
             sequential: m.attr("isSequential") == Some("true"),
             cardinality,
             input_collection,
@@ -797,7 +1221,7 @@ impl<'d> Builder<'d, '_> {
             output_element,
             completion,
             behavior,
-        }));
+        })));
     }
 
     fn collaboration(&mut self, el: &Element) {
@@ -810,7 +1234,14 @@ impl<'d> Builder<'d, '_> {
                     let r = local_ref(r);
                     let found = self.find_process(self.doc_of(p.offset), r, false);
                     if found.is_none() {
-                        self.sink.warning("dangling-reference", p.offset, p.attr("id"), format!("participant processRef `{r}` does not name a process of this model"));
+                        self.sink.warning(
+                            "dangling-reference",
+                            p.offset,
+                            p.attr("id"),
+                            format!(
+                                "participant processRef `{r}` does not name a process of this model"
+                            ),
+                        );
                     }
                     found
                 }),
@@ -823,16 +1254,30 @@ impl<'d> Builder<'d, '_> {
             for attr in ["sourceRef", "targetRef"] {
                 let r = f.attr(attr).map(local_ref).unwrap_or_default().to_owned();
                 if self.any_ref(f.offset, &r).is_none() {
-                    self.sink.error("dangling-reference", f.offset, Some(&id), format!("message flow {attr} `{r}` does not exist"));
+                    self.sink.error(
+                        "dangling-reference",
+                        f.offset,
+                        Some(&id),
+                        format!("message flow {attr} `{r}` does not exist"),
+                    );
                 }
                 ends.push(r);
             }
             let message = self.resolve(|b| &b.messages, f, "messageRef", &id);
             let target = ends.pop().unwrap_or_default();
             let source = ends.pop().unwrap_or_default();
-            message_flows.push(MessageFlow { id, source, target, message });
+            message_flows.push(MessageFlow {
+                id,
+                source,
+                target,
+                message,
+            });
         }
-        self.g.collaborations.push(Collaboration { id: el.attr("id").unwrap_or_default().to_owned(), participants, message_flows });
+        self.g.collaborations.push(Collaboration {
+            id: el.attr("id").unwrap_or_default().to_owned(),
+            participants,
+            message_flows,
+        });
     }
 }
 

@@ -7,45 +7,158 @@
 //! reason (e.g. EXT.128: WSDL `operationRef` on message events; the executive correlates
 //! messages by name).
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::{BTreeSet, HashMap};
 
 use crate::build::local_ref;
 use crate::diagnostic::Sink;
 use crate::xml::{Element, Ns};
 
 /// What kind of element a reference must name.
-const ITEM_AWARE: &[&str] = &["dataObject", "dataObjectReference", "property", "dataStore", "dataStoreReference", "dataInput", "dataOutput"];
+const ITEM_AWARE: &[&str] = &[
+    "dataObject",
+    "dataObjectReference",
+    "property",
+    "dataStore",
+    "dataStoreReference",
+    "dataInput",
+    "dataOutput",
+];
 const FLOW_NODES: &[&str] = &[
-    "startEvent", "endEvent", "intermediateCatchEvent", "intermediateThrowEvent", "boundaryEvent",
-    "exclusiveGateway", "inclusiveGateway", "parallelGateway", "eventBasedGateway", "complexGateway",
-    "task", "serviceTask", "userTask", "scriptTask", "sendTask", "receiveTask", "manualTask",
-    "businessRuleTask", "subProcess", "transaction", "adHocSubProcess", "callActivity",
+    "startEvent",
+    "endEvent",
+    "intermediateCatchEvent",
+    "intermediateThrowEvent",
+    "boundaryEvent",
+    "exclusiveGateway",
+    "inclusiveGateway",
+    "parallelGateway",
+    "eventBasedGateway",
+    "complexGateway",
+    "task",
+    "serviceTask",
+    "userTask",
+    "scriptTask",
+    "sendTask",
+    "receiveTask",
+    "manualTask",
+    "businessRuleTask",
+    "subProcess",
+    "transaction",
+    "adHocSubProcess",
+    "callActivity",
 ];
 const ACTIVITIES: &[&str] = &[
-    "task", "serviceTask", "userTask", "scriptTask", "sendTask", "receiveTask", "manualTask",
-    "businessRuleTask", "subProcess", "transaction", "adHocSubProcess", "callActivity",
+    "task",
+    "serviceTask",
+    "userTask",
+    "scriptTask",
+    "sendTask",
+    "receiveTask",
+    "manualTask",
+    "businessRuleTask",
+    "subProcess",
+    "transaction",
+    "adHocSubProcess",
+    "callActivity",
 ];
 
 /// Every unqualified attribute the BPMN 2.0 schema defines, on any element.
 const SCHEMA_ATTRIBUTES: &[&str] = &[
-    "id", "name", "isExecutable", "processType", "isClosed", "definitionalCollaborationRef",
-    "implementation", "sourceRef", "targetRef", "isImmediate", "default", "gatewayDirection",
-    "eventGatewayType", "instantiate", "attachedToRef", "cancelActivity", "parallelMultiple",
-    "isInterrupting", "isForCompensation", "startQuantity", "completionQuantity", "triggeredByEvent",
-    "calledElement", "scriptFormat", "messageRef", "operationRef", "errorRef", "signalRef",
-    "escalationRef", "activityRef", "waitForCompletion", "errorCode", "escalationCode",
-    "structureRef", "itemKind", "isCollection", "itemSubjectRef", "itemRef", "dataObjectRef",
-    "dataStoreRef", "capacity", "isUnlimited", "processRef", "textFormat", "associationDirection",
-    "categoryValueRef", "value", "targetNamespace", "expressionLanguage", "typeLanguage", "exporter",
-    "exporterVersion", "location", "namespace", "importType", "method", "ordering",
-    "cancelRemainingInstances", "isSequential", "behavior", "testBefore", "loopMaximum",
-    "oneBehaviorEventRef", "noneBehaviorEventRef", "evaluatesToTypeRef", "language",
-    "inputDataRef", "outputDataRef", "initiatingParticipantRef", "loopType", "minimum", "maximum",
-    "parameterRef", "implementationRef", "isRequired", "correlationKeyRef", "definition",
-    "mustUnderstand", "type", "inMessageRef", "outMessageRef", "calledChoreographyRef",
-    "calledCollaborationRef", "processRef", "resourceRef", "partnerRoleRef", "partnerEntityRef",
-    "participantRef", "interfaceRef", "messageFlowRef", "conversationNodeRef", "direction",
-    "dataStateRef", "dataInputRefs", "dataOutputRefs",
+    "id",
+    "name",
+    "isExecutable",
+    "processType",
+    "isClosed",
+    "definitionalCollaborationRef",
+    "implementation",
+    "sourceRef",
+    "targetRef",
+    "isImmediate",
+    "default",
+    "gatewayDirection",
+    "eventGatewayType",
+    "instantiate",
+    "attachedToRef",
+    "cancelActivity",
+    "parallelMultiple",
+    "isInterrupting",
+    "isForCompensation",
+    "startQuantity",
+    "completionQuantity",
+    "triggeredByEvent",
+    "calledElement",
+    "scriptFormat",
+    "messageRef",
+    "operationRef",
+    "errorRef",
+    "signalRef",
+    "escalationRef",
+    "activityRef",
+    "waitForCompletion",
+    "errorCode",
+    "escalationCode",
+    "structureRef",
+    "itemKind",
+    "isCollection",
+    "itemSubjectRef",
+    "itemRef",
+    "dataObjectRef",
+    "dataStoreRef",
+    "capacity",
+    "isUnlimited",
+    "processRef",
+    "textFormat",
+    "associationDirection",
+    "categoryValueRef",
+    "value",
+    "targetNamespace",
+    "expressionLanguage",
+    "typeLanguage",
+    "exporter",
+    "exporterVersion",
+    "location",
+    "namespace",
+    "importType",
+    "method",
+    "ordering",
+    "cancelRemainingInstances",
+    "isSequential",
+    "behavior",
+    "testBefore",
+    "loopMaximum",
+    "oneBehaviorEventRef",
+    "noneBehaviorEventRef",
+    "evaluatesToTypeRef",
+    "language",
+    "inputDataRef",
+    "outputDataRef",
+    "initiatingParticipantRef",
+    "loopType",
+    "minimum",
+    "maximum",
+    "parameterRef",
+    "implementationRef",
+    "isRequired",
+    "correlationKeyRef",
+    "definition",
+    "mustUnderstand",
+    "type",
+    "inMessageRef",
+    "outMessageRef",
+    "calledChoreographyRef",
+    "calledCollaborationRef",
+    "processRef",
+    "resourceRef",
+    "partnerRoleRef",
+    "partnerEntityRef",
+    "participantRef",
+    "interfaceRef",
+    "messageFlowRef",
+    "conversationNodeRef",
+    "direction",
+    "dataStateRef",
+    "dataInputRefs",
+    "dataOutputRefs",
 ];
 
 /// Allowed target kinds for a reference held in a child element (`<x>id</x>`) or an attribute.
@@ -65,7 +178,9 @@ fn ref_targets(owner: &str, name: &str) -> Option<&'static [&'static str]> {
         (_, "dataStoreRef") => &["dataStore"],
         ("dataInputAssociation" | "dataOutputAssociation", "sourceRef" | "targetRef") => ITEM_AWARE,
         (_, "dataInputRefs" | "optionalInputRefs" | "whileExecutingInputRefs") => &["dataInput"],
-        (_, "dataOutputRefs" | "optionalOutputRefs" | "whileExecutingOutputRefs") => &["dataOutput"],
+        (_, "dataOutputRefs" | "optionalOutputRefs" | "whileExecutingOutputRefs") => {
+            &["dataOutput"]
+        }
         (_, "inputSetRefs") => &["inputSet"],
         (_, "outputSetRefs") => &["outputSet"],
         (_, "flowNodeRef") => FLOW_NODES,
@@ -75,24 +190,35 @@ fn ref_targets(owner: &str, name: &str) -> Option<&'static [&'static str]> {
         (_, "categoryValueRef") => &["categoryValue"],
         (_, "messageFlowRef") => &["messageFlow"],
         (_, "incoming" | "outgoing") if FLOW_NODES.contains(&owner) => &["sequenceFlow"],
-        ("multiInstanceLoopCharacteristics", "loopDataInputRef" | "loopDataOutputRef") => ITEM_AWARE,
+        ("multiInstanceLoopCharacteristics", "loopDataInputRef" | "loopDataOutputRef") => {
+            ITEM_AWARE
+        }
         (_, "activityRef") => ACTIVITIES,
         _ => return None,
     })
 }
 
+///
+/// Lookups only, so hash maps; iteration goes through `elements`, in a fixed order.
 struct Index<'d> {
     /// Every BPMN element with an id.
-    by_id: BTreeMap<&'d str, &'d Element>,
+    by_id: HashMap<&'d str, &'d Element>,
+    /// The elements of `by_id`, first occurrence of each id.
+    elements: Vec<&'d Element>,
     /// The process each element lies in, by element id.
-    process_of: BTreeMap<&'d str, &'d str>,
+    process_of: HashMap<&'d str, &'d str>,
     /// Participant of each process.
-    pool_of_process: BTreeMap<&'d str, &'d str>,
+    pool_of_process: HashMap<&'d str, &'d str>,
 }
 
 impl<'d> Index<'d> {
     fn new(root: &'d Element) -> Index<'d> {
-        let mut ix = Index { by_id: BTreeMap::new(), process_of: BTreeMap::new(), pool_of_process: BTreeMap::new() };
+        let mut ix = Index {
+            by_id: HashMap::new(),
+            elements: Vec::new(),
+            process_of: HashMap::new(),
+            pool_of_process: HashMap::new(),
+        };
         let mut stack: Vec<(&Element, Option<&str>)> = vec![(root, None)];
         while let Some((el, process)) = stack.pop() {
             if el.ns != Ns::Bpmn {
@@ -101,15 +227,18 @@ impl<'d> Index<'d> {
             let id = el.attr("id");
             let process = if el.name == "process" { id } else { process };
             if let Some(id) = id {
-                ix.by_id.entry(id).or_insert(el);
+                if let std::collections::hash_map::Entry::Vacant(v) = ix.by_id.entry(id) {
+                    v.insert(el);
+                    ix.elements.push(el);
+                }
                 if let Some(p) = process {
                     ix.process_of.insert(id, p);
                 }
             }
-            if el.name == "participant" {
-                if let (Some(id), Some(p)) = (id, el.attr("processRef")) {
-                    ix.pool_of_process.insert(local_ref(p), id);
-                }
+            if el.name == "participant"
+                && let (Some(id), Some(p)) = (id, el.attr("processRef"))
+            {
+                ix.pool_of_process.insert(local_ref(p), id);
             }
             stack.extend(el.children.iter().map(|c| (c, process)));
         }
@@ -125,7 +254,7 @@ impl<'d> Index<'d> {
         let id = local_ref(id);
         let el = self.by_id.get(id)?;
         if el.name == "participant" {
-            return Some(el.attr("id")?);
+            return el.attr("id");
         }
         let p = self.process_of.get(id)?;
         Some(self.pool_of_process.get(p).copied().unwrap_or(p))
@@ -133,18 +262,28 @@ impl<'d> Index<'d> {
 }
 
 fn is_formal(el: &Element) -> bool {
-    el.attrs.iter().any(|a| a.ns == Ns::Xsi && a.name == "type" && local_ref(&a.value) == "tFormalExpression")
+    el.attrs
+        .iter()
+        .any(|a| a.ns == Ns::Xsi && a.name == "type" && local_ref(&a.value) == "tFormalExpression")
 }
 
 /// A literal that can never be a condition (a number or a quoted string).
 fn non_boolean_literal(text: &str) -> bool {
     let t = text.trim();
-    t.parse::<f64>().is_ok() || (t.len() >= 2 && (t.starts_with('"') && t.ends_with('"') || t.starts_with('\'') && t.ends_with('\'')))
+    t.parse::<f64>().is_ok()
+        || (t.len() >= 2
+            && (t.starts_with('"') && t.ends_with('"') || t.starts_with('\'') && t.ends_with('\'')))
 }
 
 fn is_mime_type(v: &str) -> bool {
-    let Some((ty, sub)) = v.split_once('/') else { return false };
-    let token = |s: &str| !s.is_empty() && s.chars().all(|c| c.is_ascii_alphanumeric() || "!#$&^_.+-".contains(c));
+    let Some((ty, sub)) = v.split_once('/') else {
+        return false;
+    };
+    let token = |s: &str| {
+        !s.is_empty()
+            && s.chars()
+                .all(|c| c.is_ascii_alphanumeric() || "!#$&^_.+-".contains(c))
+    };
     token(ty) && token(sub.split(';').next().unwrap_or_default().trim())
 }
 
@@ -152,9 +291,16 @@ fn is_uri(v: &str) -> bool {
     if v.starts_with("##") {
         return true;
     }
-    let Some((scheme, _)) = v.split_once(':') else { return false };
-    scheme.chars().next().is_some_and(|c| c.is_ascii_alphabetic())
-        && scheme.chars().all(|c| c.is_ascii_alphanumeric() || "+.-".contains(c))
+    let Some((scheme, _)) = v.split_once(':') else {
+        return false;
+    };
+    scheme
+        .chars()
+        .next()
+        .is_some_and(|c| c.is_ascii_alphabetic())
+        && scheme
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "+.-".contains(c))
         && !v.contains(char::is_whitespace)
 }
 
@@ -166,22 +312,38 @@ pub(crate) fn check(root: &Element, sink: &mut Sink) {
         if el.ns != Ns::Bpmn {
             continue;
         }
-        let executable = if el.name == "process" { el.attr("isExecutable") != Some("false") } else { executable };
+        let executable = if el.name == "process" {
+            el.attr("isExecutable") != Some("false")
+        } else {
+            executable
+        };
         let id = el.attr("id");
         let in_process = ix.process_of.contains_key(id.unwrap_or_default()) || el.name == "process";
         let mut err = |code: &'static str, constraint: &'static str, msg: String| {
             // Descriptive processes (isExecutable="false") are drawings: a broken reference there is
             // worth a warning, not a refusal, as vendor exports are full of them.
             if constraint == "REF" && in_process && !executable {
-                sink.warning(code, el.offset, id, msg).constraint(constraint);
+                sink.warning(code, el.offset, id, msg)
+                    .constraint(constraint);
             } else {
                 sink.error(code, el.offset, id, msg).constraint(constraint);
             }
         };
         // Attributes the schema does not define, unqualified (vendor ones carry a namespace).
         if executable {
-            for a in el.attrs.iter().filter(|a| a.ns == Ns::None && !SCHEMA_ATTRIBUTES.contains(&a.name.as_str())) {
-                err("unknown-attribute", "XSD", format!("<{}> has no attribute `{}` in BPMN 2.0; put tool-specific attributes in their own namespace", el.name, a.name));
+            for a in el
+                .attrs
+                .iter()
+                .filter(|a| a.ns == Ns::None && !SCHEMA_ATTRIBUTES.contains(&a.name.as_str()))
+            {
+                err(
+                    "unknown-attribute",
+                    "XSD",
+                    format!(
+                        "<{}> has no attribute `{}` in BPMN 2.0; put tool-specific attributes in their own namespace",
+                        el.name, a.name
+                    ),
+                );
             }
         }
         // Typed references in attributes.
@@ -191,7 +353,11 @@ pub(crate) fn check(root: &Element, sink: &mut Sink) {
             }
         }
         // Typed references in child elements.
-        for c in el.children.iter().filter(|c| c.ns == Ns::Bpmn && c.children.is_empty()) {
+        for c in el
+            .children
+            .iter()
+            .filter(|c| c.ns == Ns::Bpmn && c.children.is_empty())
+        {
             if let Some(kinds) = ref_targets(&el.name, &c.name) {
                 check_ref(&ix, &c.name, c.trimmed_text(), kinds, &mut err);
             }
@@ -201,43 +367,87 @@ pub(crate) fn check(root: &Element, sink: &mut Sink) {
         }
         match el.name.as_str() {
             "documentation" | "textAnnotation" => {
-                if let Some(f) = el.attr("textFormat") {
-                    if !is_mime_type(f) {
-                        let c = if el.name == "documentation" { "EXT.004" } else { "EXT.010" };
-                        err("bad-mime-type", c, format!("textFormat=\"{f}\" is not a MIME type such as text/plain"));
-                    }
+                if let Some(f) = el.attr("textFormat")
+                    && !is_mime_type(f)
+                {
+                    let c = if el.name == "documentation" {
+                        "EXT.004"
+                    } else {
+                        "EXT.010"
+                    };
+                    err(
+                        "bad-mime-type",
+                        c,
+                        format!("textFormat=\"{f}\" is not a MIME type such as text/plain"),
+                    );
                 }
             }
             "scriptTask" => {
-                const LANGUAGES: &[&str] = &["cel", "trace", "javascript", "js", "groovy", "python", "juel", "feel", "ecmascript", "jruby", "ruby", "lua"];
-                if let Some(f) = el.attr("scriptFormat") {
-                    if !is_mime_type(f) && !LANGUAGES.contains(&f.to_ascii_lowercase().as_str()) {
-                        err("unknown-script-language", "EXT.145", format!("scriptFormat=\"{f}\" is neither a MIME type (e.g. text/x-cel) nor a known script language"));
-                    }
+                const LANGUAGES: &[&str] = &[
+                    "cel",
+                    "trace",
+                    "javascript",
+                    "js",
+                    "groovy",
+                    "python",
+                    "juel",
+                    "feel",
+                    "ecmascript",
+                    "jruby",
+                    "ruby",
+                    "lua",
+                ];
+                if let Some(f) = el.attr("scriptFormat")
+                    && !is_mime_type(f)
+                    && !LANGUAGES.contains(&f.to_ascii_lowercase().as_str())
+                {
+                    err(
+                        "unknown-script-language",
+                        "EXT.145",
+                        format!(
+                            "scriptFormat=\"{f}\" is neither a MIME type (e.g. text/x-cel) nor a known script language"
+                        ),
+                    );
                 }
             }
             "transaction" => {
-                if let Some(m) = el.attr("method") {
-                    if !is_uri(m) {
-                        err("bad-uri", "EXT.060", format!("transaction method=\"{m}\" is not a URI (e.g. ##Compensate)"));
-                    }
+                if let Some(m) = el.attr("method")
+                    && !is_uri(m)
+                {
+                    err(
+                        "bad-uri",
+                        "EXT.060",
+                        format!("transaction method=\"{m}\" is not a URI (e.g. ##Compensate)"),
+                    );
                 }
             }
             "participantMultiplicity" => {
                 let num = |a: &str| el.attr(a).and_then(|v| v.trim().parse::<i64>().ok());
                 if num("minimum").is_some_and(|m| m < 0) {
-                    err("bad-multiplicity", "EXT.029", "participant multiplicity minimum cannot be negative".to_owned());
+                    err(
+                        "bad-multiplicity",
+                        "EXT.029",
+                        "participant multiplicity minimum cannot be negative".to_owned(),
+                    );
                 }
-                if let (Some(min), Some(max)) = (num("minimum"), num("maximum")) {
-                    if max < min || max < 1 {
-                        err("bad-multiplicity", "EXT.030", format!("participant multiplicity maximum {max} is below the minimum {min} or below 1"));
-                    }
+                if let (Some(min), Some(max)) = (num("minimum"), num("maximum"))
+                    && (max < min || max < 1)
+                {
+                    err(
+                        "bad-multiplicity",
+                        "EXT.030",
+                        format!(
+                            "participant multiplicity maximum {max} is below the minimum {min} or below 1"
+                        ),
+                    );
                 }
             }
-            "choreography" | "globalConversation" => {
-                if el.bpmn_child("choreographyRef").is_some() {
-                    err("choreography-ref", "EXT.027", format!("a {} cannot reference a choreography", el.name));
-                }
+            "choreography" | "globalConversation" if el.bpmn_child("choreographyRef").is_some() => {
+                err(
+                    "choreography-ref",
+                    "EXT.027",
+                    format!("a {} cannot reference a choreography", el.name),
+                );
             }
             "collaboration" => {
                 for r in el.bpmn_children("choreographyRef") {
@@ -256,13 +466,22 @@ pub(crate) fn check(root: &Element, sink: &mut Sink) {
                     err("resource-ambiguous", "EXT.039", "a resource role has either a resourceRef or a resourceAssignmentExpression, not both".to_owned());
                 }
                 if !has_ref && el.bpmn_child("resourceParameterBinding").is_some() {
-                    err("resource-binding-without-ref", "EXT.040", "resource parameter bindings need a resourceRef".to_owned());
+                    err(
+                        "resource-binding-without-ref",
+                        "EXT.040",
+                        "resource parameter bindings need a resourceRef".to_owned(),
+                    );
                 }
             }
-            "dataInputAssociation" | "dataOutputAssociation" => data_association(el, parent, &ix, &mut err),
+            "dataInputAssociation" | "dataOutputAssociation" => {
+                data_association(el, parent, &ix, &mut err)
+            }
             "ioSpecification" => io_specification(el, &mut err),
             "dataObject" | "dataInput" | "dataOutput" | "inputDataItem" | "outputDataItem" => {
-                if let Some(item) = el.attr("itemSubjectRef").and_then(|r| ix.by_id.get(local_ref(r))) {
+                if let Some(item) = el
+                    .attr("itemSubjectRef")
+                    .and_then(|r| ix.by_id.get(local_ref(r)))
+                {
                     let coll = |e: &Element| e.attr("isCollection") == Some("true");
                     if item.name == "itemDefinition" && coll(item) != coll(el) {
                         let c = match el.name.as_str() {
@@ -270,53 +489,116 @@ pub(crate) fn check(root: &Element, sink: &mut Sink) {
                             "dataInput" => "EXT.081",
                             _ => "EXT.083",
                         };
-                        err("collection-mismatch", if el.name == "dataObject" { "EXT.020" } else { c }, format!(
-                            "isCollection of {} does not match its itemDefinition `{}`", el.name, item.attr("id").unwrap_or_default()
-                        ));
+                        err(
+                            "collection-mismatch",
+                            if el.name == "dataObject" {
+                                "EXT.020"
+                            } else {
+                                c
+                            },
+                            format!(
+                                "isCollection of {} does not match its itemDefinition `{}`",
+                                el.name,
+                                item.attr("id").unwrap_or_default()
+                            ),
+                        );
                     }
                 }
             }
-            "multiInstanceLoopCharacteristics" => multi_instance(el, parent, executable, &ix, &mut err),
+            "multiInstanceLoopCharacteristics" => {
+                multi_instance(el, parent, executable, &ix, &mut err)
+            }
             "sendTask" | "receiveTask" if el.attr("messageRef").is_some() => {
                 if let Some(io) = el.bpmn_child("ioSpecification") {
                     let send = el.name == "sendTask";
-                    let (sets, items, c1, c2) = if send { ("inputSet", "dataInput", "EXT.046", "EXT.047") } else { ("outputSet", "dataOutput", "EXT.050", "EXT.051") };
+                    let (sets, items, c1, c2) = if send {
+                        ("inputSet", "dataInput", "EXT.046", "EXT.047")
+                    } else {
+                        ("outputSet", "dataOutput", "EXT.050", "EXT.051")
+                    };
                     if io.bpmn_children(sets).count() > 1 {
-                        err("message-task-io", c1, format!("a {} with a message has at most one {sets}", el.name));
+                        err(
+                            "message-task-io",
+                            c1,
+                            format!("a {} with a message has at most one {sets}", el.name),
+                        );
                     }
                     if io.bpmn_children(items).count() > 1 {
-                        err("message-task-io", c2, format!("a {} with a message has at most one {items}", el.name));
+                        err(
+                            "message-task-io",
+                            c2,
+                            format!("a {} with a message has at most one {items}", el.name),
+                        );
                     }
                 }
             }
             "messageEventDefinition" if executable && el.attr("messageRef").is_none() => {
-                err("missing-message", "EXT.127", "a message event in an executable process must name its message (messageRef)".to_owned());
+                err(
+                    "missing-message",
+                    "EXT.127",
+                    "a message event in an executable process must name its message (messageRef)"
+                        .to_owned(),
+                );
             }
-            "standardLoopCharacteristics" => {
-                if parent.is_some_and(|p| p.bpmn_child("multiInstanceLoopCharacteristics").is_some()) {
-                    err("two-loop-markers", "EXT.041", "an activity has either standard loop or multi-instance characteristics, not both".to_owned());
-                }
+            "standardLoopCharacteristics"
+                if parent.is_some_and(|p| {
+                    p.bpmn_child("multiInstanceLoopCharacteristics").is_some()
+                }) =>
+            {
+                err("two-loop-markers", "EXT.041", "an activity has either standard loop or multi-instance characteristics, not both".to_owned());
             }
             "ioBinding" => io_binding(el, parent, &ix, &mut err),
-            "conditionExpression" | "condition" | "loopCondition" | "completionCondition" | "activationCondition" => {
+            "conditionExpression"
+            | "condition"
+            | "loopCondition"
+            | "completionCondition"
+            | "activationCondition" => {
                 let text = el.trimmed_text();
                 if non_boolean_literal(text) {
-                    let c = if parent.is_some_and(|p| p.name == "complexBehaviorDefinition") { "EXT.072" } else { "EXT.071" };
-                    err("non-boolean-condition", c, format!("condition `{text}` is not a boolean expression"));
+                    let c = if parent.is_some_and(|p| p.name == "complexBehaviorDefinition") {
+                        "EXT.072"
+                    } else {
+                        "EXT.071"
+                    };
+                    err(
+                        "non-boolean-condition",
+                        c,
+                        format!("condition `{text}` is not a boolean expression"),
+                    );
                 }
             }
             _ => {}
         }
         // Natural-language expressions cannot be executed (EXT.012).
         const EXPRESSIONS: &[&str] = &[
-            "conditionExpression", "condition", "loopCondition", "completionCondition",
-            "activationCondition", "loopCardinality", "timeDate", "timeDuration", "timeCycle", "from", "to",
+            "conditionExpression",
+            "condition",
+            "loopCondition",
+            "completionCondition",
+            "activationCondition",
+            "loopCardinality",
+            "timeDate",
+            "timeDuration",
+            "timeCycle",
+            "from",
+            "to",
         ];
-        let formal_by_schema = el.name == "condition" && parent.is_some_and(|p| p.name == "complexBehaviorDefinition");
-        if executable && EXPRESSIONS.contains(&el.name.as_str()) && !formal_by_schema && !is_formal(&el) && !el.trimmed_text().is_empty() {
-            err("natural-language-expression", "EXT.012", format!(
-                "<{}> is a natural-language expression (no xsi:type=\"tFormalExpression\"), which an executable process cannot evaluate", el.name
-            ));
+        let formal_by_schema =
+            el.name == "condition" && parent.is_some_and(|p| p.name == "complexBehaviorDefinition");
+        if executable
+            && EXPRESSIONS.contains(&el.name.as_str())
+            && !formal_by_schema
+            && !is_formal(el)
+            && !el.trimmed_text().is_empty()
+        {
+            err(
+                "natural-language-expression",
+                "EXT.012",
+                format!(
+                    "<{}> is a natural-language expression (no xsi:type=\"tFormalExpression\"), which an executable process cannot evaluate",
+                    el.name
+                ),
+            );
         }
         stack.extend(el.children.iter().map(|c| (c, Some(el), executable)));
     }
@@ -328,7 +610,7 @@ pub(crate) fn check(root: &Element, sink: &mut Sink) {
 fn listed_flows(root: &Element, ix: &Index<'_>, sink: &mut Sink) {
     let mut listed: BTreeSet<(String, &'static str, String)> = BTreeSet::new();
     let mut flows: Vec<&Element> = Vec::new();
-    for el in ix.by_id.values() {
+    for &el in &ix.elements {
         if el.name == "sequenceFlow" {
             flows.push(el);
         }
@@ -348,7 +630,9 @@ fn listed_flows(root: &Element, ix: &Index<'_>, sink: &mut Sink) {
     for f in flows {
         let fid = f.attr("id").unwrap_or_default();
         for (end, child) in [("sourceRef", "outgoing"), ("targetRef", "incoming")] {
-            let Some(node) = f.attr(end).map(local_ref) else { continue };
+            let Some(node) = f.attr(end).map(local_ref) else {
+                continue;
+            };
             let Some(kind) = ix.kind(node) else { continue };
             if !listed.contains(&(node.to_owned(), end, fid.to_owned())) {
                 let c = match (kind, child) {
@@ -356,81 +640,168 @@ fn listed_flows(root: &Element, ix: &Index<'_>, sink: &mut Sink) {
                     ("endEvent", "incoming") => "EXT.107",
                     _ => "EXT.023",
                 };
-                let msg = format!("sequence flow `{fid}` is not listed in the <{child}> elements of `{node}`");
+                let msg = format!(
+                    "sequence flow `{fid}` is not listed in the <{child}> elements of `{node}`"
+                );
                 if let Some(n) = ix.by_id.get(node) {
-                    sink.error("flow-mismatch", n.offset, Some(node), msg).constraint(c);
+                    sink.error("flow-mismatch", n.offset, Some(node), msg)
+                        .constraint(c);
                 }
             }
         }
     }
 }
 
-fn check_ref(ix: &Index<'_>, what: &str, value: &str, kinds: &[&str], err: &mut impl FnMut(&'static str, &'static str, String)) {
+fn check_ref(
+    ix: &Index<'_>,
+    what: &str,
+    value: &str,
+    kinds: &[&str],
+    err: &mut impl FnMut(&'static str, &'static str, String),
+) {
     for r in value.split_whitespace() {
         match ix.kind(r) {
             // Operations and structures may live in imported WSDL or XSD documents.
             None if matches!(what, "operationRef" | "structureRef") => {}
-            None => err("dangling-reference", "REF", format!("{what} `{}` does not exist", local_ref(r))),
-            Some(k) if !kinds.contains(&k) => err("wrong-reference", "REF", format!("{what} `{}` names a <{k}>, not {}", local_ref(r), kinds.join(" or "))),
+            None => err(
+                "dangling-reference",
+                "REF",
+                format!("{what} `{}` does not exist", local_ref(r)),
+            ),
+            Some(k) if !kinds.contains(&k) => err(
+                "wrong-reference",
+                "REF",
+                format!(
+                    "{what} `{}` names a <{k}>, not {}",
+                    local_ref(r),
+                    kinds.join(" or ")
+                ),
+            ),
             Some(_) => {}
         }
     }
 }
 
 /// `<incoming>` / `<outgoing>` must list flows that really enter / leave the node (EXT.023).
-fn flow_node_refs(el: &Element, ix: &Index<'_>, err: &mut impl FnMut(&'static str, &'static str, String)) {
+fn flow_node_refs(
+    el: &Element,
+    ix: &Index<'_>,
+    err: &mut impl FnMut(&'static str, &'static str, String),
+) {
     let id = el.attr("id").unwrap_or_default();
     for (child, attr) in [("incoming", "targetRef"), ("outgoing", "sourceRef")] {
         for r in el.bpmn_children(child) {
             let f = local_ref(&r.text);
-            if let Some(flow) = ix.by_id.get(f) {
-                if flow.name == "sequenceFlow" && flow.attr(attr).map(local_ref) != Some(id) {
-                    err("flow-mismatch", "EXT.023", format!("<{child}> lists sequence flow `{f}`, whose {attr} is not this element"));
-                }
+            if let Some(flow) = ix.by_id.get(f)
+                && flow.name == "sequenceFlow"
+                && flow.attr(attr).map(local_ref) != Some(id)
+            {
+                err(
+                    "flow-mismatch",
+                    "EXT.023",
+                    format!(
+                        "<{child}> lists sequence flow `{f}`, whose {attr} is not this element"
+                    ),
+                );
             }
         }
     }
 }
 
-fn message_flow(el: &Element, ix: &Index<'_>, err: &mut impl FnMut(&'static str, &'static str, String)) {
-    let (Some(s), Some(t)) = (el.attr("sourceRef").map(local_ref), el.attr("targetRef").map(local_ref)) else { return };
-    let interaction = |k: &str| k == "participant" || ACTIVITIES.contains(&k) || k.ends_with("Event") || k == "choreographyTask";
+fn message_flow(
+    el: &Element,
+    ix: &Index<'_>,
+    err: &mut impl FnMut(&'static str, &'static str, String),
+) {
+    let (Some(s), Some(t)) = (
+        el.attr("sourceRef").map(local_ref),
+        el.attr("targetRef").map(local_ref),
+    ) else {
+        return;
+    };
+    let interaction = |k: &str| {
+        k == "participant"
+            || ACTIVITIES.contains(&k)
+            || k.ends_with("Event")
+            || k == "choreographyTask"
+    };
     for (end, role) in [(s, "source"), (t, "target")] {
-        if let Some(k) = ix.kind(end) {
-            if !interaction(k) {
-                err("bad-message-flow-end", "EXT.009", format!("a message flow cannot connect <{k}> `{end}` (its {role}); only pools, activities and events exchange messages"));
-            }
+        if let Some(k) = ix.kind(end)
+            && !interaction(k)
+        {
+            err(
+                "bad-message-flow-end",
+                "EXT.009",
+                format!(
+                    "a message flow cannot connect <{k}> `{end}` (its {role}); only pools, activities and events exchange messages"
+                ),
+            );
         }
     }
     if s == t || ix.pool(s).is_some_and(|p| Some(p) == ix.pool(t)) {
-        err("message-flow-same-pool", "EXT.031", "a message flow must connect two different pools".to_owned());
+        err(
+            "message-flow-same-pool",
+            "EXT.031",
+            "a message flow must connect two different pools".to_owned(),
+        );
     }
     let msg_def = |id: &str| {
         ix.by_id.get(id).is_some_and(|e| {
             e.bpmn_child("messageEventDefinition").is_some()
-                || e.bpmn_children("eventDefinitionRef").any(|r| ix.kind(&r.text) == Some("messageEventDefinition"))
+                || e.bpmn_children("eventDefinitionRef")
+                    .any(|r| ix.kind(&r.text) == Some("messageEventDefinition"))
         })
     };
     if let Some(k) = ix.kind(s) {
         if matches!(k, "startEvent" | "intermediateCatchEvent" | "boundaryEvent") {
-            err("bad-message-flow-end", "EXT.102", format!("<{k}> `{s}` catches events and cannot send a message flow"));
+            err(
+                "bad-message-flow-end",
+                "EXT.102",
+                format!("<{k}> `{s}` catches events and cannot send a message flow"),
+            );
         } else if matches!(k, "endEvent" | "intermediateThrowEvent") && !msg_def(s) {
-            err("bad-message-flow-end", "EXT.109", format!("<{k}> `{s}` sends a message flow but is not a message event"));
+            err(
+                "bad-message-flow-end",
+                "EXT.109",
+                format!("<{k}> `{s}` sends a message flow but is not a message event"),
+            );
         }
     }
     if let Some(k) = ix.kind(t) {
         if matches!(k, "endEvent" | "intermediateThrowEvent") {
-            err("bad-message-flow-end", "EXT.102", format!("<{k}> `{t}` throws events and cannot receive a message flow"));
-        } else if matches!(k, "startEvent" | "intermediateCatchEvent" | "boundaryEvent") && !msg_def(t) {
-            err("bad-message-flow-end", "EXT.109", format!("<{k}> `{t}` receives a message flow but is not a message event"));
+            err(
+                "bad-message-flow-end",
+                "EXT.102",
+                format!("<{k}> `{t}` throws events and cannot receive a message flow"),
+            );
+        } else if matches!(k, "startEvent" | "intermediateCatchEvent" | "boundaryEvent")
+            && !msg_def(t)
+        {
+            err(
+                "bad-message-flow-end",
+                "EXT.109",
+                format!("<{k}> `{t}` receives a message flow but is not a message event"),
+            );
         }
     }
 }
 
-fn data_association(el: &Element, owner: Option<&Element>, ix: &Index<'_>, err: &mut impl FnMut(&'static str, &'static str, String)) {
-    let sources: Vec<&str> = el.bpmn_children("sourceRef").map(|r| local_ref(&r.text)).collect();
+fn data_association(
+    el: &Element,
+    owner: Option<&Element>,
+    ix: &Index<'_>,
+    err: &mut impl FnMut(&'static str, &'static str, String),
+) {
+    let sources: Vec<&str> = el
+        .bpmn_children("sourceRef")
+        .map(|r| local_ref(&r.text))
+        .collect();
     if sources.len() > 1 && el.bpmn_child("transformation").is_none() {
-        err("many-sources", "EXT.092", "a data association without a transformation has a single sourceRef".to_owned());
+        err(
+            "many-sources",
+            "EXT.092",
+            "a data association without a transformation has a single sourceRef".to_owned(),
+        );
     }
     let input = el.name == "dataInputAssociation";
     let owner_id = owner.and_then(|o| o.attr("id")).unwrap_or_default();
@@ -438,75 +809,162 @@ fn data_association(el: &Element, owner: Option<&Element>, ix: &Index<'_>, err: 
     let own: BTreeSet<&str> = owner
         .map(|o| {
             let direct = o.bpmn_children(if input { "dataInput" } else { "dataOutput" });
-            let spec = o.bpmn_children("ioSpecification").flat_map(|s| s.bpmn_children(if input { "dataInput" } else { "dataOutput" }));
+            let spec = o
+                .bpmn_children("ioSpecification")
+                .flat_map(|s| s.bpmn_children(if input { "dataInput" } else { "dataOutput" }));
             direct.chain(spec).filter_map(|d| d.attr("id")).collect()
         })
         .unwrap_or_default();
-    let outside: Vec<&str> = if input { sources.clone() } else { el.bpmn_children("targetRef").map(|r| local_ref(&r.text)).collect() };
+    let outside: Vec<&str> = if input {
+        sources.clone()
+    } else {
+        el.bpmn_children("targetRef")
+            .map(|r| local_ref(&r.text))
+            .collect()
+    };
     for r in outside {
-        let Some(target) = ix.by_id.get(r) else { continue };
+        let Some(target) = ix.by_id.get(r) else {
+            continue;
+        };
         let kind = target.name.as_str();
         if input && kind == "dataOutput" {
-            err("bad-data-association", "EXT.082", format!("data input association reads `{r}`, a data output, which cannot be read"));
+            err(
+                "bad-data-association",
+                "EXT.082",
+                format!("data input association reads `{r}`, a data output, which cannot be read"),
+            );
         }
         if !input && kind == "dataInput" {
-            err("bad-data-association", "EXT.080", format!("data output association writes `{r}`, a data input, which cannot be written"));
+            err(
+                "bad-data-association",
+                "EXT.080",
+                format!(
+                    "data output association writes `{r}`, a data input, which cannot be written"
+                ),
+            );
         }
         // A sub-process's own data inputs/outputs are not visible to the activities inside it.
         if matches!(kind, "dataInput" | "dataOutput") && !own.contains(r) {
-            let holder_is_process = ix.process_of.get(r).is_some_and(|p| ix.by_id.get(p).is_some_and(|pe| pe.bpmn_children("ioSpecification").any(|s| s.children.iter().any(|d| d.attr("id") == Some(r)))));
+            let holder_is_process = ix.process_of.get(r).is_some_and(|p| {
+                ix.by_id.get(p).is_some_and(|pe| {
+                    pe.bpmn_children("ioSpecification")
+                        .any(|s| s.children.iter().any(|d| d.attr("id") == Some(r)))
+                })
+            });
             if !holder_is_process {
-                err("invisible-data", "EXT.079", format!("`{r}` is a data {} of another activity and is not visible from `{owner_id}`", if kind == "dataInput" { "input" } else { "output" }));
+                err(
+                    "invisible-data",
+                    "EXT.079",
+                    format!(
+                        "`{r}` is a data {} of another activity and is not visible from `{owner_id}`",
+                        if kind == "dataInput" {
+                            "input"
+                        } else {
+                            "output"
+                        }
+                    ),
+                );
             }
         }
     }
 }
 
 fn io_specification(el: &Element, err: &mut impl FnMut(&'static str, &'static str, String)) {
-    let ids = |set: &Element, child: &str| -> BTreeSet<String> { set.bpmn_children(child).map(|r| local_ref(&r.text).to_owned()).collect() };
+    let ids = |set: &Element, child: &str| -> BTreeSet<String> {
+        set.bpmn_children(child)
+            .map(|r| local_ref(&r.text).to_owned())
+            .collect()
+    };
     for (set, main, rules) in [
-        ("inputSet", "dataInputRefs", [("optionalInputRefs", "EXT.085"), ("whileExecutingInputRefs", "EXT.086")]),
-        ("outputSet", "dataOutputRefs", [("optionalOutputRefs", "EXT.089"), ("whileExecutingOutputRefs", "EXT.090")]),
+        (
+            "inputSet",
+            "dataInputRefs",
+            [
+                ("optionalInputRefs", "EXT.085"),
+                ("whileExecutingInputRefs", "EXT.086"),
+            ],
+        ),
+        (
+            "outputSet",
+            "dataOutputRefs",
+            [
+                ("optionalOutputRefs", "EXT.089"),
+                ("whileExecutingOutputRefs", "EXT.090"),
+            ],
+        ),
     ] {
         for s in el.bpmn_children(set) {
             let listed = ids(s, main);
             for (child, c) in rules {
                 for r in ids(s, child) {
                     if !listed.contains(&r) {
-                        err("io-set", c, format!("`{r}` is listed in {child} but not in the {main} of the same {set}"));
+                        err(
+                            "io-set",
+                            c,
+                            format!(
+                                "`{r}` is listed in {child} but not in the {main} of the same {set}"
+                            ),
+                        );
                     }
                 }
             }
         }
     }
     // Every data input/output belongs to at least one input/output set (EXT.088).
-    for (item, set, refs) in [("dataInput", "inputSet", "dataInputRefs"), ("dataOutput", "outputSet", "dataOutputRefs")] {
+    for (item, set, refs) in [
+        ("dataInput", "inputSet", "dataInputRefs"),
+        ("dataOutput", "outputSet", "dataOutputRefs"),
+    ] {
         let listed: BTreeSet<String> = el.bpmn_children(set).flat_map(|s| ids(s, refs)).collect();
         for d in el.bpmn_children(item) {
-            if let Some(id) = d.attr("id") {
-                if !listed.contains(id) {
-                    err("io-set", "EXT.088", format!("{item} `{id}` is not part of any {set}"));
-                }
+            if let Some(id) = d.attr("id")
+                && !listed.contains(id)
+            {
+                err(
+                    "io-set",
+                    "EXT.088",
+                    format!("{item} `{id}` is not part of any {set}"),
+                );
             }
         }
     }
     // inputSet.outputSetRefs and outputSet.inputSetRefs must mirror each other (EXT.087).
     let sets = |name: &str| -> Vec<(String, BTreeSet<String>)> {
-        let other = if name == "inputSet" { "outputSetRefs" } else { "inputSetRefs" };
-        el.bpmn_children(name).map(|s| (s.attr("id").unwrap_or_default().to_owned(), ids(s, other))).collect()
+        let other = if name == "inputSet" {
+            "outputSetRefs"
+        } else {
+            "inputSetRefs"
+        };
+        el.bpmn_children(name)
+            .map(|s| (s.attr("id").unwrap_or_default().to_owned(), ids(s, other)))
+            .collect()
     };
     let (ins, outs) = (sets("inputSet"), sets("outputSet"));
     for (i, i_refs) in &ins {
         for o in i_refs {
-            if !outs.iter().any(|(oid, o_refs)| oid == o && o_refs.contains(i)) {
-                err("io-set", "EXT.087", format!("inputSet `{i}` names outputSet `{o}`, which does not name it back"));
+            if !outs
+                .iter()
+                .any(|(oid, o_refs)| oid == o && o_refs.contains(i))
+            {
+                err(
+                    "io-set",
+                    "EXT.087",
+                    format!("inputSet `{i}` names outputSet `{o}`, which does not name it back"),
+                );
             }
         }
     }
     for (o, o_refs) in &outs {
         for i in o_refs {
-            if !ins.iter().any(|(iid, i_refs)| iid == i && i_refs.contains(o)) {
-                err("io-set", "EXT.087", format!("outputSet `{o}` names inputSet `{i}`, which does not name it back"));
+            if !ins
+                .iter()
+                .any(|(iid, i_refs)| iid == i && i_refs.contains(o))
+            {
+                err(
+                    "io-set",
+                    "EXT.087",
+                    format!("outputSet `{o}` names inputSet `{i}`, which does not name it back"),
+                );
             }
         }
     }
@@ -514,45 +972,119 @@ fn io_specification(el: &Element, err: &mut impl FnMut(&'static str, &'static st
 
 fn item_of<'d>(ix: &Index<'d>, el: &Element) -> Option<&'d Element> {
     let r = el.attr("itemSubjectRef")?;
-    ix.by_id.get(local_ref(r)).copied().filter(|i| i.name == "itemDefinition")
+    ix.by_id
+        .get(local_ref(r))
+        .copied()
+        .filter(|i| i.name == "itemDefinition")
 }
 
-fn multi_instance(el: &Element, activity: Option<&Element>, executable: bool, ix: &Index<'_>, err: &mut impl FnMut(&'static str, &'static str, String)) {
+fn multi_instance(
+    el: &Element,
+    activity: Option<&Element>,
+    executable: bool,
+    ix: &Index<'_>,
+    err: &mut impl FnMut(&'static str, &'static str, String),
+) {
     let Some(activity) = activity else { return };
-    let spec_items = |kind: &'static str| -> Vec<&Element> { activity.bpmn_children("ioSpecification").flat_map(|s| s.bpmn_children(kind)).collect::<Vec<_>>() };
+    let spec_items = |kind: &'static str| -> Vec<&Element> {
+        activity
+            .bpmn_children("ioSpecification")
+            .flat_map(|s| s.bpmn_children(kind))
+            .collect::<Vec<_>>()
+    };
     for (reference, kind, item, c_exec, c_type) in [
-        ("loopDataInputRef", "dataInput", "inputDataItem", "EXT.068", "EXT.070"),
-        ("loopDataOutputRef", "dataOutput", "outputDataItem", "EXT.068", "EXT.069"),
+        (
+            "loopDataInputRef",
+            "dataInput",
+            "inputDataItem",
+            "EXT.068",
+            "EXT.070",
+        ),
+        (
+            "loopDataOutputRef",
+            "dataOutput",
+            "outputDataItem",
+            "EXT.068",
+            "EXT.069",
+        ),
     ] {
-        let Some(r) = el.bpmn_child(reference).map(|r| local_ref(&r.text).to_owned()) else { continue };
-        let target = spec_items(kind).into_iter().find(|d| d.attr("id") == Some(r.as_str()));
-        if executable && target.is_none() && reference == "loopDataInputRef" && ix.kind(&r) != Some("property") && ix.kind(&r) != Some("dataObject") {
-            err("bad-loop-data", c_exec, format!("{reference} `{r}` must name a {kind} of the activity's ioSpecification"));
+        let Some(r) = el
+            .bpmn_child(reference)
+            .map(|r| local_ref(&r.text).to_owned())
+        else {
+            continue;
+        };
+        let target = spec_items(kind)
+            .into_iter()
+            .find(|d| d.attr("id") == Some(r.as_str()));
+        if executable
+            && target.is_none()
+            && reference == "loopDataInputRef"
+            && ix.kind(&r) != Some("property")
+            && ix.kind(&r) != Some("dataObject")
+        {
+            err(
+                "bad-loop-data",
+                c_exec,
+                format!("{reference} `{r}` must name a {kind} of the activity's ioSpecification"),
+            );
         }
-        let (Some(coll), Some(elem)) = (target, el.bpmn_child(item)) else { continue };
+        let (Some(coll), Some(elem)) = (target, el.bpmn_child(item)) else {
+            continue;
+        };
         if elem.attr("isCollection") == Some("true") {
-            err("bad-loop-data", c_type, format!("{item} must be a single element of `{r}`, not a collection"));
+            err(
+                "bad-loop-data",
+                c_type,
+                format!("{item} must be a single element of `{r}`, not a collection"),
+            );
         }
-        if let (Some(ci), Some(ei)) = (item_of(ix, coll), item_of(ix, elem)) {
-            if ci.attr("structureRef") != ei.attr("structureRef") {
-                err("bad-loop-data", c_type, format!("{item} has another structure than the elements of `{r}`"));
-            }
+        if let (Some(ci), Some(ei)) = (item_of(ix, coll), item_of(ix, elem))
+            && ci.attr("structureRef") != ei.attr("structureRef")
+        {
+            err(
+                "bad-loop-data",
+                c_type,
+                format!("{item} has another structure than the elements of `{r}`"),
+            );
         }
     }
 }
 
 /// An ioBinding must bind a data input and output whose items match the operation's messages.
-fn io_binding(el: &Element, owner: Option<&Element>, ix: &Index<'_>, err: &mut impl FnMut(&'static str, &'static str, String)) {
-    let Some(op) = el.attr("operationRef").and_then(|r| ix.by_id.get(local_ref(r))) else { return };
+fn io_binding(
+    el: &Element,
+    owner: Option<&Element>,
+    ix: &Index<'_>,
+    err: &mut impl FnMut(&'static str, &'static str, String),
+) {
+    let Some(op) = el
+        .attr("operationRef")
+        .and_then(|r| ix.by_id.get(local_ref(r)))
+    else {
+        return;
+    };
     let _ = owner;
-    for (data_attr, msg_child) in [("inputDataRef", "inMessageRef"), ("outputDataRef", "outMessageRef")] {
+    for (data_attr, msg_child) in [
+        ("inputDataRef", "inMessageRef"),
+        ("outputDataRef", "outMessageRef"),
+    ] {
         let data = el.attr(data_attr).and_then(|r| ix.by_id.get(local_ref(r)));
-        let msg = op.bpmn_child(msg_child).and_then(|m| ix.by_id.get(local_ref(&m.text)));
+        let msg = op
+            .bpmn_child(msg_child)
+            .and_then(|m| ix.by_id.get(local_ref(&m.text)));
         if let (Some(data), Some(msg)) = (data, msg) {
             let data_item = data.attr("itemSubjectRef").map(local_ref);
             let msg_item = msg.attr("itemRef").map(local_ref);
             if data_item.is_some() && msg_item.is_some() && data_item != msg_item {
-                err("bad-io-binding", "EXT.065", format!("{data_attr} `{}` does not carry the item of the operation's {msg_child}", data.attr("id").unwrap_or_default()));
+                err(
+                    "bad-io-binding",
+                    "EXT.065",
+                    format!(
+                        "{data_attr} `{}` does not carry the item of the operation's {msg_child}",
+                        data.attr("id").unwrap_or_default()
+                    ),
+                );
             }
         }
     }
@@ -568,12 +1100,17 @@ pub(crate) fn event_data(root: &Element, sink: &mut Sink) {
             continue;
         }
         stack.extend(el.children.iter());
-        let catch = matches!(el.name.as_str(), "startEvent" | "intermediateCatchEvent" | "boundaryEvent");
+        let catch = matches!(
+            el.name.as_str(),
+            "startEvent" | "intermediateCatchEvent" | "boundaryEvent"
+        );
         let throw = matches!(el.name.as_str(), "endEvent" | "intermediateThrowEvent");
         if !catch && !throw {
             continue;
         }
-        let data: Vec<&Element> = el.bpmn_children(if catch { "dataOutput" } else { "dataInput" }).collect();
+        let data: Vec<&Element> = el
+            .bpmn_children(if catch { "dataOutput" } else { "dataInput" })
+            .collect();
         if data.is_empty() {
             continue;
         }
@@ -581,26 +1118,63 @@ pub(crate) fn event_data(root: &Element, sink: &mut Sink) {
             .children
             .iter()
             .filter(|c| c.ns == Ns::Bpmn)
-            .filter_map(|c| if c.name == "eventDefinitionRef" { ix.by_id.get(local_ref(&c.text)).copied() } else { c.name.ends_with("EventDefinition").then_some(c) })
+            .filter_map(|c| {
+                if c.name == "eventDefinitionRef" {
+                    ix.by_id.get(local_ref(&c.text)).copied()
+                } else {
+                    c.name.ends_with("EventDefinition").then_some(c)
+                }
+            })
             .collect();
         if defs.len() != data.len() {
-            let msg = format!("the event has {} event definitions but {} data {}s: each definition needs its own", defs.len(), data.len(), if catch { "output" } else { "input" });
-            sink.error("event-data", el.offset, el.attr("id"), msg).constraint("EXT.093");
+            let msg = format!(
+                "the event has {} event definitions but {} data {}s: each definition needs its own",
+                defs.len(),
+                data.len(),
+                if catch { "output" } else { "input" }
+            );
+            sink.error("event-data", el.offset, el.attr("id"), msg)
+                .constraint("EXT.093");
         }
         for (d, data) in defs.iter().zip(&data) {
             let item = match d.name.as_str() {
-                "messageEventDefinition" => d.attr("messageRef").and_then(|m| ix.by_id.get(local_ref(m))).and_then(|m| m.attr("itemRef")),
-                "errorEventDefinition" => d.attr("errorRef").and_then(|m| ix.by_id.get(local_ref(m))).and_then(|m| m.attr("structureRef")),
-                "escalationEventDefinition" => d.attr("escalationRef").and_then(|m| ix.by_id.get(local_ref(m))).and_then(|m| m.attr("structureRef")),
-                "signalEventDefinition" => d.attr("signalRef").and_then(|m| ix.by_id.get(local_ref(m))).and_then(|m| m.attr("structureRef")),
+                "messageEventDefinition" => d
+                    .attr("messageRef")
+                    .and_then(|m| ix.by_id.get(local_ref(m)))
+                    .and_then(|m| m.attr("itemRef")),
+                "errorEventDefinition" => d
+                    .attr("errorRef")
+                    .and_then(|m| ix.by_id.get(local_ref(m)))
+                    .and_then(|m| m.attr("structureRef")),
+                "escalationEventDefinition" => d
+                    .attr("escalationRef")
+                    .and_then(|m| ix.by_id.get(local_ref(m)))
+                    .and_then(|m| m.attr("structureRef")),
+                "signalEventDefinition" => d
+                    .attr("signalRef")
+                    .and_then(|m| ix.by_id.get(local_ref(m)))
+                    .and_then(|m| m.attr("structureRef")),
                 _ => None,
             };
             if let (Some(item), Some(own)) = (item, data.attr("itemSubjectRef")) {
                 // Item definitions are equivalent when they name the same structure.
-                let structure = |i: &str| ix.by_id.get(local_ref(i)).and_then(|d| d.attr("structureRef")).map(local_ref).unwrap_or(local_ref(i)).to_owned();
+                let structure = |i: &str| {
+                    ix.by_id
+                        .get(local_ref(i))
+                        .and_then(|d| d.attr("structureRef"))
+                        .map(local_ref)
+                        .unwrap_or(local_ref(i))
+                        .to_owned()
+                };
                 if structure(item) != structure(own) {
-                    let msg = format!("the data of the {} must have its item `{}`, not `{}`", d.name, local_ref(item), local_ref(own));
-                    sink.error("event-data", el.offset, el.attr("id"), msg).constraint("EXT.094");
+                    let msg = format!(
+                        "the data of the {} must have its item `{}`, not `{}`",
+                        d.name,
+                        local_ref(item),
+                        local_ref(own)
+                    );
+                    sink.error("event-data", el.offset, el.attr("id"), msg)
+                        .constraint("EXT.094");
                 }
             }
         }

@@ -25,9 +25,20 @@ pub enum Category {
 
 /// Codes of the checks that concern executability rather than BPMN validity.
 const EXECUTION_CODES: &[&str] = &[
-    "bad-expression", "missing-resource", "bad-timer", "unconditional-branch", "no-default-flow",
-    "bad-script", "missing-script", "unsupported", "bad-binding", "conflicting-bindings", "bad-type",
-    "unknown-element", "missing-activation-condition", "unknown-script-language",
+    "bad-expression",
+    "missing-resource",
+    "bad-timer",
+    "unconditional-branch",
+    "no-default-flow",
+    "bad-script",
+    "missing-script",
+    "unsupported",
+    "bad-binding",
+    "conflicting-bindings",
+    "bad-type",
+    "unknown-element",
+    "missing-activation-condition",
+    "unknown-script-language",
 ];
 
 /// One problem in a model.
@@ -64,7 +75,11 @@ impl std::fmt::Display for Diagnostic {
             Severity::Error => "error",
             Severity::Warning => "warning",
         };
-        write!(f, "{}:{}: {sev}[{}]: {}", self.line, self.column, self.code, self.message)?;
+        write!(
+            f,
+            "{}:{}: {sev}[{}]: {}",
+            self.line, self.column, self.code, self.message
+        )?;
         if let Some(e) = &self.element {
             write!(f, " (element {e})")?;
         }
@@ -95,7 +110,11 @@ impl Sink {
         element: Option<&str>,
         message: String,
     ) -> &mut Diagnostic {
-        let category = if EXECUTION_CODES.contains(&code) { Category::Execution } else { Category::Bpmn };
+        let category = if EXECUTION_CODES.contains(&code) {
+            Category::Execution
+        } else {
+            Category::Bpmn
+        };
         self.items.push(Diagnostic {
             severity,
             code,
@@ -111,11 +130,23 @@ impl Sink {
         self.items.last_mut().expect("just pushed")
     }
 
-    pub(crate) fn error(&mut self, code: &'static str, offset: usize, element: Option<&str>, message: String) -> &mut Diagnostic {
+    pub(crate) fn error(
+        &mut self,
+        code: &'static str,
+        offset: usize,
+        element: Option<&str>,
+        message: String,
+    ) -> &mut Diagnostic {
         self.push(Severity::Error, code, offset, element, message)
     }
 
-    pub(crate) fn warning(&mut self, code: &'static str, offset: usize, element: Option<&str>, message: String) -> &mut Diagnostic {
+    pub(crate) fn warning(
+        &mut self,
+        code: &'static str,
+        offset: usize,
+        element: Option<&str>,
+        message: String,
+    ) -> &mut Diagnostic {
         self.push(Severity::Warning, code, offset, element, message)
     }
 
@@ -126,16 +157,29 @@ impl Sink {
     /// Fills in file, line and column and sorts by position (errors first on a tie). `files`
     /// are the bundle's texts in offset order: the model first, then its imports.
     pub(crate) fn finish(mut self, files: &[SourceText<'_>]) -> Vec<Diagnostic> {
-        self.items.sort_by(|a, b| (a.offset, a.severity).cmp(&(b.offset, b.severity)));
+        self.items.sort_by_key(|a| (a.offset, a.severity));
         self.items.dedup();
+        // Line starts of each file, computed once (diagnostics can be many on a large model).
+        let mut starts: Vec<Option<Vec<usize>>> = vec![None; files.len()];
         for d in &mut self.items {
-            let Some(f) = files.iter().rev().find(|f| f.base <= d.offset) else { continue };
+            let Some(i) = files.iter().rposition(|f| f.base <= d.offset) else {
+                continue;
+            };
+            let f = &files[i];
             let text = f.text;
+            let starts = starts[i].get_or_insert_with(|| {
+                std::iter::once(0)
+                    .chain(text.match_indices('\n').map(|(i, _)| i + 1))
+                    .collect()
+            });
             let offset = (d.offset - f.base).min(text.len());
-            let starts: Vec<usize> = std::iter::once(0).chain(text[..offset].match_indices('\n').map(|(i, _)| i + 1)).collect();
-            let start = *starts.last().unwrap_or(&0);
-            d.line = starts.len();
-            d.column = text.get(start..offset).map_or(offset - start, |s| s.chars().count()) + 1;
+            let line = starts.partition_point(|&s| s <= offset).max(1);
+            let start = starts[line - 1];
+            d.line = line;
+            d.column = text
+                .get(start..offset)
+                .map_or(offset - start, |s| s.chars().count())
+                + 1;
             d.offset = offset;
             d.file = f.name.map(str::to_owned);
         }

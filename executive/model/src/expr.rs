@@ -43,14 +43,28 @@ impl Expression {
         }
         let program = cel::Program::compile(&text).map_err(|e| {
             let msg = e.to_string();
-            let first = msg.lines().next().unwrap_or("syntax error").trim().to_owned();
+            let first = msg
+                .lines()
+                .next()
+                .unwrap_or("syntax error")
+                .trim()
+                .to_owned();
             format!("{first} in `{text}`")
         })?;
-        let mut variables: Vec<String> =
-            program.references().variables().into_iter().map(str::to_owned).collect();
+        let mut variables: Vec<String> = program
+            .references()
+            .variables()
+            .into_iter()
+            .map(str::to_owned)
+            .collect();
         variables.sort();
         variables.dedup();
-        Ok(Expression { source, text, variables, program: Arc::new(program) })
+        Ok(Expression {
+            source,
+            text,
+            variables,
+            program: Arc::new(program),
+        })
     }
 
     /// The compiled CEL program.
@@ -72,10 +86,18 @@ fn unwrap(s: &str) -> &str {
 /// separated by `;`.
 pub fn parse_assignments(script: &str) -> Result<Vec<(String, Expression)>, String> {
     let mut out = Vec::new();
-    for stmt in script.split([';', '\n']).map(str::trim).filter(|s| !s.is_empty()) {
-        let eq = assignment_eq(stmt).ok_or_else(|| format!("`{stmt}` is not an assignment `name = expression`"))?;
+    for stmt in script
+        .split([';', '\n'])
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+    {
+        let eq = assignment_eq(stmt)
+            .ok_or_else(|| format!("`{stmt}` is not an assignment `name = expression`"))?;
         let name = stmt[..eq].trim();
-        let valid = name.chars().next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+        let valid = name
+            .chars()
+            .next()
+            .is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
             && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
         if !valid {
             return Err(format!("`{name}` is not a variable name"));
@@ -94,7 +116,10 @@ fn assignment_eq(stmt: &str) -> Option<usize> {
     (0..b.len()).find(|&i| {
         b[i] == b'='
             && b.get(i + 1) != Some(&b'=')
-            && !matches!(i.checked_sub(1).map(|j| b[j]), Some(b'=' | b'!' | b'<' | b'>'))
+            && !matches!(
+                i.checked_sub(1).map(|j| b[j]),
+                Some(b'=' | b'!' | b'<' | b'>')
+            )
     })
 }
 
@@ -106,8 +131,16 @@ mod tests {
     fn reads_external_suite_conditions_as_written() {
         let e = Expression::parse(" test.contains(\"a\") ").unwrap();
         assert_eq!(e.variables, vec!["test"]);
-        assert_eq!(Expression::parse("${integerVariable < 2}").unwrap().text, "integerVariable < 2");
-        assert_eq!(Expression::parse("=battery.soc_pct < 30.0").unwrap().variables, vec!["battery"]);
+        assert_eq!(
+            Expression::parse("${integerVariable < 2}").unwrap().text,
+            "integerVariable < 2"
+        );
+        assert_eq!(
+            Expression::parse("=battery.soc_pct < 30.0")
+                .unwrap()
+                .variables,
+            vec!["battery"]
+        );
     }
 
     #[test]
@@ -120,7 +153,10 @@ mod tests {
     #[test]
     fn scripts_are_assignments() {
         let a = parse_assignments("x = 1; y = x == 1\nz = y").unwrap();
-        assert_eq!(a.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>(), ["x", "y", "z"]);
+        assert_eq!(
+            a.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>(),
+            ["x", "y", "z"]
+        );
         assert!(parse_assignments("SCRIPT_task1").is_err());
         assert!(parse_assignments("a.b = 1").is_err());
     }

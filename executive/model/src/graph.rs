@@ -138,13 +138,18 @@ impl ProcessGraph {
             .nodes
             .iter()
             .filter_map(|n| match &n.kind {
-                NodeKind::CallActivity(CallActivity { called: Some(Called::Process(p)), .. }) => Some(*p),
+                NodeKind::CallActivity(CallActivity {
+                    called: Some(Called::Process(p)),
+                    ..
+                }) => Some(*p),
                 _ => None,
             })
             .collect();
         (0..self.processes.len() as u32)
             .map(ProcessId)
-            .filter(|p| self.process(*p).executable && !self.process(*p).imported && !called.contains(p))
+            .filter(|p| {
+                self.process(*p).executable && !self.process(*p).imported && !called.contains(p)
+            })
             .collect()
     }
 }
@@ -330,12 +335,18 @@ pub struct Node {
 impl Node {
     /// Name if present, else id: how a person refers to the node.
     pub fn label(&self) -> &str {
-        self.name.as_deref().filter(|n| !n.trim().is_empty()).unwrap_or(&self.id)
+        self.name
+            .as_deref()
+            .filter(|n| !n.trim().is_empty())
+            .unwrap_or(&self.id)
     }
 
     /// Is this node an activity (task, sub-process or call activity)?
     pub fn is_activity(&self) -> bool {
-        matches!(self.kind, NodeKind::Task(_) | NodeKind::SubProcess(_) | NodeKind::CallActivity(_))
+        matches!(
+            self.kind,
+            NodeKind::Task(_) | NodeKind::SubProcess(_) | NodeKind::CallActivity(_)
+        )
     }
 }
 
@@ -639,7 +650,7 @@ pub enum Looping {
         condition: Option<Expression>,
     },
     /// `multiInstanceLoopCharacteristics`.
-    MultiInstance(MultiInstance),
+    MultiInstance(Box<MultiInstance>),
 }
 
 /// Multi-instance characteristics.

@@ -62,19 +62,27 @@ pub struct Loaded {
 impl Loaded {
     /// The errors among the diagnostics.
     pub fn errors(&self) -> impl Iterator<Item = &Diagnostic> {
-        self.diagnostics.iter().filter(|d| d.severity == Severity::Error)
+        self.diagnostics
+            .iter()
+            .filter(|d| d.severity == Severity::Error)
     }
 
     /// Did reading stop at the XML level (malformed, hostile or not BPMN)?
     pub fn unreadable(&self) -> bool {
-        self.diagnostics.iter().any(|d| d.file.is_none() && matches!(d.code, "malformed-xml" | "not-bpmn"))
+        self.diagnostics
+            .iter()
+            .any(|d| d.file.is_none() && matches!(d.code, "malformed-xml" | "not-bpmn"))
     }
 
     /// The text of the file a diagnostic points into.
     pub fn text_of(&self, d: &Diagnostic) -> &str {
         match &d.file {
             None => &self.text,
-            Some(f) => self.imports.iter().find(|(l, _)| l == f).map_or("", |(_, t)| t.as_str()),
+            Some(f) => self
+                .imports
+                .iter()
+                .find(|(l, _)| l == f)
+                .map_or("", |(_, t)| t.as_str()),
         }
     }
 }
@@ -96,7 +104,9 @@ pub fn load(bytes: &[u8]) -> Loaded {
 
 /// Loads a mission model with explicit options; imports cannot be resolved.
 pub fn load_with(bytes: &[u8], options: &Options) -> Loaded {
-    load_bundle(bytes, options, &mut |location: &str| Err(format!("no import resolver was given for `{location}`")))
+    load_bundle(bytes, options, &mut |location: &str| {
+        Err(format!("no import resolver was given for `{location}`"))
+    })
 }
 
 /// Most documents one bundle may import (transitively).
@@ -113,7 +123,11 @@ struct Part {
 /// Loads a mission bundle: the model and the documents it imports (`<bpmn:import location=…>`),
 /// which `resolve` reads (the caller decides where from; this crate does no I/O). Call
 /// activities may call processes of imported BPMN documents.
-pub fn load_bundle(bytes: &[u8], options: &Options, resolve: &mut dyn FnMut(&str) -> Result<Vec<u8>, String>) -> Loaded {
+pub fn load_bundle(
+    bytes: &[u8],
+    options: &Options,
+    resolve: &mut dyn FnMut(&str) -> Result<Vec<u8>, String>,
+) -> Loaded {
     let limits = &options.limits;
     let mut sink = Sink::default();
     let mut parts: Vec<Part> = Vec::new();
@@ -134,7 +148,10 @@ pub fn load_bundle(bytes: &[u8], options: &Options, resolve: &mut dyn FnMut(&str
             })
             .collect();
         for (offset, location, bpmn) in imports {
-            if parts.iter().any(|p| p.name.as_deref() == Some(location.as_str())) {
+            if parts
+                .iter()
+                .any(|p| p.name.as_deref() == Some(location.as_str()))
+            {
                 continue;
             }
             let bytes = if location.contains("://") {
@@ -145,7 +162,13 @@ pub fn load_bundle(bytes: &[u8], options: &Options, resolve: &mut dyn FnMut(&str
             let bytes = match bytes {
                 Ok(b) => b,
                 Err(why) => {
-                    sink.error("unresolved-import", offset, None, format!("import `{location}` cannot be resolved: {why}")).constraint("EXT.001");
+                    sink.error(
+                        "unresolved-import",
+                        offset,
+                        None,
+                        format!("import `{location}` cannot be resolved: {why}"),
+                    )
+                    .constraint("EXT.001");
                     continue;
                 }
             };
@@ -153,15 +176,29 @@ pub fn load_bundle(bytes: &[u8], options: &Options, resolve: &mut dyn FnMut(&str
             let part = read_part(&bytes, Some(location.clone()), base, limits, &mut sink);
             match &part.doc {
                 None => {
-                    sink.error("broken-import", offset, None, format!("imported file `{location}` is not well-formed XML"));
+                    sink.error(
+                        "broken-import",
+                        offset,
+                        None,
+                        format!("imported file `{location}` is not well-formed XML"),
+                    );
                 }
                 Some(d) if bpmn && !d.root.is_bpmn("definitions") => {
-                    sink.error("broken-import", offset, None, format!("imported file `{location}` is not a BPMN model"));
+                    sink.error(
+                        "broken-import",
+                        offset,
+                        None,
+                        format!("imported file `{location}` is not a BPMN model"),
+                    );
                 }
                 Some(_) => {}
             }
             // Only BPMN documents join the model; XSD and WSDL are checked for well-formedness.
-            let part = if bpmn { part } else { Part { doc: None, ..part } };
+            let part = if bpmn {
+                part
+            } else {
+                Part { doc: None, ..part }
+            };
             parts.push(part);
         }
         next += 1;
@@ -187,8 +224,14 @@ pub fn load_bundle(bytes: &[u8], options: &Options, resolve: &mut dyn FnMut(&str
         None
     };
     let ok = !sink.has_errors();
-    let texts: Vec<diagnostic::SourceText<'_>> =
-        parts.iter().map(|p| diagnostic::SourceText { name: p.name.as_deref(), text: &p.text, base: p.base }).collect();
+    let texts: Vec<diagnostic::SourceText<'_>> = parts
+        .iter()
+        .map(|p| diagnostic::SourceText {
+            name: p.name.as_deref(),
+            text: &p.text,
+            base: p.base,
+        })
+        .collect();
     let diagnostics = sink.finish(&texts);
     let graph = graph.filter(|_| ok).map(|mut g| {
         g.warnings = diagnostics.clone();
@@ -197,29 +240,69 @@ pub fn load_bundle(bytes: &[u8], options: &Options, resolve: &mut dyn FnMut(&str
     let mut parts = parts.into_iter();
     let text = parts.next().map(|p| p.text).unwrap_or_default();
     let imports = parts.filter_map(|p| Some((p.name?, p.text))).collect();
-    Loaded { graph, diagnostics, text, imports }
+    Loaded {
+        graph,
+        diagnostics,
+        text,
+        imports,
+    }
 }
 
 /// Decodes and parses one document; problems go to `sink`.
-fn read_part(bytes: &[u8], name: Option<String>, base: usize, limits: &Limits, sink: &mut Sink) -> Part {
+fn read_part(
+    bytes: &[u8],
+    name: Option<String>,
+    base: usize,
+    limits: &Limits,
+    sink: &mut Sink,
+) -> Part {
     let mut warnings = Vec::new();
     if bytes.len() > limits.max_bytes {
-        sink.error("malformed-xml", base, None, format!("the file is {} bytes; the limit is {}", bytes.len(), limits.max_bytes));
-        return Part { name, text: String::new(), base, doc: None };
+        sink.error(
+            "malformed-xml",
+            base,
+            None,
+            format!(
+                "the file is {} bytes; the limit is {}",
+                bytes.len(),
+                limits.max_bytes
+            ),
+        );
+        return Part {
+            name,
+            text: String::new(),
+            base,
+            doc: None,
+        };
     }
     let text = match xml::decode(bytes, &mut warnings) {
         Ok(t) => t,
         Err(e) => {
             sink.error("malformed-xml", base, None, e.message);
-            return Part { name, text: String::new(), base, doc: None };
+            return Part {
+                name,
+                text: String::new(),
+                base,
+                doc: None,
+            };
         }
     };
     let warnings = warnings.into_iter().map(|(o, w)| (o + base, w)).collect();
     match xml::parse(&text, base, limits, warnings) {
-        Ok(doc) => Part { name, text, base, doc: Some(doc) },
+        Ok(doc) => Part {
+            name,
+            text,
+            base,
+            doc: Some(doc),
+        },
         Err(e) => {
             sink.error("malformed-xml", e.offset, None, e.message);
-            Part { name, text, base, doc: None }
+            Part {
+                name,
+                text,
+                base,
+                doc: None,
+            }
         }
     }
 }

@@ -10,7 +10,9 @@ const HEAD: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
 
 /// A document with `globals` at definitions level and `body` inside process `p`.
 fn doc(globals: &str, body: &str) -> String {
-    format!(r#"{HEAD}{globals}<bpmn:process id="p" isExecutable="true">{body}</bpmn:process></bpmn:definitions>"#)
+    format!(
+        r#"{HEAD}{globals}<bpmn:process id="p" isExecutable="true">{body}</bpmn:process></bpmn:definitions>"#
+    )
 }
 
 /// start -> `middle` (elements with id `x`) -> end, with flows s->x and x->e.
@@ -50,16 +52,32 @@ fn tasks_of_every_kind() {
         ("userTask", TaskKind::User),
     ] {
         let g = ok(&around(&format!(r#"<bpmn:{tag} id="x"/>"#)));
-        assert!(matches!(kind(&g, "x"), NodeKind::Task(t) if t.kind == want), "{tag}");
+        assert!(
+            matches!(kind(&g, "x"), NodeKind::Task(t) if t.kind == want),
+            "{tag}"
+        );
     }
     let service = r#"<bpmn:serviceTask id="x"><bpmn:extensionElements><trace:task resource="arm.stow"/></bpmn:extensionElements></bpmn:serviceTask>"#;
     let g = ok(&around(service));
-    let NodeKind::Task(t) = kind(&g, "x") else { panic!() };
-    assert_eq!(t.binding.as_ref().and_then(|b| b.resource.as_deref()), Some("arm.stow"));
+    let NodeKind::Task(t) = kind(&g, "x") else {
+        panic!()
+    };
+    assert_eq!(
+        t.binding.as_ref().and_then(|b| b.resource.as_deref()),
+        Some("arm.stow")
+    );
     let script = r#"<bpmn:scriptTask id="x" scriptFormat="cel"><bpmn:script>n = 1; m = n + 1</bpmn:script></bpmn:scriptTask>"#;
     let g = ok(&around(script));
-    let NodeKind::Task(t) = kind(&g, "x") else { panic!() };
-    assert_eq!(t.script.as_ref().and_then(|s| s.assignments.as_ref()).map(Vec::len), Some(2));
+    let NodeKind::Task(t) = kind(&g, "x") else {
+        panic!()
+    };
+    assert_eq!(
+        t.script
+            .as_ref()
+            .and_then(|s| s.assignments.as_ref())
+            .map(Vec::len),
+        Some(2)
+    );
 }
 
 #[test]
@@ -73,23 +91,36 @@ fn task_bindings_in_three_dialects() {
     let camunda = r#"<bpmn:serviceTask id="x" camunda:type="external" camunda:topic="excavate"><bpmn:extensionElements>
         <camunda:inputOutput><camunda:inputParameter name="site_id">${site.id}</camunda:inputParameter>
         <camunda:inputParameter name="mode">fast</camunda:inputParameter></camunda:inputOutput></bpmn:extensionElements></bpmn:serviceTask>"#;
-    for (xml, resource, inputs) in [(ours, "excavation.excavate", 1), (zeebe, "excavate", 1), (camunda, "excavate", 2)] {
+    for (xml, resource, inputs) in [
+        (ours, "excavation.excavate", 1),
+        (zeebe, "excavate", 1),
+        (camunda, "excavate", 2),
+    ] {
         let g = ok(&around(xml));
-        let NodeKind::Task(t) = kind(&g, "x") else { panic!() };
+        let NodeKind::Task(t) = kind(&g, "x") else {
+            panic!()
+        };
         let b = t.binding.as_ref().expect("binding");
         assert_eq!(b.resource.as_deref(), Some(resource));
         assert_eq!(b.inputs.len(), inputs);
     }
     let g = ok(&around(ours));
-    let NodeKind::Task(t) = kind(&g, "x") else { panic!() };
+    let NodeKind::Task(t) = kind(&g, "x") else {
+        panic!()
+    };
     let b = t.binding.as_ref().unwrap();
     assert_eq!(b.inputs[0].target, "selected_site.site_id");
     assert_eq!(b.inputs[0].ty, Some(binding::FieldType::Int));
     assert_eq!(b.outputs[0].source.text, "achieved_depth_cm");
     // A Camunda static value is a string literal.
     let g = ok(&around(camunda));
-    let NodeKind::Task(t) = kind(&g, "x") else { panic!() };
-    assert_eq!(t.binding.as_ref().unwrap().inputs[1].source.text, "\"fast\"");
+    let NodeKind::Task(t) = kind(&g, "x") else {
+        panic!()
+    };
+    assert_eq!(
+        t.binding.as_ref().unwrap().inputs[1].source.text,
+        "\"fast\""
+    );
 }
 
 #[test]
@@ -100,27 +131,45 @@ fn gateways_of_every_kind() {
         ("parallelGateway", GatewayKind::Parallel),
         ("complexGateway", GatewayKind::Complex),
     ] {
-        let xml = doc("", &format!(
-            r#"<bpmn:startEvent id="s"/><bpmn:{tag} id="g"/><bpmn:{tag} id="j"/><bpmn:endEvent id="e"/>
+        let xml = doc(
+            "",
+            &format!(
+                r#"<bpmn:startEvent id="s"/><bpmn:{tag} id="g"/><bpmn:{tag} id="j"/><bpmn:endEvent id="e"/>
             <bpmn:sequenceFlow id="f0" sourceRef="s" targetRef="g"/>
             <bpmn:sequenceFlow id="f1" sourceRef="g" targetRef="j"><bpmn:conditionExpression xsi:type="bpmn:tFormalExpression">a &gt; 1</bpmn:conditionExpression></bpmn:sequenceFlow>
             <bpmn:sequenceFlow id="f2" sourceRef="g" targetRef="j"/><bpmn:sequenceFlow id="f3" sourceRef="j" targetRef="e"/>"#
-        ));
-        let xml = xml.replace(&format!(r#"<bpmn:{tag} id="g"/>"#), &format!(r#"<bpmn:{tag} id="g" default="f2"/>"#));
+            ),
+        );
+        let xml = xml.replace(
+            &format!(r#"<bpmn:{tag} id="g"/>"#),
+            &format!(r#"<bpmn:{tag} id="g" default="f2"/>"#),
+        );
         let xml = xml.replace(r#"<bpmn:complexGateway id="j"/>"#, r#"<bpmn:complexGateway id="j"><bpmn:activationCondition xsi:type="bpmn:tFormalExpression">activationCount &gt;= 1</bpmn:activationCondition></bpmn:complexGateway>"#);
-        let xml = if tag == "parallelGateway" { xml.replace(r#" default="f2""#, "").replace(r#"<bpmn:conditionExpression xsi:type="bpmn:tFormalExpression">a &gt; 1</bpmn:conditionExpression>"#, "") } else { xml };
+        let xml = if tag == "parallelGateway" {
+            xml.replace(r#" default="f2""#, "").replace(r#"<bpmn:conditionExpression xsi:type="bpmn:tFormalExpression">a &gt; 1</bpmn:conditionExpression>"#, "")
+        } else {
+            xml
+        };
         let g = ok(&xml);
-        assert!(matches!(kind(&g, "g"), NodeKind::Gateway(gw) if gw.kind == want), "{tag}");
+        assert!(
+            matches!(kind(&g, "g"), NodeKind::Gateway(gw) if gw.kind == want),
+            "{tag}"
+        );
     }
-    let eb = doc("<bpmn:message id=\"m\" name=\"go\"/>", r#"<bpmn:startEvent id="s"/><bpmn:eventBasedGateway id="g"/>
+    let eb = doc(
+        "<bpmn:message id=\"m\" name=\"go\"/>",
+        r#"<bpmn:startEvent id="s"/><bpmn:eventBasedGateway id="g"/>
         <bpmn:intermediateCatchEvent id="c1"><bpmn:messageEventDefinition messageRef="m"/></bpmn:intermediateCatchEvent>
         <bpmn:intermediateCatchEvent id="c2"><bpmn:timerEventDefinition><bpmn:timeDuration xsi:type="bpmn:tFormalExpression">PT5M</bpmn:timeDuration></bpmn:timerEventDefinition></bpmn:intermediateCatchEvent>
         <bpmn:endEvent id="e"/>
         <bpmn:sequenceFlow id="f0" sourceRef="s" targetRef="g"/><bpmn:sequenceFlow id="f1" sourceRef="g" targetRef="c1"/>
         <bpmn:sequenceFlow id="f2" sourceRef="g" targetRef="c2"/><bpmn:sequenceFlow id="f3" sourceRef="c1" targetRef="e"/>
-        <bpmn:sequenceFlow id="f4" sourceRef="c2" targetRef="e"/>"#);
+        <bpmn:sequenceFlow id="f4" sourceRef="c2" targetRef="e"/>"#,
+    );
     let g = ok(&eb);
-    assert!(matches!(kind(&g, "g"), NodeKind::Gateway(gw) if gw.kind == GatewayKind::EventBased { parallel: false }));
+    assert!(
+        matches!(kind(&g, "g"), NodeKind::Gateway(gw) if gw.kind == GatewayKind::EventBased { parallel: false })
+    );
 }
 
 #[test]
@@ -146,14 +195,24 @@ fn events_with_every_definition() {
         <bpmn:sequenceFlow id="f7" sourceRef="l2" targetRef="a"/><bpmn:sequenceFlow id="f8" sourceRef="a" targetRef="e"/>
         <bpmn:sequenceFlow id="f9" sourceRef="b1" targetRef="e2"/><bpmn:sequenceFlow id="f10" sourceRef="b2" targetRef="e"/>"#;
     let g = ok(&doc(globals, body));
-    assert!(matches!(kind(&g, "t1"), NodeKind::Throw(r) if matches!(r[..], [EventDefinition::Signal(Some(_))])));
-    assert!(matches!(kind(&g, "c2"), NodeKind::Catch(c) if matches!(&c.triggers[..], [EventDefinition::Conditional(e)] if e.variables == ["battery"])));
-    assert!(matches!(kind(&g, "c3"), NodeKind::Catch(c) if matches!(&c.triggers[..], [EventDefinition::Timer(_)])));
-    assert!(matches!(kind(&g, "b1"), NodeKind::Boundary(b) if b.interrupting && matches!(&b.triggers[..], [EventDefinition::Error { code_variable: Some(v), .. }] if v == "code")));
+    assert!(
+        matches!(kind(&g, "t1"), NodeKind::Throw(r) if matches!(r[..], [EventDefinition::Signal(Some(_))]))
+    );
+    assert!(
+        matches!(kind(&g, "c2"), NodeKind::Catch(c) if matches!(&c.triggers[..], [EventDefinition::Conditional(e)] if e.variables == ["battery"]))
+    );
+    assert!(
+        matches!(kind(&g, "c3"), NodeKind::Catch(c) if matches!(&c.triggers[..], [EventDefinition::Timer(_)]))
+    );
+    assert!(
+        matches!(kind(&g, "b1"), NodeKind::Boundary(b) if b.interrupting && matches!(&b.triggers[..], [EventDefinition::Error { code_variable: Some(v), .. }] if v == "code"))
+    );
     assert!(matches!(kind(&g, "b2"), NodeKind::Boundary(b) if !b.interrupting));
     let a = g.node(g.node_by_id("a").unwrap());
     assert_eq!(a.boundaries.len(), 2);
-    assert!(matches!(kind(&g, "e"), NodeKind::End(r) if matches!(r[..], [EventDefinition::Terminate])));
+    assert!(
+        matches!(kind(&g, "e"), NodeKind::End(r) if matches!(r[..], [EventDefinition::Terminate]))
+    );
 }
 
 #[test]
@@ -177,16 +236,39 @@ fn subprocesses_call_activities_and_loops() {
         <bpmn:sequenceFlow id="f5" sourceRef="adhoc" targetRef="e"/>"#;
     let called = r#"<bpmn:process id="q" isExecutable="true"><bpmn:startEvent id="qs"/><bpmn:endEvent id="qe"/>
         <bpmn:sequenceFlow id="q1" sourceRef="qs" targetRef="qe"/></bpmn:process>"#;
-    let xml = doc("", body).replace("</bpmn:definitions>", &format!("{called}</bpmn:definitions>"));
+    let xml = doc("", body).replace(
+        "</bpmn:definitions>",
+        &format!("{called}</bpmn:definitions>"),
+    );
     let g = ok(&xml);
     let sub = g.node_by_id("sub").unwrap();
-    assert!(matches!(&g.node(sub).looping, Some(Looping::MultiInstance(m)) if m.sequential && m.completion.is_some()));
-    assert_eq!(g.node(g.node_by_id("inner").unwrap()).scope, Scope::SubProcess(sub));
-    assert!(matches!(kind(&g, "call"), NodeKind::CallActivity(c) if c.called == Some(Called::Process(g.process_by_id("q").unwrap()))));
-    assert!(matches!(&g.node(g.node_by_id("call").unwrap()).looping, Some(Looping::Standard { test_before: true, maximum: Some(5), condition: Some(_) })));
-    assert!(matches!(kind(&g, "tx"), NodeKind::SubProcess(s) if matches!(s.kind, SubProcessKind::Transaction)));
-    assert!(matches!(kind(&g, "adhoc"), NodeKind::SubProcess(s) if matches!(s.kind, SubProcessKind::AdHoc { sequential: true, .. })));
-    assert!(matches!(kind(&g, "esp"), NodeKind::SubProcess(s) if matches!(s.kind, SubProcessKind::Event)));
+    assert!(
+        matches!(&g.node(sub).looping, Some(Looping::MultiInstance(m)) if m.sequential && m.completion.is_some())
+    );
+    assert_eq!(
+        g.node(g.node_by_id("inner").unwrap()).scope,
+        Scope::SubProcess(sub)
+    );
+    assert!(
+        matches!(kind(&g, "call"), NodeKind::CallActivity(c) if c.called == Some(Called::Process(g.process_by_id("q").unwrap())))
+    );
+    assert!(matches!(
+        &g.node(g.node_by_id("call").unwrap()).looping,
+        Some(Looping::Standard {
+            test_before: true,
+            maximum: Some(5),
+            condition: Some(_)
+        })
+    ));
+    assert!(
+        matches!(kind(&g, "tx"), NodeKind::SubProcess(s) if matches!(s.kind, SubProcessKind::Transaction))
+    );
+    assert!(
+        matches!(kind(&g, "adhoc"), NodeKind::SubProcess(s) if matches!(s.kind, SubProcessKind::AdHoc { sequential: true, .. }))
+    );
+    assert!(
+        matches!(kind(&g, "esp"), NodeKind::SubProcess(s) if matches!(s.kind, SubProcessKind::Event))
+    );
     // The called process is not started with the mission.
     assert_eq!(g.primary_processes(), vec![g.process_by_id("p").unwrap()]);
 }
@@ -232,21 +314,44 @@ fn each_diagnostic_fires_on_its_minimal_model() {
     ];
     for (code, xml) in cases {
         let found = errors(&xml);
-        let found = if code == "bad-expression" { found.into_iter().map(|c| if c == "bad-script" { "bad-expression" } else { c }).collect() } else { found };
+        let found = if code == "bad-expression" {
+            found
+                .into_iter()
+                .map(|c| {
+                    if c == "bad-script" {
+                        "bad-expression"
+                    } else {
+                        c
+                    }
+                })
+                .collect()
+        } else {
+            found
+        };
         assert!(found.contains(&code), "{code}: expected it among {found:?}");
     }
 }
 
 #[test]
 fn a_gateway_without_default_is_a_warning_that_names_it() {
-    let xml = doc("", r#"<bpmn:startEvent id="s"/><bpmn:exclusiveGateway id="g"/><bpmn:endEvent id="e"/><bpmn:endEvent id="e2"/>
+    let xml = doc(
+        "",
+        r#"<bpmn:startEvent id="s"/><bpmn:exclusiveGateway id="g"/><bpmn:endEvent id="e"/><bpmn:endEvent id="e2"/>
         <bpmn:sequenceFlow id="f0" sourceRef="s" targetRef="g"/>
         <bpmn:sequenceFlow id="f1" sourceRef="g" targetRef="e"><bpmn:conditionExpression xsi:type="bpmn:tFormalExpression">a</bpmn:conditionExpression></bpmn:sequenceFlow>
-        <bpmn:sequenceFlow id="f2" sourceRef="g" targetRef="e2"><bpmn:conditionExpression xsi:type="bpmn:tFormalExpression">!a</bpmn:conditionExpression></bpmn:sequenceFlow>"#);
+        <bpmn:sequenceFlow id="f2" sourceRef="g" targetRef="e2"><bpmn:conditionExpression xsi:type="bpmn:tFormalExpression">!a</bpmn:conditionExpression></bpmn:sequenceFlow>"#,
+    );
     let loaded = load(xml.as_bytes());
     assert!(loaded.graph.is_some());
-    let w = loaded.diagnostics.iter().find(|d| d.code == "no-default-flow").expect("warning");
-    assert_eq!((w.severity, w.element.as_deref()), (Severity::Warning, Some("g")));
+    let w = loaded
+        .diagnostics
+        .iter()
+        .find(|d| d.code == "no-default-flow")
+        .expect("warning");
+    assert_eq!(
+        (w.severity, w.element.as_deref()),
+        (Severity::Warning, Some("g"))
+    );
 }
 
 #[test]
@@ -256,10 +361,19 @@ fn every_problem_is_listed_with_line_and_column() {
     );
     let loaded = load(xml.as_bytes());
     let head_lines = HEAD.lines().count();
-    let missing = loaded.errors().find(|d| d.code == "missing-resource").expect("missing resource");
+    let missing = loaded
+        .errors()
+        .find(|d| d.code == "missing-resource")
+        .expect("missing resource");
     assert_eq!((missing.line, missing.column), (head_lines + 3, 1));
-    let dangling = loaded.errors().find(|d| d.code == "dangling-reference").expect("dangling");
-    assert_eq!((dangling.line, dangling.element.as_deref()), (head_lines + 6, Some("f2")));
+    let dangling = loaded
+        .errors()
+        .find(|d| d.code == "dangling-reference")
+        .expect("dangling");
+    assert_eq!(
+        (dangling.line, dangling.element.as_deref()),
+        (head_lines + 6, Some("f2"))
+    );
 }
 
 #[test]
@@ -269,12 +383,22 @@ fn imports_resolve_through_the_callers_resolver() {
     let main = around(r#"<bpmn:callActivity id="x" calledElement="lib"/>"#)
         .replace("<bpmn:process", r#"<bpmn:import importType="http://www.omg.org/spec/BPMN/20100524/MODEL" location="lib.bpmn" namespace="urn:lib"/><bpmn:process"#);
     let loaded = load_bundle(main.as_bytes(), &Options::default(), &mut |loc| {
-        if loc == "lib.bpmn" { Ok(lib.clone().into_bytes()) } else { Err("no such file".into()) }
+        if loc == "lib.bpmn" {
+            Ok(lib.clone().into_bytes())
+        } else {
+            Err("no such file".into())
+        }
     });
-    let g = loaded.graph.unwrap_or_else(|| panic!("{:#?}", loaded.diagnostics));
+    let g = loaded
+        .graph
+        .unwrap_or_else(|| panic!("{:#?}", loaded.diagnostics));
     let lib_id = g.process_by_id("lib").unwrap();
     assert!(g.process(lib_id).imported);
     assert_eq!(g.primary_processes(), vec![g.process_by_id("p").unwrap()]);
     let missing = load(main.as_bytes());
-    assert!(missing.errors().any(|d| d.code == "unresolved-import" && d.constraint == Some("EXT.001")));
+    assert!(
+        missing
+            .errors()
+            .any(|d| d.code == "unresolved-import" && d.constraint == Some("EXT.001"))
+    );
 }

@@ -84,13 +84,18 @@ impl IsoDuration {
             .checked_add(&Duration::try_days(self.days.into())?)?
             .checked_add(&Duration::try_hours(self.hours.into())?)?
             .checked_add(&Duration::try_minutes(self.minutes.into())?)?
-            .checked_add(&Duration::try_milliseconds(i64::try_from(self.millis).ok()?)?)?;
+            .checked_add(&Duration::try_milliseconds(
+                i64::try_from(self.millis).ok()?,
+            )?)?;
         t.checked_add_signed(fixed)
     }
 
     /// Length in milliseconds, counting a month as 30 days and a year as 365 days.
     pub fn approx_millis(&self) -> u64 {
-        let days = u64::from(self.years) * 365 + u64::from(self.months) * 30 + u64::from(self.weeks) * 7 + u64::from(self.days);
+        let days = u64::from(self.years) * 365
+            + u64::from(self.months) * 30
+            + u64::from(self.weeks) * 7
+            + u64::from(self.days);
         ((days * 24 + u64::from(self.hours)) * 60 + u64::from(self.minutes)) * 60_000 + self.millis
     }
 }
@@ -99,14 +104,20 @@ impl IsoDuration {
 pub fn parse_timer(kind: TimerKind, raw: &str) -> Result<Timer, String> {
     let text = raw.trim();
     if text.starts_with("${") || text.starts_with("#{") || text.starts_with('=') {
-        return Ok(Timer { kind, value: TimerValue::Expression(Expression::parse(text)?) });
+        return Ok(Timer {
+            kind,
+            value: TimerValue::Expression(Expression::parse(text)?),
+        });
     }
     let spec = match kind {
         TimerKind::Date => TimerSpec::Date(parse_date(text)?),
         TimerKind::Duration => TimerSpec::Duration(parse_duration(text)?),
         TimerKind::Cycle => parse_cycle(text)?,
     };
-    Ok(Timer { kind, value: TimerValue::Fixed(spec) })
+    Ok(Timer {
+        kind,
+        value: TimerValue::Fixed(spec),
+    })
 }
 
 /// Parses an ISO 8601 date-time; one without an offset is taken as UTC.
@@ -119,7 +130,9 @@ pub fn parse_date(text: &str) -> Result<DateTime<FixedOffset>, String> {
             return Ok(t.and_utc().fixed_offset());
         }
     }
-    Err(format!("`{text}` is not an ISO 8601 date-time (e.g. 2026-11-23T10:00:00Z)"))
+    Err(format!(
+        "`{text}` is not an ISO 8601 date-time (e.g. 2026-11-23T10:00:00Z)"
+    ))
 }
 
 /// Parses an ISO 8601 duration such as `PT20D`, `P1DT2H`, `PT0.5S` or `P2W`.
@@ -147,13 +160,17 @@ pub fn parse_duration(text: &str) -> Result<IsoDuration, String> {
         }
         seen = true;
     }
-    for (value, unit) in time.map(components).unwrap_or(Some(Vec::new())).ok_or_else(bad)? {
+    for (value, unit) in time
+        .map(components)
+        .unwrap_or(Some(Vec::new()))
+        .ok_or_else(bad)?
+    {
         match unit {
             'H' => d.hours = value.parse().map_err(|_| bad())?,
             'M' => d.minutes = value.parse().map_err(|_| bad())?,
             'S' => {
                 let secs: f64 = value.replace(',', ".").parse().map_err(|_| bad())?;
-                if !secs.is_finite() || secs < 0.0 || secs > 1e12 {
+                if !secs.is_finite() || !(0.0..=1e12).contains(&secs) {
                     return Err(bad());
                 }
                 d.millis = (secs * 1000.0).round() as u64;
@@ -188,7 +205,9 @@ fn components(s: &str) -> Option<Vec<(&str, char)>> {
 
 /// Parses `R[n]/interval`, `R[n]/start/interval` or `R[n]/interval/end`.
 pub fn parse_cycle(text: &str) -> Result<TimerSpec, String> {
-    let bad = |why: &str| format!("`{text}` is not an ISO 8601 repeating interval (e.g. R5/PT10S): {why}");
+    let bad = |why: &str| {
+        format!("`{text}` is not an ISO 8601 repeating interval (e.g. R5/PT10S): {why}")
+    };
     let parts: Vec<&str> = text.split('/').collect();
     let reps = parts[0].strip_prefix('R').ok_or_else(|| {
         if text.split_whitespace().count() >= 5 {
@@ -197,19 +216,37 @@ pub fn parse_cycle(text: &str) -> Result<TimerSpec, String> {
             bad("it must start with R")
         }
     })?;
-    let repetitions = if reps.is_empty() { None } else { Some(reps.parse::<u32>().map_err(|_| bad("bad repetition count"))?) };
+    let repetitions = if reps.is_empty() {
+        None
+    } else {
+        Some(
+            reps.parse::<u32>()
+                .map_err(|_| bad("bad repetition count"))?,
+        )
+    };
     let (start, interval, end) = match parts.len() {
         2 => (None, parse_duration(parts[1]).map_err(|e| bad(&e))?, None),
-        3 if parts[1].starts_with('P') => {
-            (None, parse_duration(parts[1]).map_err(|e| bad(&e))?, Some(parse_date(parts[2]).map_err(|e| bad(&e))?))
-        }
-        3 => (Some(parse_date(parts[1]).map_err(|e| bad(&e))?), parse_duration(parts[2]).map_err(|e| bad(&e))?, None),
+        3 if parts[1].starts_with('P') => (
+            None,
+            parse_duration(parts[1]).map_err(|e| bad(&e))?,
+            Some(parse_date(parts[2]).map_err(|e| bad(&e))?),
+        ),
+        3 => (
+            Some(parse_date(parts[1]).map_err(|e| bad(&e))?),
+            parse_duration(parts[2]).map_err(|e| bad(&e))?,
+            None,
+        ),
         _ => return Err(bad("expected 2 or 3 parts separated by /")),
     };
     if interval.approx_millis() == 0 {
         return Err(bad("the interval is zero"));
     }
-    Ok(TimerSpec::Cycle { repetitions, start, interval, end })
+    Ok(TimerSpec::Cycle {
+        repetitions,
+        start,
+        interval,
+        end,
+    })
 }
 
 #[cfg(test)]
@@ -219,7 +256,10 @@ mod tests {
     #[test]
     fn durations() {
         assert_eq!(parse_duration("PT20D").ok(), None, "days belong before T");
-        assert_eq!(parse_duration("P20D").unwrap().approx_millis(), 20 * 86_400_000);
+        assert_eq!(
+            parse_duration("P20D").unwrap().approx_millis(),
+            20 * 86_400_000
+        );
         assert_eq!(parse_duration("PT1M30.5S").unwrap().approx_millis(), 90_500);
         assert_eq!(parse_duration("P1Y2M3W4DT5H6M7S").unwrap().months, 2);
         for bad in ["", "P", "PT", "1D", "P-1D", "PxD", "PT1.5.5S", "P1H"] {
@@ -231,15 +271,38 @@ mod tests {
     fn months_are_calendar_months() {
         let jan31 = parse_date("2026-01-31T00:00:00Z").unwrap();
         let d = parse_duration("P1M").unwrap();
-        assert_eq!(d.after(jan31).unwrap().to_rfc3339(), "2026-02-28T00:00:00+00:00");
+        assert_eq!(
+            d.after(jan31).unwrap().to_rfc3339(),
+            "2026-02-28T00:00:00+00:00"
+        );
     }
 
     #[test]
     fn cycles_and_dates() {
-        assert!(matches!(parse_cycle("R4/PT1S").unwrap(), TimerSpec::Cycle { repetitions: Some(4), .. }));
-        assert!(matches!(parse_cycle("R/2026-01-01T00:00:00Z/PT1H").unwrap(), TimerSpec::Cycle { repetitions: None, start: Some(_), .. }));
-        assert!(matches!(parse_cycle("R2/PT1H/2026-01-01T00:00:00Z").unwrap(), TimerSpec::Cycle { end: Some(_), .. }));
-        assert!(parse_cycle("0 0 9-17 * * MON-FRI").unwrap_err().contains("cron"));
+        assert!(matches!(
+            parse_cycle("R4/PT1S").unwrap(),
+            TimerSpec::Cycle {
+                repetitions: Some(4),
+                ..
+            }
+        ));
+        assert!(matches!(
+            parse_cycle("R/2026-01-01T00:00:00Z/PT1H").unwrap(),
+            TimerSpec::Cycle {
+                repetitions: None,
+                start: Some(_),
+                ..
+            }
+        ));
+        assert!(matches!(
+            parse_cycle("R2/PT1H/2026-01-01T00:00:00Z").unwrap(),
+            TimerSpec::Cycle { end: Some(_), .. }
+        ));
+        assert!(
+            parse_cycle("0 0 9-17 * * MON-FRI")
+                .unwrap_err()
+                .contains("cron")
+        );
         assert!(parse_cycle("R/PT0S").is_err());
         assert!(parse_date("2026-11-23T10:00:00").is_ok());
         assert!(parse_date("tomorrow").is_err());

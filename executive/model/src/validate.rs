@@ -25,19 +25,32 @@ impl Checker<'_> {
         self.g.process(self.g.process_of(n)).executable
     }
 
-    fn report(&mut self, n: NodeId, code: &'static str, constraint: Option<&'static str>, message: String) {
+    fn report(
+        &mut self,
+        n: NodeId,
+        code: &'static str,
+        constraint: Option<&'static str>,
+        message: String,
+    ) {
         let node = self.g.node(n);
         let d = if self.strict(n) {
             self.sink.error(code, node.offset, Some(&node.id), message)
         } else {
-            self.sink.warning(code, node.offset, Some(&node.id), message)
+            self.sink
+                .warning(code, node.offset, Some(&node.id), message)
         };
         if let Some(c) = constraint {
             d.constraint(c);
         }
     }
 
-    fn hard(&mut self, n: NodeId, code: &'static str, constraint: Option<&'static str>, message: String) {
+    fn hard(
+        &mut self,
+        n: NodeId,
+        code: &'static str,
+        constraint: Option<&'static str>,
+        message: String,
+    ) {
         let node = self.g.node(n);
         let d = self.sink.error(code, node.offset, Some(&node.id), message);
         if let Some(c) = constraint {
@@ -68,163 +81,379 @@ impl Checker<'_> {
             Scope::SubProcess(s) => Some(s),
             Scope::Process(_) => None,
         };
-        let event_sub = in_subprocess.is_some_and(|s| matches!(&g.node(s).kind, NodeKind::SubProcess(SubProcess { kind: SubProcessKind::Event, .. })));
+        let event_sub = in_subprocess.is_some_and(|s| {
+            matches!(
+                &g.node(s).kind,
+                NodeKind::SubProcess(SubProcess {
+                    kind: SubProcessKind::Event,
+                    ..
+                })
+            )
+        });
         match &node.kind {
             NodeKind::Start(s) => {
                 if ins > 0 {
-                    self.hard(n, "flow-into-start", Some("EXT.056"), "a start event cannot have incoming sequence flows".to_owned());
+                    self.hard(
+                        n,
+                        "flow-into-start",
+                        Some("EXT.056"),
+                        "a start event cannot have incoming sequence flows".to_owned(),
+                    );
                 }
                 if outs == 0 {
-                    self.hard(n, "no-outgoing", Some("EXT.101"), "a start event needs an outgoing sequence flow".to_owned());
+                    self.hard(
+                        n,
+                        "no-outgoing",
+                        Some("EXT.101"),
+                        "a start event needs an outgoing sequence flow".to_owned(),
+                    );
                 }
                 if event_sub {
                     if s.triggers.is_empty() {
                         self.hard(n, "event-subprocess-start", Some("EXT.059"), "the start event of an event sub-process needs a trigger (message, timer, signal, error, escalation, conditional or compensation)".to_owned());
                     }
-                    if let Some(bad) = s.triggers.iter().find(|t| matches!(t, EventDefinition::Cancel | EventDefinition::Link(_) | EventDefinition::Terminate)) {
-                        let msg = format!("an event sub-process cannot be started by {}", bad.element_name());
+                    if let Some(bad) = s.triggers.iter().find(|t| {
+                        matches!(
+                            t,
+                            EventDefinition::Cancel
+                                | EventDefinition::Link(_)
+                                | EventDefinition::Terminate
+                        )
+                    }) {
+                        let msg = format!(
+                            "an event sub-process cannot be started by {}",
+                            bad.element_name()
+                        );
                         self.hard(n, "event-subprocess-start", Some("EXT.059"), msg);
                     }
-                    if !s.interrupting {
-                        if let Some(bad) = s.triggers.iter().find(|t| matches!(t, EventDefinition::Error { .. } | EventDefinition::Compensate { .. })) {
-                            let msg = format!("a {} start event always interrupts (isInterrupting cannot be false)", bad.element_name());
-                            self.hard(n, "event-subprocess-start", Some("EXT.059"), msg);
-                        }
+                    if !s.interrupting
+                        && let Some(bad) = s.triggers.iter().find(|t| {
+                            matches!(
+                                t,
+                                EventDefinition::Error { .. } | EventDefinition::Compensate { .. }
+                            )
+                        })
+                    {
+                        let msg = format!(
+                            "a {} start event always interrupts (isInterrupting cannot be false)",
+                            bad.element_name()
+                        );
+                        self.hard(n, "event-subprocess-start", Some("EXT.059"), msg);
                     }
                 } else if in_subprocess.is_some() {
                     if let Some(t) = s.triggers.first() {
-                        let msg = format!("a start event inside an embedded sub-process must be a none start event, not {}", t.element_name());
+                        let msg = format!(
+                            "a start event inside an embedded sub-process must be a none start event, not {}",
+                            t.element_name()
+                        );
                         self.hard(n, "triggered-start-in-subprocess", Some("EXT.098"), msg);
                     }
-                } else if let Some(bad) = s.triggers.iter().find(|t| !matches!(t, EventDefinition::Message(_) | EventDefinition::Timer(_) | EventDefinition::Conditional(_) | EventDefinition::Signal(_))) {
-                    let msg = format!("a top-level start event cannot be triggered by {}; use message, timer, conditional or signal", bad.element_name());
+                } else if let Some(bad) = s.triggers.iter().find(|t| {
+                    !matches!(
+                        t,
+                        EventDefinition::Message(_)
+                            | EventDefinition::Timer(_)
+                            | EventDefinition::Conditional(_)
+                            | EventDefinition::Signal(_)
+                    )
+                }) {
+                    let msg = format!(
+                        "a top-level start event cannot be triggered by {}; use message, timer, conditional or signal",
+                        bad.element_name()
+                    );
                     self.hard(n, "bad-start-trigger", Some("EXT.098"), msg);
                 }
             }
             NodeKind::End(results) => {
                 if ins == 0 {
-                    self.hard(n, "no-incoming", Some("EXT.107"), "an end event needs an incoming sequence flow".to_owned());
+                    self.hard(
+                        n,
+                        "no-incoming",
+                        Some("EXT.107"),
+                        "an end event needs an incoming sequence flow".to_owned(),
+                    );
                 }
                 if outs > 0 {
-                    self.hard(n, "flow-from-end", Some("EXT.007"), "an end event cannot have outgoing sequence flows".to_owned());
+                    self.hard(
+                        n,
+                        "flow-from-end",
+                        Some("EXT.007"),
+                        "an end event cannot have outgoing sequence flows".to_owned(),
+                    );
                 }
-                if let Some(bad) = results.iter().find(|t| matches!(t, EventDefinition::Timer(_) | EventDefinition::Conditional(_) | EventDefinition::Link(_))) {
+                if let Some(bad) = results.iter().find(|t| {
+                    matches!(
+                        t,
+                        EventDefinition::Timer(_)
+                            | EventDefinition::Conditional(_)
+                            | EventDefinition::Link(_)
+                    )
+                }) {
                     let msg = format!("an end event cannot throw {}", bad.element_name());
                     self.hard(n, "bad-end-result", None, msg);
                 }
-                if results.iter().any(|t| matches!(t, EventDefinition::Cancel)) && !self.in_transaction(n) {
-                    self.hard(n, "cancel-outside-transaction", None, "a cancel end event must be inside a transaction".to_owned());
+                if results.iter().any(|t| matches!(t, EventDefinition::Cancel))
+                    && !self.in_transaction(n)
+                {
+                    self.hard(
+                        n,
+                        "cancel-outside-transaction",
+                        None,
+                        "a cancel end event must be inside a transaction".to_owned(),
+                    );
                 }
                 self.escalation_codes(n, results);
             }
             NodeKind::Catch(c) => {
-                if let Some(bad) = c.triggers.iter().find(|t| !matches!(t, EventDefinition::Message(_) | EventDefinition::Timer(_) | EventDefinition::Conditional(_) | EventDefinition::Link(_) | EventDefinition::Signal(_))) {
-                    let msg = format!("an intermediate catch event cannot wait for {}", bad.element_name());
+                if let Some(bad) = c.triggers.iter().find(|t| {
+                    !matches!(
+                        t,
+                        EventDefinition::Message(_)
+                            | EventDefinition::Timer(_)
+                            | EventDefinition::Conditional(_)
+                            | EventDefinition::Link(_)
+                            | EventDefinition::Signal(_)
+                    )
+                }) {
+                    let msg = format!(
+                        "an intermediate catch event cannot wait for {}",
+                        bad.element_name()
+                    );
                     self.hard(n, "bad-catch-trigger", Some("EXT.148"), msg);
                 }
                 if c.triggers.is_empty() {
-                    self.hard(n, "catch-without-trigger", None, "an intermediate catch event needs an event definition".to_owned());
+                    self.hard(
+                        n,
+                        "catch-without-trigger",
+                        None,
+                        "an intermediate catch event needs an event definition".to_owned(),
+                    );
                 }
-                let link = c.triggers.iter().any(|t| matches!(t, EventDefinition::Link(_)));
+                let link = c
+                    .triggers
+                    .iter()
+                    .any(|t| matches!(t, EventDefinition::Link(_)));
                 if outs == 0 {
-                    self.hard(n, "no-outgoing", Some("EXT.116"), "an intermediate event must have an outgoing sequence flow".to_owned());
+                    self.hard(
+                        n,
+                        "no-outgoing",
+                        Some("EXT.116"),
+                        "an intermediate event must have an outgoing sequence flow".to_owned(),
+                    );
                 }
                 if link && ins > 0 {
-                    self.hard(n, "link-both-ways", Some("EXT.117"), "a link catch event cannot also have incoming sequence flows".to_owned());
+                    self.hard(
+                        n,
+                        "link-both-ways",
+                        Some("EXT.117"),
+                        "a link catch event cannot also have incoming sequence flows".to_owned(),
+                    );
                 }
             }
             NodeKind::Throw(results) => {
-                if let Some(bad) = results.iter().find(|t| !matches!(t, EventDefinition::Message(_) | EventDefinition::Escalation(_) | EventDefinition::Compensate { .. } | EventDefinition::Link(_) | EventDefinition::Signal(_))) {
-                    let msg = format!("an intermediate throw event cannot throw {}", bad.element_name());
+                if let Some(bad) = results.iter().find(|t| {
+                    !matches!(
+                        t,
+                        EventDefinition::Message(_)
+                            | EventDefinition::Escalation(_)
+                            | EventDefinition::Compensate { .. }
+                            | EventDefinition::Link(_)
+                            | EventDefinition::Signal(_)
+                    )
+                }) {
+                    let msg = format!(
+                        "an intermediate throw event cannot throw {}",
+                        bad.element_name()
+                    );
                     self.hard(n, "bad-throw-result", Some("EXT.149"), msg);
                 }
-                let link = results.iter().any(|t| matches!(t, EventDefinition::Link(_)));
+                let link = results
+                    .iter()
+                    .any(|t| matches!(t, EventDefinition::Link(_)));
                 if link && outs > 0 {
-                    self.hard(n, "link-both-ways", Some("EXT.117"), "a link throw event cannot also have outgoing sequence flows".to_owned());
+                    self.hard(
+                        n,
+                        "link-both-ways",
+                        Some("EXT.117"),
+                        "a link throw event cannot also have outgoing sequence flows".to_owned(),
+                    );
                 }
                 if !link && outs == 0 {
-                    self.hard(n, "no-outgoing", Some("EXT.116"), "an intermediate event must have an outgoing sequence flow".to_owned());
+                    self.hard(
+                        n,
+                        "no-outgoing",
+                        Some("EXT.116"),
+                        "an intermediate event must have an outgoing sequence flow".to_owned(),
+                    );
                 }
                 self.escalation_codes(n, results);
             }
             NodeKind::Boundary(b) => {
                 if ins > 0 {
-                    self.hard(n, "flow-into-boundary", Some("EXT.006"), "a boundary event cannot have incoming sequence flows".to_owned());
+                    self.hard(
+                        n,
+                        "flow-into-boundary",
+                        Some("EXT.006"),
+                        "a boundary event cannot have incoming sequence flows".to_owned(),
+                    );
                 }
                 if b.triggers.is_empty() {
-                    self.hard(n, "boundary-without-trigger", Some("EXT.110"), "a boundary event needs an event definition".to_owned());
+                    self.hard(
+                        n,
+                        "boundary-without-trigger",
+                        Some("EXT.110"),
+                        "a boundary event needs an event definition".to_owned(),
+                    );
                 }
-                if let Some(bad) = b.triggers.iter().find(|t| matches!(t, EventDefinition::Link(_) | EventDefinition::Terminate)) {
+                if let Some(bad) = b
+                    .triggers
+                    .iter()
+                    .find(|t| matches!(t, EventDefinition::Link(_) | EventDefinition::Terminate))
+                {
                     let msg = format!("a boundary event cannot wait for {}", bad.element_name());
                     self.hard(n, "bad-boundary-trigger", Some("EXT.110"), msg);
                 }
-                if !b.interrupting && has_trigger(&b.triggers, |t| matches!(t, EventDefinition::Error { .. } | EventDefinition::Cancel | EventDefinition::Compensate { .. })) {
+                if !b.interrupting
+                    && has_trigger(&b.triggers, |t| {
+                        matches!(
+                            t,
+                            EventDefinition::Error { .. }
+                                | EventDefinition::Cancel
+                                | EventDefinition::Compensate { .. }
+                        )
+                    })
+                {
                     self.hard(n, "non-interrupting-error", Some("EXT.110"), "error, cancel and compensation boundary events are always interrupting (cancelActivity cannot be false)".to_owned());
                 }
                 let attached = g.node(b.attached_to);
-                if has_trigger(&b.triggers, |t| matches!(t, EventDefinition::Cancel)) && !matches!(&attached.kind, NodeKind::SubProcess(SubProcess { kind: SubProcessKind::Transaction, .. })) {
-                    self.hard(n, "cancel-boundary-not-on-transaction", Some("EXT.111"), "a cancel boundary event must be attached to a transaction".to_owned());
+                if has_trigger(&b.triggers, |t| matches!(t, EventDefinition::Cancel))
+                    && !matches!(
+                        &attached.kind,
+                        NodeKind::SubProcess(SubProcess {
+                            kind: SubProcessKind::Transaction,
+                            ..
+                        })
+                    )
+                {
+                    self.hard(
+                        n,
+                        "cancel-boundary-not-on-transaction",
+                        Some("EXT.111"),
+                        "a cancel boundary event must be attached to a transaction".to_owned(),
+                    );
                 }
-                let compensation = has_trigger(&b.triggers, |t| matches!(t, EventDefinition::Compensate { .. }));
+                let compensation = has_trigger(&b.triggers, |t| {
+                    matches!(t, EventDefinition::Compensate { .. })
+                });
                 if compensation && outs > 0 {
                     self.hard(n, "compensation-boundary-flow", Some("EXT.114"), "a compensation boundary event cannot have outgoing sequence flows; connect its handler with an association".to_owned());
                 }
                 if !compensation && outs == 0 {
-                    self.report(n, "no-outgoing", Some("EXT.116"), "a boundary event needs an outgoing sequence flow".to_owned());
+                    self.report(
+                        n,
+                        "no-outgoing",
+                        Some("EXT.116"),
+                        "a boundary event needs an outgoing sequence flow".to_owned(),
+                    );
                 }
             }
             NodeKind::Gateway(gw) => self.gateway(n, gw),
             NodeKind::Task(t) => self.task(n, t),
             NodeKind::SubProcess(s) => {
                 if matches!(s.kind, SubProcessKind::Event) && (ins > 0 || outs > 0) {
-                    self.hard(n, "event-subprocess-flow", Some("EXT.056"), "an event sub-process cannot have incoming or outgoing sequence flows".to_owned());
+                    self.hard(
+                        n,
+                        "event-subprocess-flow",
+                        Some("EXT.056"),
+                        "an event sub-process cannot have incoming or outgoing sequence flows"
+                            .to_owned(),
+                    );
                 }
                 if let SubProcessKind::AdHoc { .. } = s.kind {
                     if !s.nodes.iter().any(|c| g.node(*c).is_activity()) {
-                        self.hard(n, "empty-adhoc", Some("EXT.061"), "an ad-hoc sub-process must contain at least one activity".to_owned());
+                        self.hard(
+                            n,
+                            "empty-adhoc",
+                            Some("EXT.061"),
+                            "an ad-hoc sub-process must contain at least one activity".to_owned(),
+                        );
                     }
-                    if let Some(c) = s.nodes.iter().find(|c| matches!(g.node(**c).kind, NodeKind::Start(_) | NodeKind::End(_))) {
-                        let msg = format!("start and end events are not allowed in an ad-hoc sub-process (found `{}`)", g.node(*c).id);
+                    if let Some(c) = s
+                        .nodes
+                        .iter()
+                        .find(|c| matches!(g.node(**c).kind, NodeKind::Start(_) | NodeKind::End(_)))
+                    {
+                        let msg = format!(
+                            "start and end events are not allowed in an ad-hoc sub-process (found `{}`)",
+                            g.node(*c).id
+                        );
                         self.hard(n, "event-in-adhoc", Some("EXT.062"), msg);
                     }
                 }
             }
             NodeKind::CallActivity(c) => {
                 if let Some(Called::Process(p)) = c.called {
-                    let starts: Vec<&StartEvent> = g.process(p).nodes.iter().filter_map(|s| match &g.node(*s).kind {
-                        NodeKind::Start(s) => Some(s),
-                        _ => None,
-                    }).collect();
+                    let starts: Vec<&StartEvent> = g
+                        .process(p)
+                        .nodes
+                        .iter()
+                        .filter_map(|s| match &g.node(*s).kind {
+                            NodeKind::Start(s) => Some(s),
+                            _ => None,
+                        })
+                        .collect();
                     if !starts.is_empty() && starts.iter().all(|s| !s.triggers.is_empty()) {
-                        let msg = format!("calls process `{}`, which has no none start event to be started by a call activity", g.process(p).id);
+                        let msg = format!(
+                            "calls process `{}`, which has no none start event to be started by a call activity",
+                            g.process(p).id
+                        );
                         self.hard(n, "called-process-start", Some("EXT.099"), msg);
                     }
                 }
             }
         }
-        if let Some(d) = node.default_flow {
-            if g.flow(d).condition.is_some() {
-                self.report(n, "conditional-default", None, format!("default flow `{}` must not have a condition", g.flow(d).id));
-            }
+        if let Some(d) = node.default_flow
+            && g.flow(d).condition.is_some()
+        {
+            self.report(
+                n,
+                "conditional-default",
+                None,
+                format!("default flow `{}` must not have a condition", g.flow(d).id),
+            );
         }
-        if matches!(node.kind, NodeKind::Task(_) | NodeKind::SubProcess(_) | NodeKind::CallActivity(_)) && matches!(node.scope, Scope::Process(_) | Scope::SubProcess(_)) {
+        if matches!(
+            node.kind,
+            NodeKind::Task(_) | NodeKind::SubProcess(_) | NodeKind::CallActivity(_)
+        ) && matches!(node.scope, Scope::Process(_) | Scope::SubProcess(_))
+        {
             self.loop_bounds(n);
         }
     }
 
     fn loop_bounds(&mut self, n: NodeId) {
-        if let Some(Looping::MultiInstance(mi)) = &self.g.node(n).looping {
-            if let Some(c) = &mi.cardinality {
-                if c.text.trim().starts_with('-') {
-                    self.report(n, "bad-cardinality", None, format!("loop cardinality `{}` is negative", c.source));
-                }
-            }
+        if let Some(Looping::MultiInstance(mi)) = &self.g.node(n).looping
+            && let Some(c) = &mi.cardinality
+            && c.text.trim().starts_with('-')
+        {
+            self.report(
+                n,
+                "bad-cardinality",
+                None,
+                format!("loop cardinality `{}` is negative", c.source),
+            );
         }
     }
 
     fn in_transaction(&self, mut n: NodeId) -> bool {
         while let Scope::SubProcess(s) = self.g.node(n).scope {
-            if matches!(&self.g.node(s).kind, NodeKind::SubProcess(SubProcess { kind: SubProcessKind::Transaction, .. })) {
+            if matches!(
+                &self.g.node(s).kind,
+                NodeKind::SubProcess(SubProcess {
+                    kind: SubProcessKind::Transaction,
+                    ..
+                })
+            ) {
                 return true;
             }
             n = s;
@@ -235,9 +464,20 @@ impl Checker<'_> {
     fn escalation_codes(&mut self, n: NodeId, results: &[EventDefinition]) {
         for r in results {
             if let EventDefinition::Escalation(e) = r {
-                let has_code = e.is_some_and(|e| self.g.escalations[e.index()].code.as_deref().is_some_and(|c| !c.is_empty()));
+                let has_code = e.is_some_and(|e| {
+                    self.g.escalations[e.index()]
+                        .code
+                        .as_deref()
+                        .is_some_and(|c| !c.is_empty())
+                });
                 if !has_code {
-                    self.report(n, "escalation-without-code", Some("EXT.011"), "a thrown escalation must reference an escalation with an escalationCode".to_owned());
+                    self.report(
+                        n,
+                        "escalation-without-code",
+                        Some("EXT.011"),
+                        "a thrown escalation must reference an escalation with an escalationCode"
+                            .to_owned(),
+                    );
                 }
             }
         }
@@ -248,10 +488,21 @@ impl Checker<'_> {
         let node = g.node(n);
         let (ins, outs) = (node.incoming.len(), node.outgoing.len());
         if outs == 0 {
-            self.report(n, "no-outgoing", None, format!("{} has no outgoing sequence flow", gw.kind.element_name()));
+            self.report(
+                n,
+                "no-outgoing",
+                None,
+                format!("{} has no outgoing sequence flow", gw.kind.element_name()),
+            );
         }
         if ins <= 1 && outs <= 1 && !(gw.instantiate && ins == 0) {
-            self.report(n, "pass-through-gateway", Some("EXT.135"), "a gateway must have several incoming or several outgoing sequence flows".to_owned());
+            self.report(
+                n,
+                "pass-through-gateway",
+                Some("EXT.135"),
+                "a gateway must have several incoming or several outgoing sequence flows"
+                    .to_owned(),
+            );
         }
         match gw.kind {
             GatewayKind::Exclusive | GatewayKind::Inclusive if outs > 1 => {
@@ -262,46 +513,95 @@ impl Checker<'_> {
                     .map(|f| g.flow(*f).id.as_str())
                     .collect();
                 if !unconditional.is_empty() {
-                    let msg = format!("diverging {} has outgoing flows without a condition that are not the default: {}", gw.kind.element_name(), unconditional.join(", "));
+                    let msg = format!(
+                        "diverging {} has outgoing flows without a condition that are not the default: {}",
+                        gw.kind.element_name(),
+                        unconditional.join(", ")
+                    );
                     self.report(n, "unconditional-branch", None, msg);
                 } else if node.default_flow.is_none() {
-                    let msg = format!("{} has only conditional outgoing flows and no default flow: when no condition holds, the token has nowhere to go (add a default flow)", gw.kind.element_name());
-                    self.sink.warning("no-default-flow", node.offset, Some(&node.id), msg);
+                    let msg = format!(
+                        "{} has only conditional outgoing flows and no default flow: when no condition holds, the token has nowhere to go (add a default flow)",
+                        gw.kind.element_name()
+                    );
+                    self.sink
+                        .warning("no-default-flow", node.offset, Some(&node.id), msg);
                 }
             }
             GatewayKind::EventBased { .. } => {
                 for f in &node.outgoing {
                     let t = g.node(g.flow(*f).target);
                     let ok = match &t.kind {
-                        NodeKind::Catch(c) => c.triggers.iter().all(|d| matches!(d, EventDefinition::Message(_) | EventDefinition::Signal(_) | EventDefinition::Timer(_) | EventDefinition::Conditional(_))),
-                        NodeKind::Task(Task { kind: TaskKind::Receive, .. }) => t.boundaries.is_empty(),
+                        NodeKind::Catch(c) => c.triggers.iter().all(|d| {
+                            matches!(
+                                d,
+                                EventDefinition::Message(_)
+                                    | EventDefinition::Signal(_)
+                                    | EventDefinition::Timer(_)
+                                    | EventDefinition::Conditional(_)
+                            )
+                        }),
+                        NodeKind::Task(Task {
+                            kind: TaskKind::Receive,
+                            ..
+                        }) => t.boundaries.is_empty(),
                         _ => false,
                     };
                     if !ok {
-                        let msg = format!("an event-based gateway may only lead to message, signal, timer or conditional catch events or receive tasks without boundary events; `{}` is none of these", t.id);
+                        let msg = format!(
+                            "an event-based gateway may only lead to message, signal, timer or conditional catch events or receive tasks without boundary events; `{}` is none of these",
+                            t.id
+                        );
                         self.hard(n, "bad-event-gateway-target", Some("EXT.138"), msg);
                     }
                     if t.incoming.len() > 1 {
-                        let msg = format!("`{}` follows an event-based gateway and must have no other incoming sequence flow", t.id);
+                        let msg = format!(
+                            "`{}` follows an event-based gateway and must have no other incoming sequence flow",
+                            t.id
+                        );
                         self.report(n, "bad-event-gateway-target", Some("EXT.138"), msg);
                     }
                 }
-                let kinds: BTreeSet<bool> = node.outgoing.iter().map(|f| matches!(g.node(g.flow(*f).target).kind, NodeKind::Task(_))).collect();
+                let kinds: BTreeSet<bool> = node
+                    .outgoing
+                    .iter()
+                    .map(|f| matches!(g.node(g.flow(*f).target).kind, NodeKind::Task(_)))
+                    .collect();
                 let has_message_catch = node.outgoing.iter().any(|f| matches!(&g.node(g.flow(*f).target).kind, NodeKind::Catch(c) if c.triggers.iter().any(|d| matches!(d, EventDefinition::Message(_)))));
                 if kinds.contains(&true) && has_message_catch {
-                    self.hard(n, "mixed-event-gateway", Some("EXT.139"), "an event-based gateway cannot mix receive tasks with message catch events".to_owned());
+                    self.hard(
+                        n,
+                        "mixed-event-gateway",
+                        Some("EXT.139"),
+                        "an event-based gateway cannot mix receive tasks with message catch events"
+                            .to_owned(),
+                    );
                 }
                 if gw.instantiate && ins > 0 {
-                    self.hard(n, "instantiating-gateway-flow", Some("EXT.142"), "an instantiating event-based gateway cannot have incoming sequence flows".to_owned());
+                    self.hard(
+                        n,
+                        "instantiating-gateway-flow",
+                        Some("EXT.142"),
+                        "an instantiating event-based gateway cannot have incoming sequence flows"
+                            .to_owned(),
+                    );
                 }
             }
             GatewayKind::Complex if gw.activation.is_none() && ins > 1 => {
-                self.report(n, "missing-activation-condition", None, "a converging complex gateway needs an activationCondition".to_owned());
+                self.report(
+                    n,
+                    "missing-activation-condition",
+                    None,
+                    "a converging complex gateway needs an activationCondition".to_owned(),
+                );
             }
             GatewayKind::Parallel => {
                 for f in &node.outgoing {
                     if g.flow(*f).condition.is_some() {
-                        let msg = format!("sequence flow `{}` leaves a parallel gateway and cannot have a condition", g.flow(*f).id);
+                        let msg = format!(
+                            "sequence flow `{}` leaves a parallel gateway and cannot have a condition",
+                            g.flow(*f).id
+                        );
                         self.report(n, "condition-on-parallel", None, msg);
                     }
                 }
@@ -315,7 +615,9 @@ impl Checker<'_> {
         match t.kind {
             TaskKind::Service | TaskKind::BusinessRule | TaskKind::Send => {
                 let resource = t.binding.as_ref().and_then(|b| b.resource.as_deref());
-                if resource.is_none_or(str::is_empty) && !(t.kind == TaskKind::Send && t.message.is_some()) {
+                if resource.is_none_or(str::is_empty)
+                    && !(t.kind == TaskKind::Send && t.message.is_some())
+                {
                     let msg = format!(
                         "{} `{}` has no resource name: add <trace:task resource=\"…\"> (or zeebe:taskDefinition type, or camunda:topic) so a connector can run it",
                         t.kind.element_name(),
@@ -324,10 +626,14 @@ impl Checker<'_> {
                     self.report(n, "missing-resource", None, msg);
                 }
             }
-            TaskKind::Receive => {
-                if t.instantiate && !node.incoming.is_empty() {
-                    self.hard(n, "instantiating-receive-flow", Some("EXT.049"), "a receive task with instantiate=\"true\" cannot have incoming sequence flows".to_owned());
-                }
+            TaskKind::Receive if t.instantiate && !node.incoming.is_empty() => {
+                self.hard(
+                    n,
+                    "instantiating-receive-flow",
+                    Some("EXT.049"),
+                    "a receive task with instantiate=\"true\" cannot have incoming sequence flows"
+                        .to_owned(),
+                );
             }
             _ => {}
         }
@@ -343,14 +649,26 @@ impl Checker<'_> {
         let links_thrown: BTreeSet<&str> = nodes
             .iter()
             .filter_map(|n| match &g.node(*n).kind {
-                NodeKind::Throw(r) => r.iter().find_map(|d| if let EventDefinition::Link(name) = d { Some(name.as_str()) } else { None }),
+                NodeKind::Throw(r) => r.iter().find_map(|d| {
+                    if let EventDefinition::Link(name) = d {
+                        Some(name.as_str())
+                    } else {
+                        None
+                    }
+                }),
                 _ => None,
             })
             .collect();
         let links_caught: BTreeSet<&str> = nodes
             .iter()
             .filter_map(|n| match &g.node(*n).kind {
-                NodeKind::Catch(c) => c.triggers.iter().find_map(|d| if let EventDefinition::Link(name) = d { Some(name.as_str()) } else { None }),
+                NodeKind::Catch(c) => c.triggers.iter().find_map(|d| {
+                    if let EventDefinition::Link(name) = d {
+                        Some(name.as_str())
+                    } else {
+                        None
+                    }
+                }),
                 _ => None,
             })
             .collect();
@@ -359,19 +677,31 @@ impl Checker<'_> {
             match &node.kind {
                 NodeKind::Throw(r) => {
                     for d in r {
-                        if let EventDefinition::Link(name) = d {
-                            if !links_caught.contains(name.as_str()) {
-                                self.hard(*n, "unmatched-link", Some("EXT.118"), format!("no link catch event named `{name}` in the same process level"));
-                            }
+                        if let EventDefinition::Link(name) = d
+                            && !links_caught.contains(name.as_str())
+                        {
+                            self.hard(
+                                *n,
+                                "unmatched-link",
+                                Some("EXT.118"),
+                                format!(
+                                    "no link catch event named `{name}` in the same process level"
+                                ),
+                            );
                         }
                     }
                 }
                 NodeKind::Catch(c) => {
                     for d in &c.triggers {
-                        if let EventDefinition::Link(name) = d {
-                            if !links_thrown.contains(name.as_str()) {
-                                self.hard(*n, "unmatched-link", Some("EXT.124"), format!("no link throw event named `{name}` leads here"));
-                            }
+                        if let EventDefinition::Link(name) = d
+                            && !links_thrown.contains(name.as_str())
+                        {
+                            self.hard(
+                                *n,
+                                "unmatched-link",
+                                Some("EXT.124"),
+                                format!("no link throw event named `{name}` leads here"),
+                            );
                         }
                     }
                 }
@@ -384,18 +714,35 @@ impl Checker<'_> {
             match &node.kind {
                 NodeKind::Start(_) => true,
                 NodeKind::Boundary(_) => false,
-                NodeKind::SubProcess(SubProcess { kind: SubProcessKind::Event, .. }) => true,
-                NodeKind::Catch(c) if c.triggers.iter().any(|d| matches!(d, EventDefinition::Link(_))) => false,
+                NodeKind::SubProcess(SubProcess {
+                    kind: SubProcessKind::Event,
+                    ..
+                }) => true,
+                NodeKind::Catch(c)
+                    if c.triggers
+                        .iter()
+                        .any(|d| matches!(d, EventDefinition::Link(_))) =>
+                {
+                    false
+                }
                 _ => node.for_compensation,
             }
         };
-        let has_start = nodes.iter().any(|n| matches!(g.node(*n).kind, NodeKind::Start(_)));
+        let has_start = nodes
+            .iter()
+            .any(|n| matches!(g.node(*n).kind, NodeKind::Start(_)));
         let adhoc = matches!(scope, Scope::SubProcess(s) if matches!(&g.node(s).kind, NodeKind::SubProcess(SubProcess { kind: SubProcessKind::AdHoc { .. }, .. })));
         let mut seen: BTreeSet<NodeId> = BTreeSet::new();
         let mut work: Vec<NodeId> = nodes
             .iter()
             .copied()
-            .filter(|n| is_entry(*n) || adhoc || (!has_start && g.node(*n).incoming.is_empty() && !matches!(g.node(*n).kind, NodeKind::Boundary(_) | NodeKind::Catch(_))))
+            .filter(|n| {
+                is_entry(*n)
+                    || adhoc
+                    || (!has_start
+                        && g.node(*n).incoming.is_empty()
+                        && !matches!(g.node(*n).kind, NodeKind::Boundary(_) | NodeKind::Catch(_)))
+            })
             .collect();
         // Catch events without incoming flows in a scope without start events are implicit starts
         // only if they are not link targets.
@@ -426,22 +773,44 @@ impl Checker<'_> {
         for n in nodes {
             if !seen.contains(n) {
                 let node = g.node(*n);
-                let msg = format!("{} `{}` can never be reached: no path leads to it from a start event", node.kind.element_name(), node.label());
+                let msg = format!(
+                    "{} `{}` can never be reached: no path leads to it from a start event",
+                    node.kind.element_name(),
+                    node.label()
+                );
                 self.report(*n, "unreachable", Some("EXT.150"), msg);
             }
         }
         // Start and end events come together at one process level (EXT.097, EXT.105).
-        let has_end = nodes.iter().any(|n| matches!(g.node(*n).kind, NodeKind::End(_)));
+        let has_end = nodes
+            .iter()
+            .any(|n| matches!(g.node(*n).kind, NodeKind::End(_)));
         let owner = match scope {
             Scope::Process(p) => (g.process(p).offset, g.process(p).id.clone()),
             Scope::SubProcess(s) => (g.node(s).offset, g.node(s).id.clone()),
         };
-        if !adhoc && !matches!(scope, Scope::SubProcess(s) if matches!(&g.node(s).kind, NodeKind::SubProcess(SubProcess { kind: SubProcessKind::Event, .. }))) {
+        if !adhoc
+            && !matches!(scope, Scope::SubProcess(s) if matches!(&g.node(s).kind, NodeKind::SubProcess(SubProcess { kind: SubProcessKind::Event, .. })))
+        {
             if has_end && !has_start {
-                self.sink.error("end-without-start", owner.0, Some(&owner.1), "this process level has end events but no start event".to_owned()).constraint("EXT.097");
+                self.sink
+                    .error(
+                        "end-without-start",
+                        owner.0,
+                        Some(&owner.1),
+                        "this process level has end events but no start event".to_owned(),
+                    )
+                    .constraint("EXT.097");
             }
             if has_start && !has_end {
-                self.sink.error("start-without-end", owner.0, Some(&owner.1), "this process level has a start event but no end event".to_owned()).constraint("EXT.105");
+                self.sink
+                    .error(
+                        "start-without-end",
+                        owner.0,
+                        Some(&owner.1),
+                        "this process level has a start event but no end event".to_owned(),
+                    )
+                    .constraint("EXT.105");
             }
         }
         // With end events in use, every node needs an outgoing flow (EXT.151).
@@ -450,11 +819,18 @@ impl Checker<'_> {
                 let node = g.node(*n);
                 let exempt = match &node.kind {
                     NodeKind::End(_) | NodeKind::Boundary(_) | NodeKind::Throw(_) => true,
-                    NodeKind::SubProcess(SubProcess { kind: SubProcessKind::Event, .. }) => true,
+                    NodeKind::SubProcess(SubProcess {
+                        kind: SubProcessKind::Event,
+                        ..
+                    }) => true,
                     _ => node.for_compensation,
                 };
                 if !exempt && node.outgoing.is_empty() {
-                    let msg = format!("{} `{}` has no outgoing sequence flow although the process uses end events: the token would end here without an end event", node.kind.element_name(), node.label());
+                    let msg = format!(
+                        "{} `{}` has no outgoing sequence flow although the process uses end events: the token would end here without an end event",
+                        node.kind.element_name(),
+                        node.label()
+                    );
                     self.report(*n, "no-outgoing", Some("EXT.151"), msg);
                 }
             }
@@ -487,8 +863,11 @@ impl Checker<'_> {
                 if let EventDefinition::Signal(Some(s)) = r {
                     let name = &g.signals[s.index()].name;
                     if !caught.contains(name.as_str()) {
-                        let msg = format!("signal `{name}` is thrown here but no event in this model catches it");
-                        self.sink.warning("uncaught-signal", node.offset, Some(&node.id), msg);
+                        let msg = format!(
+                            "signal `{name}` is thrown here but no event in this model catches it"
+                        );
+                        self.sink
+                            .warning("uncaught-signal", node.offset, Some(&node.id), msg);
                         let _ = i;
                     }
                 }
@@ -501,30 +880,65 @@ impl Checker<'_> {
 pub(crate) fn element_checks(root: &Element, sink: &mut Sink) {
     let mut stack: Vec<(&Element, bool)> = vec![(root, false)];
     while let Some((el, executable)) = stack.pop() {
-        let executable = if el.is_bpmn("process") { el.attr("isExecutable") != Some("false") } else { executable };
+        let executable = if el.is_bpmn("process") {
+            el.attr("isExecutable") != Some("false")
+        } else {
+            executable
+        };
         if el.ns == crate::xml::Ns::Bpmn {
             let id = el.attr("id");
             match el.name.as_str() {
-                "process" if el.attr("processType") == Some("Public") && el.attr("isExecutable") == Some("true") => {
-                    sink.error("public-executable", el.offset, id, "a public process cannot be executable".to_owned()).constraint("EXT.035");
+                "process"
+                    if el.attr("processType") == Some("Public")
+                        && el.attr("isExecutable") == Some("true") =>
+                {
+                    sink.error(
+                        "public-executable",
+                        el.offset,
+                        id,
+                        "a public process cannot be executable".to_owned(),
+                    )
+                    .constraint("EXT.035");
                 }
                 "sequenceFlow" if executable && el.attr("isImmediate") == Some("false") => {
-                    sink.error("not-immediate", el.offset, id, "isImmediate=\"false\" is not allowed in an executable process".to_owned()).constraint("EXT.024");
+                    sink.error(
+                        "not-immediate",
+                        el.offset,
+                        id,
+                        "isImmediate=\"false\" is not allowed in an executable process".to_owned(),
+                    )
+                    .constraint("EXT.024");
                 }
                 "scriptTask" if executable => {
-                    if let Some(s) = el.bpmn_child("script") {
-                        if !s.trimmed_text().is_empty() && el.attr("scriptFormat").is_some_and(|f| f.trim().is_empty()) {
-                            sink.error("empty-script-format", el.offset, id, "scriptFormat is empty".to_owned()).constraint("EXT.053");
-                        }
+                    if let Some(s) = el.bpmn_child("script")
+                        && !s.trimmed_text().is_empty()
+                        && el.attr("scriptFormat").is_some_and(|f| f.trim().is_empty())
+                    {
+                        sink.error(
+                            "empty-script-format",
+                            el.offset,
+                            id,
+                            "scriptFormat is empty".to_owned(),
+                        )
+                        .constraint("EXT.053");
                     }
                 }
                 _ => {}
             }
-            for (attr, constraint) in [("startQuantity", "EXT.037"), ("completionQuantity", "EXT.038")] {
-                if let Some(v) = el.attr(attr) {
-                    if v.trim().parse::<u32>().map_or(true, |q| q < 1) {
-                        sink.error("bad-quantity", el.offset, id, format!("{attr}=\"{v}\" must be a whole number of at least 1")).constraint(constraint);
-                    }
+            for (attr, constraint) in [
+                ("startQuantity", "EXT.037"),
+                ("completionQuantity", "EXT.038"),
+            ] {
+                if let Some(v) = el.attr(attr)
+                    && v.trim().parse::<u32>().map_or(true, |q| q < 1)
+                {
+                    sink.error(
+                        "bad-quantity",
+                        el.offset,
+                        id,
+                        format!("{attr}=\"{v}\" must be a whole number of at least 1"),
+                    )
+                    .constraint(constraint);
                 }
             }
             if let Some(dir) = el.attr("gatewayDirection") {
@@ -537,7 +951,8 @@ pub(crate) fn element_checks(root: &Element, sink: &mut Sink) {
                     _ => None,
                 };
                 if let Some((c, msg)) = bad {
-                    sink.error("gateway-direction", el.offset, id, msg.to_owned()).constraint(c);
+                    sink.error("gateway-direction", el.offset, id, msg.to_owned())
+                        .constraint(c);
                 }
             }
             stack.extend(el.children.iter().map(|c| (c, executable)));

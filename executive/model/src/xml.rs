@@ -26,7 +26,12 @@ pub struct Limits {
 
 impl Default for Limits {
     fn default() -> Self {
-        Limits { max_bytes: 64 << 20, max_depth: 200, max_elements: 2_000_000, max_attributes: 512 }
+        Limits {
+            max_bytes: 64 << 20,
+            max_depth: 200,
+            max_elements: 2_000_000,
+            max_attributes: 512,
+        }
     }
 }
 
@@ -113,11 +118,17 @@ impl Element {
 
     /// Value of the attribute `name` in namespace `ns`.
     pub(crate) fn attr_ns(&self, ns: &Ns, name: &str) -> Option<&str> {
-        self.attrs.iter().find(|a| &a.ns == ns && a.name == name).map(|a| a.value.as_str())
+        self.attrs
+            .iter()
+            .find(|a| &a.ns == ns && a.name == name)
+            .map(|a| a.value.as_str())
     }
 
     /// BPMN-namespace children named `name`.
-    pub(crate) fn bpmn_children<'a>(&'a self, name: &'a str) -> impl Iterator<Item = &'a Element> + 'a {
+    pub(crate) fn bpmn_children<'a>(
+        &'a self,
+        name: &'a str,
+    ) -> impl Iterator<Item = &'a Element> + 'a {
         self.children.iter().filter(move |c| c.is_bpmn(name))
     }
 
@@ -128,7 +139,8 @@ impl Element {
 
     /// The children of `<bpmn:extensionElements>`, if any.
     pub(crate) fn extensions(&self) -> impl Iterator<Item = &Element> {
-        self.bpmn_children("extensionElements").flat_map(|e| e.children.iter())
+        self.bpmn_children("extensionElements")
+            .flat_map(|e| e.children.iter())
     }
 
     /// Trimmed direct text.
@@ -155,21 +167,31 @@ pub struct XmlError {
 }
 
 fn err(offset: usize, message: impl Into<String>) -> XmlError {
-    XmlError { offset, message: message.into() }
+    XmlError {
+        offset,
+        message: message.into(),
+    }
 }
 
 /// Decodes input bytes to text: UTF-8 (BOM stripped), UTF-16 with a BOM, or Latin-1 where the
 /// XML declaration says so. Anything else is refused with the offset of the first bad byte.
-pub(crate) fn decode(bytes: &[u8], warnings: &mut Vec<(usize, String)>) -> Result<String, XmlError> {
+pub(crate) fn decode(
+    bytes: &[u8],
+    warnings: &mut Vec<(usize, String)>,
+) -> Result<String, XmlError> {
     if let Some(rest) = bytes.strip_prefix(&[0xEF, 0xBB, 0xBF]) {
         return decode_utf8(rest);
     }
     let utf16 = |le: bool, rest: &[u8]| -> Result<String, XmlError> {
-        if rest.len() % 2 != 0 {
+        if !rest.len().is_multiple_of(2) {
             return Err(err(rest.len(), "UTF-16 input has an odd number of bytes"));
         }
         let units = rest.chunks_exact(2).map(|c| {
-            if le { u16::from_le_bytes([c[0], c[1]]) } else { u16::from_be_bytes([c[0], c[1]]) }
+            if le {
+                u16::from_le_bytes([c[0], c[1]])
+            } else {
+                u16::from_be_bytes([c[0], c[1]])
+            }
         });
         char::decode_utf16(units)
             .collect::<Result<String, _>>()
@@ -184,24 +206,38 @@ pub(crate) fn decode(bytes: &[u8], warnings: &mut Vec<(usize, String)>) -> Resul
     let declared = declared_encoding(bytes).map(|e| e.to_ascii_lowercase());
     match declared.as_deref() {
         None | Some("utf-8") | Some("utf8") => decode_utf8(bytes),
-        Some(enc @ ("iso-8859-1" | "latin1" | "windows-1252" | "cp1252" | "us-ascii" | "ascii")) => {
+        Some(
+            enc @ ("iso-8859-1" | "latin1" | "windows-1252" | "cp1252" | "us-ascii" | "ascii"),
+        ) => {
             if let Ok(text) = std::str::from_utf8(bytes) {
                 if !text.is_ascii() {
-                    warnings.push((0, format!("declared encoding {enc} is read as UTF-8, which the content is")));
+                    warnings.push((
+                        0,
+                        format!("declared encoding {enc} is read as UTF-8, which the content is"),
+                    ));
                 }
                 return Ok(text.to_owned());
             }
             warnings.push((0, format!("declared encoding {enc} decoded as Latin-1")));
             Ok(bytes.iter().map(|&b| char::from(b)).collect())
         }
-        Some(other) => Err(err(0, format!("unsupported document encoding {other:?}; use UTF-8"))),
+        Some(other) => Err(err(
+            0,
+            format!("unsupported document encoding {other:?}; use UTF-8"),
+        )),
     }
 }
 
 fn decode_utf8(bytes: &[u8]) -> Result<String, XmlError> {
     match std::str::from_utf8(bytes) {
         Ok(s) => Ok(s.to_owned()),
-        Err(e) => Err(err(e.valid_up_to(), format!("input is not UTF-8 (bad byte at offset {})", e.valid_up_to()))),
+        Err(e) => Err(err(
+            e.valid_up_to(),
+            format!(
+                "input is not UTF-8 (bad byte at offset {})",
+                e.valid_up_to()
+            ),
+        )),
     }
 }
 
@@ -214,7 +250,10 @@ fn declared_encoding(bytes: &[u8]) -> Option<&str> {
     let end = head.windows(2).position(|w| w == b"?>")?;
     let decl = std::str::from_utf8(&head[..end]).ok()?;
     let at = decl.find("encoding")?;
-    let rest = decl[at + "encoding".len()..].trim_start().strip_prefix('=')?.trim_start();
+    let rest = decl[at + "encoding".len()..]
+        .trim_start()
+        .strip_prefix('=')?
+        .trim_start();
     let quote = rest.chars().next()?;
     if quote != '"' && quote != '\'' {
         return None;
@@ -232,16 +271,32 @@ struct Scope {
 
 impl Scope {
     fn resolve(&self, prefix: &str) -> Option<&Ns> {
-        self.bindings.iter().rev().find(|(p, _)| p == prefix).map(|(_, ns)| ns)
+        self.bindings
+            .iter()
+            .rev()
+            .find(|(p, _)| p == prefix)
+            .map(|(_, ns)| ns)
     }
 }
 
 /// Parses decoded text into a [`Document`], enforcing `limits`.
 /// Offsets are `base` plus the position in `text`, so several documents of a bundle share one
 /// offset space.
-pub(crate) fn parse(text: &str, base: usize, limits: &Limits, mut warnings: Vec<(usize, String)>) -> Result<Document, XmlError> {
+pub(crate) fn parse(
+    text: &str,
+    base: usize,
+    limits: &Limits,
+    mut warnings: Vec<(usize, String)>,
+) -> Result<Document, XmlError> {
     if text.len() > limits.max_bytes {
-        return Err(err(base, format!("document is {} bytes; the limit is {}", text.len(), limits.max_bytes)));
+        return Err(err(
+            base,
+            format!(
+                "document is {} bytes; the limit is {}",
+                text.len(),
+                limits.max_bytes
+            ),
+        ));
     }
     let mut reader = Reader::from_str(text);
     reader.config_mut().check_end_names = true;
@@ -255,7 +310,10 @@ pub(crate) fn parse(text: &str, base: usize, limits: &Limits, mut warnings: Vec<
     loop {
         let offset = base + reader.buffer_position() as usize;
         let event = reader.read_event().map_err(|e| {
-            err(base + reader.error_position() as usize, format!("malformed XML: {e}"))
+            err(
+                base + reader.error_position() as usize,
+                format!("malformed XML: {e}"),
+            )
         })?;
         match event {
             Event::Start(start) | Event::Empty(start) if root.is_some() => {
@@ -265,10 +323,16 @@ pub(crate) fn parse(text: &str, base: usize, limits: &Limits, mut warnings: Vec<
             Event::Start(start) => {
                 elements += 1;
                 if elements > limits.max_elements {
-                    return Err(err(offset, format!("more than {} elements", limits.max_elements)));
+                    return Err(err(
+                        offset,
+                        format!("more than {} elements", limits.max_elements),
+                    ));
                 }
                 if stack.len() >= limits.max_depth {
-                    return Err(err(offset, format!("elements nested deeper than {}", limits.max_depth)));
+                    return Err(err(
+                        offset,
+                        format!("elements nested deeper than {}", limits.max_depth),
+                    ));
                 }
                 let element = open(&start, offset, &mut scope, limits, &mut warnings)?;
                 stack.push(element);
@@ -276,7 +340,10 @@ pub(crate) fn parse(text: &str, base: usize, limits: &Limits, mut warnings: Vec<
             Event::Empty(start) => {
                 elements += 1;
                 if elements > limits.max_elements {
-                    return Err(err(offset, format!("more than {} elements", limits.max_elements)));
+                    return Err(err(
+                        offset,
+                        format!("more than {} elements", limits.max_elements),
+                    ));
                 }
                 let element = open(&start, offset, &mut scope, limits, &mut warnings)?;
                 close_scope(&mut scope);
@@ -284,7 +351,9 @@ pub(crate) fn parse(text: &str, base: usize, limits: &Limits, mut warnings: Vec<
             }
             Event::End(_) => {
                 close_scope(&mut scope);
-                let element = stack.pop().ok_or_else(|| err(offset, "unexpected end tag"))?;
+                let element = stack
+                    .pop()
+                    .ok_or_else(|| err(offset, "unexpected end tag"))?;
                 attach(&mut stack, &mut root, element);
             }
             Event::Text(t) => {
@@ -314,9 +383,12 @@ pub(crate) fn parse(text: &str, base: usize, limits: &Limits, mut warnings: Vec<
                         "apos" => '\'',
                         "quot" => '"',
                         name => {
-                            return Err(err(offset, format!(
-                                "undefined entity &{name}; (only the five predefined XML entities are allowed)"
-                            )));
+                            return Err(err(
+                                offset,
+                                format!(
+                                    "undefined entity &{name}; (only the five predefined XML entities are allowed)"
+                                ),
+                            ));
                         }
                     }
                 };
@@ -336,7 +408,10 @@ pub(crate) fn parse(text: &str, base: usize, limits: &Limits, mut warnings: Vec<
         }
     }
     if let Some(open) = stack.last() {
-        return Err(err(base + text.len(), format!("document ends inside <{}>", open.name)));
+        return Err(err(
+            base + text.len(),
+            format!("document ends inside <{}>", open.name),
+        ));
     }
     let root = root.ok_or_else(|| err(base, "no root element: this is not an XML document"))?;
     Ok(Document { root, warnings })
@@ -371,9 +446,13 @@ fn open(
 ) -> Result<Element, XmlError> {
     let mut raw_attrs: Vec<(String, String)> = Vec::new();
     for attr in start.attributes().with_checks(true) {
-        let attr: Attribute<'_> = attr.map_err(|e| err(offset, format!("malformed attribute: {e}")))?;
+        let attr: Attribute<'_> =
+            attr.map_err(|e| err(offset, format!("malformed attribute: {e}")))?;
         if raw_attrs.len() >= limits.max_attributes {
-            return Err(err(offset, format!("element has more than {} attributes", limits.max_attributes)));
+            return Err(err(
+                offset,
+                format!("element has more than {} attributes", limits.max_attributes),
+            ));
         }
         let key: &str = attr.key.as_ref();
         let key = key.to_owned();
@@ -403,7 +482,10 @@ fn open(
     let ns = match scope.resolve(prefix) {
         Some(ns) => ns.clone(),
         None => {
-            warnings.push((offset, format!("prefix {prefix:?} of <{raw_name}> is not declared")));
+            warnings.push((
+                offset,
+                format!("prefix {prefix:?} of <{raw_name}> is not declared"),
+            ));
             Ns::Unbound(prefix.to_owned())
         }
     };
@@ -416,11 +498,25 @@ fn open(
         let ns = if prefix.is_empty() {
             Ns::None
         } else {
-            scope.resolve(prefix).cloned().unwrap_or_else(|| Ns::Unbound(prefix.to_owned()))
+            scope
+                .resolve(prefix)
+                .cloned()
+                .unwrap_or_else(|| Ns::Unbound(prefix.to_owned()))
         };
-        attrs.push(Attr { ns, name: local.to_owned(), value });
+        attrs.push(Attr {
+            ns,
+            name: local.to_owned(),
+            value,
+        });
     }
-    Ok(Element { ns, name: local.to_owned(), attrs, text: String::new(), children: Vec::new(), offset })
+    Ok(Element {
+        ns,
+        name: local.to_owned(),
+        attrs,
+        text: String::new(),
+        children: Vec::new(),
+        offset,
+    })
 }
 
 #[cfg(test)]
@@ -446,7 +542,12 @@ mod tests {
     fn refuses_doctype_and_unknown_entities() {
         let xxe = r#"<?xml version="1.0"?><!DOCTYPE d [<!ENTITY x SYSTEM "file:///etc/passwd">]><d>&x;</d>"#;
         assert!(read(xxe).unwrap_err().message.contains("DOCTYPE"));
-        assert!(read("<d>&x;</d>").unwrap_err().message.contains("undefined entity"));
+        assert!(
+            read("<d>&x;</d>")
+                .unwrap_err()
+                .message
+                .contains("undefined entity")
+        );
         assert_eq!(read("<d>&lt;&#65;</d>").unwrap().root.text, "<A");
     }
 
@@ -455,7 +556,12 @@ mod tests {
         let deep = "<a>".repeat(300) + &"</a>".repeat(300);
         assert!(read(&deep).unwrap_err().message.contains("deeper"));
         let attrs: String = (0..600).map(|i| format!(" a{i}=\"1\"")).collect();
-        assert!(read(&format!("<a{attrs}/>")).unwrap_err().message.contains("attributes"));
+        assert!(
+            read(&format!("<a{attrs}/>"))
+                .unwrap_err()
+                .message
+                .contains("attributes")
+        );
     }
 
     #[test]

@@ -1,0 +1,157 @@
+//! Parse + validate benchmark: our loader against bpmn-engine and SpiffWorkflow, same run.
+//!
+//! Times `executive_model::load` on a generated 10,000-node model and on the peers'
+//! `seq-1000.bpmn`, then runs the peer harness of `../shared/bench/peers` (parse mode) on the same
+//! files in the same run, and prints each time and the ratio to the faster peer. The peers are
+//! installed once into a scratch copy of the harness (`$TMPDIR/trace-bench-peers`), since
+//! `shared/` is read-only. Run with `cargo bench -p executive-model --bench parse`.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+fn shared() -> PathBuf {
+    std::env::var_os("TRACE_SHARED")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared"))
+}
+
+/// start -> `n - 2` service tasks -> end, bound for both us and the peers.
+fn generated(n: usize) -> String {
+    let mut s = String::from(concat!(
+        r#"<?xml version="1.0" encoding="UTF-8"?><bpmn:definitions xmlns:bpmn="http://www.omg.org/spec/BPMN/20100524/MODEL" "#,
+        r#"xmlns:spiffworkflow="http://spiffworkflow.org/bpmn/schema/1.0/core" "#,
+        r#"xmlns:trace="urn:trace:bpmn:1.0" id="Definitions_gen" targetNamespace="urn:bench"><bpmn:process id="gen" isExecutable="true">"#,
+        r#"<bpmn:startEvent id="s"><bpmn:outgoing>f0</bpmn:outgoing></bpmn:startEvent>"#
+    ));
+    for i in 1..n - 1 {
+        s.push_str(&format!(
+            r#"<bpmn:serviceTask id="t{i}" implementation="${{environment.services.noop}}"><bpmn:extensionElements><trace:task resource="bench.noop"/><spiffworkflow:serviceTaskOperator id="noop" resultVariable="r"><spiffworkflow:parameters /></spiffworkflow:serviceTaskOperator></bpmn:extensionElements><bpmn:incoming>f{}</bpmn:incoming><bpmn:outgoing>f{i}</bpmn:outgoing></bpmn:serviceTask><bpmn:sequenceFlow id="f{}" sourceRef="{}" targetRef="t{i}"/>"#,
+            i - 1,
+            i - 1,
+            if i == 1 { "s".to_owned() } else { format!("t{}", i - 1) }
+        ));
+    }
+    s.push_str(&format!(
+        r#"<bpmn:endEvent id="e"><bpmn:incoming>f{0}</bpmn:incoming></bpmn:endEvent><bpmn:sequenceFlow id="f{0}" sourceRef="t{0}" targetRef="e"/></bpmn:process></bpmn:definitions>"#,
+        n - 2
+    ));
+    s
+}
+
+/// Median wall time of `reps` loads, in milliseconds.
+fn ours(bytes: &[u8], reps: usize) -> (f64, usize) {
+    let diagnostics = executive_model::load(bytes).diagnostics.len();
+    let mut times: Vec<f64> = (0..reps)
+        .map(|_| {
+            let t = Instant::now();
+            let loaded = executive_model::load(bytes);
+            std::hint::black_box(&loaded);
+            t.elapsed().as_secs_f64() * 1000.0
+        })
+        .collect();
+    times.sort_by(f64::total_cmp);
+    (times[reps / 2], diagnostics)
+}
+
+fn run(cmd: &mut Command) -> Option<String> {
+    let out = cmd.output().ok()?;
+    if !out.status.success() {
+        eprintln!(
+            "{:?} failed: {}",
+            cmd,
+            String::from_utf8_lossy(&out.stderr)
+                .lines()
+                .last()
+                .unwrap_or("")
+        );
+    }
+    Some(String::from_utf8_lossy(&out.stdout).into_owned())
+}
+
+/// A scratch copy of the peer harness with bpmn-engine and SpiffWorkflow installed.
+fn peers() -> Option<PathBuf> {
+    let dir = std::env::temp_dir().join("trace-bench-peers");
+    if !dir.join("node_modules/bpmn-engine/package.json").exists()
+        || !dir.join(".venv/bin/python").exists()
+    {
+        std::fs::create_dir_all(&dir).ok()?;
+        for f in [
+            "package.json",
+            "package-lock.json",
+            "requirements.txt",
+            "run_bpmn_engine.js",
+            "run_spiff.py",
+        ] {
+            std::fs::copy(shared().join("bench/peers").join(f), dir.join(f)).ok()?;
+        }
+        run(Command::new("npm")
+            .args(["ci", "--no-audit", "--no-fund", "--silent"])
+            .current_dir(&dir))?;
+        run(Command::new("python3")
+            .args(["-m", "venv", ".venv"])
+            .current_dir(&dir))?;
+        run(Command::new(dir.join(".venv/bin/pip"))
+            .args(["install", "-q", "-r", "requirements.txt"])
+            .current_dir(&dir))?;
+    }
+    Some(dir)
+}
+
+/// Warm median parse time (ms) reported by a peer runner in parse mode.
+fn peer(dir: &Path, engine: &str, model: &Path, reps: usize) -> Option<f64> {
+    let reps = reps.to_string();
+    let model = model.to_str()?;
+    let out = match engine {
+        "bpmn-engine" => run(Command::new("node")
+            .args(["run_bpmn_engine.js", model, &reps, "--mode", "parse"])
+            .current_dir(dir))?,
+        _ => run(Command::new(dir.join(".venv/bin/python"))
+            .args(["run_spiff.py", model, &reps, "--mode", "parse", "--deep"])
+            .current_dir(dir))?,
+    };
+    let line: serde_json::Value = serde_json::from_str(out.lines().last()?).ok()?;
+    line["parse_warm_median_ms"]
+        .as_f64()
+        .or_else(|| line["parse_cold_ms"].as_f64())
+}
+
+fn main() {
+    let scratch = std::env::temp_dir().join("trace-bench-models");
+    std::fs::create_dir_all(&scratch).expect("scratch dir");
+    let generated_path = scratch.join("gen-10000.bpmn");
+    std::fs::write(&generated_path, generated(10_000)).expect("write model");
+    let models = [
+        ("generated 10,000 nodes", generated_path),
+        (
+            "seq-1000.bpmn",
+            shared().join("bench/peers/models/seq-1000.bpmn"),
+        ),
+    ];
+    let peers = peers();
+    if peers.is_none() {
+        eprintln!(
+            "peer harness unavailable (needs node, npm, python3 -m venv and registry access); printing our times only"
+        );
+    }
+    println!(
+        "{:<24} {:>10} {:>12} {:>12} {:>14}  diagnostics",
+        "model", "ours ms", "bpmn-engine", "Spiff", "x faster peer"
+    );
+    for (name, path) in &models {
+        let bytes = std::fs::read(path).expect("model");
+        let (ms, diagnostics) = ours(&bytes, 21);
+        let engine = peers
+            .as_deref()
+            .and_then(|d| peer(d, "bpmn-engine", path, 6));
+        let spiff = peers.as_deref().and_then(|d| peer(d, "spiff", path, 6));
+        let faster = [engine, spiff].into_iter().flatten().reduce(f64::min);
+        let show = |v: Option<f64>| v.map_or("-".to_owned(), |v| format!("{v:.2}"));
+        let ratio = faster.map_or("-".to_owned(), |f| format!("{:.0}x", f / ms));
+        println!(
+            "{name:<24} {ms:>10.3} {:>12} {:>12} {ratio:>14}  {diagnostics}",
+            show(engine),
+            show(spiff)
+        );
+    }
+}
