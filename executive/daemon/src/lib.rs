@@ -10,4 +10,5 @@
 //! - `anyhow` only in `main`; this library returns typed errors.
 //! - `tracing` + `tracing-subscriber` for logs with an env filter.
 
+pub mod conformance;
 pub mod validate;

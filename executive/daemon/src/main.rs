@@ -24,6 +24,20 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Run a public conformance corpus against the engine (exit 1 if a case fails).
+    #[command(subcommand)]
+    Conformance(Corpus),
+}
+
+#[derive(Subcommand)]
+enum Corpus {
+    /// A betsy-format corpus: model folders and an expectations file.
+    Betsy {
+        /// The corpus folder (holding `basics/`, `gateways/`, …).
+        dir: PathBuf,
+        /// The expectations file (JSON array of tests and cases).
+        expectations: PathBuf,
+    },
 }
 
 fn main() -> anyhow::Result<ExitCode> {
@@ -39,6 +53,15 @@ fn main() -> anyhow::Result<ExitCode> {
             let stdout = std::io::stdout();
             let verdict = executive::validate::run(&files, json, &mut stdout.lock())?;
             Ok(ExitCode::from(verdict.exit_code() as u8))
+        }
+        Command::Conformance(Corpus::Betsy { dir, expectations }) => {
+            let stdout = std::io::stdout();
+            let totals = executive::conformance::betsy(&dir, &expectations, &mut stdout.lock())?;
+            Ok(if totals.failed == 0 {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::FAILURE
+            })
         }
     }
 }

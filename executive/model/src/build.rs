@@ -152,6 +152,7 @@ pub(crate) fn build(
             escalations: Vec::new(),
             collaborations: Vec::new(),
             warnings: Vec::new(),
+            global_tasks: BTreeMap::new(),
             node_ids: BTreeMap::new(),
             process_ids: BTreeMap::new(),
         },
@@ -203,6 +204,17 @@ pub(crate) fn build(
         b.node_details(NodeId(i as u32));
     }
     b.compensation_associations();
+    let globals: Vec<(String, &Element)> = b
+        .global_tasks
+        .iter()
+        .map(|(id, el)| (id.clone(), *el))
+        .collect();
+    for (id, el) in globals {
+        let name = el.name.strip_prefix("global").unwrap_or(&el.name);
+        let name = format!("{}{}", name[..1].to_ascii_lowercase(), &name[1..]);
+        let task = b.task(el, &name, &id, true);
+        b.g.global_tasks.insert(id, task);
+    }
     for doc in docs {
         for el in doc.root.bpmn_children("collaboration") {
             b.collaboration(el);
@@ -473,6 +485,8 @@ impl<'d> Builder<'d, '_> {
                     boundaries: Vec::new(),
                     looping: None,
                     for_compensation: child.attr("isForCompensation") == Some("true"),
+                    start_quantity: quantity(child.attr("startQuantity")),
+                    completion_quantity: quantity(child.attr("completionQuantity")),
                     compensation_handler: None,
                     offset: child.offset,
                 });
@@ -999,41 +1013,44 @@ impl<'d> Builder<'d, '_> {
                 .read(el);
                 NodeKind::CallActivity(CallActivity { called, binding })
             }
-            task => {
-                let kind = match task {
-                    "serviceTask" => TaskKind::Service,
-                    "userTask" => TaskKind::User,
-                    "scriptTask" => TaskKind::Script,
-                    "sendTask" => TaskKind::Send,
-                    "receiveTask" => TaskKind::Receive,
-                    "manualTask" => TaskKind::Manual,
-                    "businessRuleTask" => TaskKind::BusinessRule,
-                    _ => TaskKind::Plain,
-                };
-                let binding = BindingReader {
-                    sink: self.sink,
-                    element_id: &owner,
-                    strict,
-                }
-                .read(el);
-                let script = (kind == TaskKind::Script)
-                    .then(|| self.script(el, &owner, strict))
-                    .flatten();
-                let message = matches!(kind, TaskKind::Send | TaskKind::Receive)
-                    .then(|| self.resolve(|b| &b.messages, el, "messageRef", &owner))
-                    .flatten();
-                NodeKind::Task(Task {
-                    kind,
-                    binding,
-                    script,
-                    message,
-                    instantiate: el.attr("instantiate") == Some("true"),
-                })
-            }
+            task => NodeKind::Task(self.task(el, task, &owner, strict)),
         };
         self.g.nodes[nid.index()].kind = kind;
         self.looping(nid, el, &owner, strict);
         self.default_flow(nid, el, &owner);
+    }
+
+    /// A task (or global task, whose element name has lost its `global` prefix).
+    fn task(&mut self, el: &'d Element, name: &str, owner: &str, strict: bool) -> Task {
+        let kind = match name {
+            "serviceTask" => TaskKind::Service,
+            "userTask" => TaskKind::User,
+            "scriptTask" => TaskKind::Script,
+            "sendTask" => TaskKind::Send,
+            "receiveTask" => TaskKind::Receive,
+            "manualTask" => TaskKind::Manual,
+            "businessRuleTask" => TaskKind::BusinessRule,
+            _ => TaskKind::Plain,
+        };
+        let binding = BindingReader {
+            sink: self.sink,
+            element_id: owner,
+            strict,
+        }
+        .read(el);
+        let script = (kind == TaskKind::Script)
+            .then(|| self.script(el, owner, strict))
+            .flatten();
+        let message = matches!(kind, TaskKind::Send | TaskKind::Receive)
+            .then(|| self.resolve(|b| &b.messages, el, "messageRef", owner))
+            .flatten();
+        Task {
+            kind,
+            binding,
+            script,
+            message,
+            instantiate: el.attr("instantiate") == Some("true"),
+        }
     }
 
     fn script(&mut self, el: &Element, owner: &str, strict: bool) -> Option<Script> {
@@ -1221,6 +1238,11 @@ impl<'d> Builder<'d, '_> {
             output_element,
             completion,
             behavior,
+            complex: m
+                .bpmn_children("complexBehaviorDefinition")
+                .filter_map(|d| d.bpmn_child("condition"))
+                .filter_map(|c| self.expr(strict, c, owner, "complex behavior condition"))
+                .collect(),
         })));
     }
 
@@ -1289,4 +1311,12 @@ fn data_items(el: &Element, name: &str) -> Vec<DataItem> {
             collection: d.attr("isCollection") == Some("true"),
         })
         .collect()
+}
+
+/// `startQuantity` / `completionQuantity`: a positive count, 1 when absent. Zero and garbage are
+/// refused by the checker (EXT.037/038) before the model is executed.
+fn quantity(raw: Option<&str>) -> u32 {
+    raw.and_then(|v| v.trim().parse().ok())
+        .filter(|&q| q > 0)
+        .unwrap_or(1)
 }

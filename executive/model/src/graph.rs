@@ -14,7 +14,10 @@ use crate::timer::Timer;
 macro_rules! id_type {
     ($(#[$doc:meta])* $name:ident) => {
         $(#[$doc])*
-        #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+        #[derive(
+            Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize,
+        )]
+        #[serde(transparent)]
         pub struct $name(pub u32);
         impl $name {
             /// The arena index.
@@ -79,6 +82,8 @@ pub struct ProcessGraph {
     pub collaborations: Vec<Collaboration>,
     /// Warnings found while loading (the graph has no errors, or it would not exist).
     pub warnings: Vec<Diagnostic>,
+    /// Global tasks (`globalScriptTask`, …) by id, run by call activities.
+    pub global_tasks: BTreeMap<String, Task>,
     pub(crate) node_ids: BTreeMap<String, NodeId>,
     pub(crate) process_ids: BTreeMap<String, ProcessId>,
 }
@@ -155,7 +160,9 @@ impl ProcessGraph {
 }
 
 /// Where a node sits: directly in a process, or inside a sub-process node.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize,
+)]
 pub enum Scope {
     /// Top level of a process.
     Process(ProcessId),
@@ -326,6 +333,10 @@ pub struct Node {
     pub looping: Option<Looping>,
     /// `isForCompensation`.
     pub for_compensation: bool,
+    /// `startQuantity`: tokens that must arrive before the activity starts (1 unless set).
+    pub start_quantity: u32,
+    /// `completionQuantity`: tokens the activity emits on each outgoing flow (1 unless set).
+    pub completion_quantity: u32,
     /// Compensation handler reached from this activity's compensation boundary event.
     pub compensation_handler: Option<NodeId>,
     /// Byte offset of the element in the source.
@@ -672,17 +683,19 @@ pub struct MultiInstance {
     pub completion: Option<Expression>,
     /// `behavior` for throwing events of the instances.
     pub behavior: MiBehavior,
+    /// Conditions of the `complexBehaviorDefinition`s (behavior `Complex`), in document order.
+    pub complex: Vec<Expression>,
 }
 
 /// Multi-instance `behavior`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum MiBehavior {
-    /// No event is thrown.
+    /// Every completing instance throws the activity's event.
     None,
-    /// Only the first instance throws.
+    /// Only the first completing instance throws.
     One,
-    /// Every instance throws.
+    /// No event is thrown (the default).
     All,
-    /// Complex behaviour definitions decide.
+    /// The `complexBehaviorDefinition`s decide.
     Complex,
 }

@@ -1,0 +1,299 @@
+//! The engine: validates an input against the state, then applies it and runs to quiescence.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use executive_model::{NodeId, NodeKind, ProcessGraph, TaskKind};
+
+use crate::io::{Action, Entry, Event, Input, Outcome, Rejected, TaskKey, Trigger};
+use crate::run::Run;
+use crate::state::{At, On, State};
+use crate::value::Vars;
+
+/// The BPMN token engine over one validated model.
+pub struct Engine {
+    graph: Arc<ProcessGraph>,
+    state: State,
+    reach: BTreeMap<(NodeId, NodeId), bool>,
+    trace_moves: bool,
+}
+
+impl Engine {
+    /// An engine with no instance yet.
+    pub fn new(graph: Arc<ProcessGraph>) -> Engine {
+        Engine::restore(graph, State::default())
+    }
+
+    /// An engine resuming from a saved state (the same model it was saved with).
+    pub fn restore(graph: Arc<ProcessGraph>, state: State) -> Engine {
+        Engine {
+            graph,
+            state,
+            reach: BTreeMap::new(),
+            trace_moves: true,
+        }
+    }
+
+    /// Turns the `entered` / `left` / `took` record entries off (benchmarks of raw stepping).
+    pub fn with_move_records(mut self, on: bool) -> Engine {
+        self.trace_moves = on;
+        self
+    }
+
+    /// The current state.
+    pub fn state(&self) -> &State {
+        &self.state
+    }
+
+    /// The model.
+    pub fn graph(&self) -> &Arc<ProcessGraph> {
+        &self.graph
+    }
+
+    /// Applies one input. On `Err` the state is unchanged.
+    #[must_use = "actions must be persisted, then executed by the driver"]
+    pub fn step(&mut self, input: Input) -> Result<Vec<Action>, Rejected> {
+        if input.seq <= self.state.last_seq {
+            return Err(Rejected::Duplicate {
+                seq: input.seq,
+                last: self.state.last_seq,
+            });
+        }
+        self.check(&input.event)?;
+        self.state.last_seq = input.seq;
+        self.state.now = self.state.now.max(input.at);
+        let mut run = Run {
+            g: &self.graph,
+            s: &mut self.state,
+            now: input.at,
+            out: Vec::new(),
+            ready: Default::default(),
+            trace_moves: self.trace_moves,
+            deferred: Vec::new(),
+            throw_now: Default::default(),
+            reach: &mut self.reach,
+        };
+        apply(&mut run, input.event);
+        run.quiesce();
+        Ok(run.out)
+    }
+
+    /// Refuses inputs that do not fit the state, before anything changes.
+    fn check(&self, event: &Event) -> Result<(), Rejected> {
+        let s = &self.state;
+        let g = &self.graph;
+        match event {
+            Event::InstanceStarted { process, .. } => {
+                let p = g
+                    .process_by_id(process)
+                    .filter(|p| g.process(*p).executable)
+                    .ok_or_else(|| Rejected::UnknownProcess(process.clone()))?;
+                unsupported(g, p)
+            }
+            Event::TaskCompleted { task, .. } | Event::TaskFailed { task, .. } => {
+                match s.tokens.get(&task.token).map(|t| &t.at) {
+                    Some(At::Task(k)) if k == task => Ok(()),
+                    _ => Err(Rejected::UnknownTask(*task)),
+                }
+            }
+            Event::UserTaskAnswered { task, answer, .. } => {
+                let Some(tok) = s
+                    .tokens
+                    .get(&task.token)
+                    .filter(|t| t.at == At::UserTask(*task))
+                else {
+                    return Err(Rejected::UnknownTask(*task));
+                };
+                check_answer(g, tok.node, *task, answer)
+            }
+            Event::TimerFired { timer } => match s.waits.get(&timer.wait).map(|w| &w.on) {
+                Some(On::Timer { key, .. }) if key == timer => Ok(()),
+                _ => Err(Rejected::UnknownTimer(*timer)),
+            },
+            Event::MessageReceived {
+                name, correlation, ..
+            } => {
+                let waiting = s
+                    .waits
+                    .values()
+                    .any(|w| matches!(&w.on, On::Message(n, _) if n == name));
+                let starts = g.processes.iter().any(|p| {
+                    p.executable
+                        && p.nodes.iter().any(|n| {
+                            let is_name = |m: &Option<executive_model::MessageId>| {
+                                m.is_some_and(|m| g.messages[m.index()].name == *name)
+                            };
+                            match &g.node(*n).kind {
+                                NodeKind::Start(st) => st.triggers.iter().any(|d| {
+                                    matches!(d, executive_model::EventDefinition::Message(m) if is_name(m))
+                                }),
+                                NodeKind::Task(t) => t.instantiate && is_name(&t.message),
+                                _ => false,
+                            }
+                        })
+                });
+                let _ = correlation;
+                if waiting || starts {
+                    Ok(())
+                } else {
+                    Err(Rejected::NoReceiver(name.clone()))
+                }
+            }
+            Event::CancelRequested { instance } => match s.instances.get(instance) {
+                Some(i) if i.outcome.is_none() => Ok(()),
+                _ => Err(Rejected::UnknownInstance(instance.0)),
+            },
+            Event::SignalReceived { .. } | Event::DataChanged { .. } => Ok(()),
+        }
+    }
+}
+
+/// Elements this engine refuses to run, named (never silently dropped).
+fn unsupported(g: &ProcessGraph, p: executive_model::ProcessId) -> Result<(), Rejected> {
+    let _ = (g, p);
+    Ok(())
+}
+
+/// A user-task answer must give every declared form field, with its declared type.
+fn check_answer(
+    g: &ProcessGraph,
+    node: NodeId,
+    task: TaskKey,
+    answer: &Vars,
+) -> Result<(), Rejected> {
+    let NodeKind::Task(t) = &g.node(node).kind else {
+        return Ok(());
+    };
+    if t.kind != TaskKind::User {
+        return Ok(());
+    }
+    let Some(b) = &t.binding else { return Ok(()) };
+    for m in &b.outputs {
+        // A form field is an output whose source is a plain field name.
+        let field = m.source.text.as_str();
+        if !field.chars().all(|c| c.is_alphanumeric() || c == '_') {
+            continue;
+        }
+        let Some(v) = answer.get(field) else {
+            return Err(Rejected::BadAnswer {
+                task,
+                reason: format!("field `{field}` is missing"),
+            });
+        };
+        if let Some(ty) = &m.ty {
+            crate::eval::convert(v.clone(), ty).map_err(|e| Rejected::BadAnswer {
+                task,
+                reason: format!("field `{field}`: {e}"),
+            })?;
+        }
+    }
+    Ok(())
+}
+
+fn apply(run: &mut Run<'_>, event: Event) {
+    match event {
+        Event::InstanceStarted { process, vars } => {
+            let Some(p) = run.g.process_by_id(&process) else {
+                return;
+            };
+            let (_, root) = run.open_instance(p, vars);
+            run.start_process_scope(root, p);
+        }
+        Event::TaskCompleted { task, output } => {
+            let t = task.token;
+            run.record(
+                task.instance,
+                Entry::Completed {
+                    task,
+                    output: output.clone(),
+                },
+            );
+            if let Some(tok) = run.s.tokens.get_mut(&t) {
+                tok.at = At::Ready;
+            }
+            match run.apply_outputs(t, &output) {
+                Ok(()) => run.complete_activity(t),
+                Err(e) => {
+                    let label = run.g.node(run.s.tokens[&t].node).label().to_owned();
+                    run.task_error(t, "TYPE_MISMATCH", &format!("{label}: {e}"));
+                }
+            }
+        }
+        Event::TaskFailed {
+            task,
+            code,
+            message,
+        } => {
+            run.record(
+                task.instance,
+                Entry::Failed {
+                    task,
+                    code: code.clone(),
+                    message: message.clone(),
+                },
+            );
+            if let Some(tok) = run.s.tokens.get_mut(&task.token) {
+                tok.at = At::Ready;
+            }
+            run.task_error(task.token, &code, &message);
+        }
+        Event::UserTaskAnswered {
+            task,
+            answer,
+            operator,
+        } => {
+            let t = task.token;
+            run.record(
+                task.instance,
+                Entry::Answered {
+                    task,
+                    operator,
+                    answer: answer.clone(),
+                },
+            );
+            run.out.push(Action::CloseUserTask { task });
+            if let Some(tok) = run.s.tokens.get_mut(&t) {
+                tok.at = At::Ready;
+            }
+            match run.apply_outputs(t, &answer) {
+                Ok(()) => run.complete_activity(t),
+                Err(e) => run.incident(t, e),
+            }
+        }
+        Event::TimerFired { timer } => {
+            let Some(w) = run.s.waits.get(&timer.wait) else {
+                return;
+            };
+            let node = w.node;
+            run.record(timer.instance, Entry::TimerFired { timer, node });
+            run.trigger(timer.wait, Trigger::Timer, String::new(), &Vars::new());
+        }
+        Event::MessageReceived {
+            name,
+            correlation,
+            payload,
+        } => {
+            run.deliver_message(&name, correlation.as_ref(), &payload);
+        }
+        Event::SignalReceived { name } => {
+            let instance = crate::io::InstanceId(0);
+            run.broadcast(instance, None, &name);
+        }
+        Event::DataChanged { key, value } => {
+            for (id, i) in &run.s.instances {
+                if i.outcome.is_none() {
+                    run.out.push(Action::Record(crate::io::Record {
+                        instance: *id,
+                        at: run.now,
+                        entry: Entry::Data {
+                            key: key.clone(),
+                            value: value.clone(),
+                        },
+                    }));
+                }
+            }
+            run.s.data.insert(key, value);
+        }
+        Event::CancelRequested { instance } => run.finish_instance(instance, Outcome::Cancelled),
+    }
+}

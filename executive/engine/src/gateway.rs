@@ -1,0 +1,269 @@
+//! Gateways: exclusive, parallel, inclusive (with the non-local join rule), complex and
+//! event-based.
+
+use std::collections::BTreeSet;
+
+use executive_model::{FlowId, Gateway, GatewayKind, NodeId, NodeKind};
+
+use crate::io::{Entry, TokenId};
+use crate::run::Run;
+use crate::state::At;
+use crate::value::{Value, Vars};
+
+impl Run<'_> {
+    /// A token arrives at a gateway.
+    pub(crate) fn gateway(&mut self, t: TokenId, gw: &Gateway) {
+        let g = self.g;
+        let node = self.s.tokens[&t].node;
+        let n = g.node(node);
+        match gw.kind {
+            GatewayKind::Exclusive => match self.choose(t, node, false) {
+                Ok(flows) => self.leave_gateway(t, &flows),
+                Err(e) => self.incident(t, e),
+            },
+            GatewayKind::Parallel => {
+                if n.incoming.len() > 1 && !self.parallel_join(t) {
+                    return;
+                }
+                let out = n.outgoing.clone();
+                self.leave_gateway(t, &out);
+            }
+            GatewayKind::Inclusive | GatewayKind::Complex => {
+                if n.incoming.len() > 1 {
+                    if let Some(tok) = self.s.tokens.get_mut(&t) {
+                        tok.at = At::Joining;
+                    }
+                    self.s.joins.insert(t);
+                    self.try_join(t);
+                } else {
+                    self.split(t);
+                }
+            }
+            GatewayKind::EventBased { .. } => self.event_gateway(t),
+        }
+    }
+
+    fn leave_gateway(&mut self, t: TokenId, flows: &[FlowId]) {
+        if self.trace_moves {
+            let tok = &self.s.tokens[&t];
+            let (instance, node) = (tok.instance, tok.node);
+            self.record(instance, Entry::Left { node, token: t });
+        }
+        self.take(t, flows, 1);
+    }
+
+    fn split(&mut self, t: TokenId) {
+        let node = self.s.tokens[&t].node;
+        match self.choose(t, node, true) {
+            Ok(flows) => self.leave_gateway(t, &flows),
+            Err(e) => self.incident(t, e),
+        }
+    }
+
+    /// The flows a diverging gateway takes: the first whose condition holds (`all`: every one),
+    /// else the default flow. A single unconditional flow is simply taken.
+    fn choose(&mut self, t: TokenId, node: NodeId, all: bool) -> Result<Vec<FlowId>, String> {
+        let g = self.g;
+        let n = g.node(node);
+        if n.outgoing.len() == 1 && g.flow(n.outgoing[0]).condition.is_none() {
+            return Ok(n.outgoing.clone());
+        }
+        let scope = self.s.tokens[&t].scope;
+        let mut read = Vars::new();
+        let mut taken = Vec::new();
+        for &f in &n.outgoing {
+            if Some(f) == n.default_flow {
+                continue;
+            }
+            let ok = match &g.flow(f).condition {
+                None => true,
+                Some(c) => self.condition(scope, c, &mut read)?,
+            };
+            if ok {
+                taken.push(f);
+                if !all {
+                    break;
+                }
+            }
+        }
+        if taken.is_empty()
+            && let Some(d) = n.default_flow
+        {
+            taken.push(d);
+        }
+        let instance = self.s.tokens[&t].instance;
+        self.record(
+            instance,
+            Entry::Decided {
+                node,
+                flows: taken.clone(),
+                read,
+            },
+        );
+        if taken.is_empty() {
+            return Err(format!(
+                "no condition of gateway `{}` holds and it has no default flow",
+                n.label()
+            ));
+        }
+        Ok(taken)
+    }
+
+    /// Tokens of the same scope waiting at the same join as `t`, `t` included.
+    fn joining(&self, t: TokenId) -> Vec<TokenId> {
+        let tok = &self.s.tokens[&t];
+        let (scope, node) = (tok.scope, tok.node);
+        let mut out: Vec<TokenId> = self
+            .tokens_in(scope)
+            .into_iter()
+            .filter(|o| {
+                let x = &self.s.tokens[o];
+                x.node == node && x.at == At::Joining
+            })
+            .collect();
+        if !out.contains(&t) {
+            out.push(t);
+        }
+        out
+    }
+
+    /// A parallel join fires when a token waits on every incoming flow.
+    fn parallel_join(&mut self, t: TokenId) -> bool {
+        let g = self.g;
+        if let Some(tok) = self.s.tokens.get_mut(&t) {
+            tok.at = At::Joining;
+        }
+        let node = self.s.tokens[&t].node;
+        let waiting = self.joining(t);
+        let mut picked = Vec::new();
+        for &f in &g.node(node).incoming {
+            // The arriving token covers its own flow first.
+            let cover = std::iter::once(t)
+                .chain(waiting.iter().copied())
+                .find(|o| self.s.tokens[o].via == Some(f) && !picked.contains(o));
+            match cover {
+                Some(o) => picked.push(o),
+                None => return false,
+            }
+        }
+        for o in picked {
+            if o != t {
+                self.consume(o, false);
+            }
+        }
+        if let Some(tok) = self.s.tokens.get_mut(&t) {
+            tok.at = At::Ready;
+        }
+        true
+    }
+
+    /// An inclusive or complex join: fire when no further token can arrive (inclusive), or when
+    /// the activation condition holds (complex). Returns whether it fired or absorbed.
+    pub(crate) fn try_join(&mut self, t: TokenId) -> bool {
+        let g = self.g;
+        let tok = &self.s.tokens[&t];
+        let (node, scope) = (tok.node, tok.scope);
+        let NodeKind::Gateway(gw) = &g.node(node).kind else {
+            return false;
+        };
+        let waiting = self.joining(t);
+        let pending = self.can_arrive(scope, node, &waiting);
+        if gw.kind == GatewayKind::Complex {
+            if self.s.fired_complex.contains(&(scope, node)) {
+                // The rest of a wave that already activated the gateway is absorbed.
+                for o in waiting {
+                    self.s.joins.remove(&o);
+                    self.consume(o, false);
+                }
+                if !self.can_arrive(scope, node, &[]) {
+                    self.s.fired_complex.remove(&(scope, node));
+                }
+                return true;
+            }
+            let activated = match &gw.activation {
+                None => !pending,
+                Some(expr) => {
+                    let count = waiting.len() as i64;
+                    let lookup = |n: &str| {
+                        if n == "activationCount" {
+                            Some(Value::Int(count))
+                        } else {
+                            self.lookup(scope, n)
+                        }
+                    };
+                    match crate::eval::condition(expr, &lookup, &mut Vars::new()) {
+                        Ok(b) => b,
+                        Err(e) => {
+                            self.s.joins.remove(&t);
+                            self.incident(t, e);
+                            return false;
+                        }
+                    }
+                }
+            };
+            if !activated {
+                return false;
+            }
+            if pending {
+                self.s.fired_complex.insert((scope, node));
+            }
+        } else if pending {
+            return false;
+        }
+        for &o in &waiting {
+            self.s.joins.remove(&o);
+            if o != t {
+                self.consume(o, false);
+            }
+        }
+        if let Some(tok) = self.s.tokens.get_mut(&t) {
+            tok.at = At::Ready;
+        }
+        self.split(t);
+        true
+    }
+
+    /// Whether a token of `scope` other than `except` can still reach `join`.
+    fn can_arrive(&mut self, scope: crate::io::ScopeId, join: NodeId, except: &[TokenId]) -> bool {
+        let others: BTreeSet<NodeId> = self
+            .tokens_in(scope)
+            .into_iter()
+            .filter(|o| !except.contains(o))
+            .map(|o| self.s.tokens[&o].node)
+            .collect();
+        others
+            .into_iter()
+            .any(|from| from == join || self.reaches(from, join))
+    }
+
+    /// Whether `to` is reachable from `from` along sequence flows (and boundary events).
+    fn reaches(&mut self, from: NodeId, to: NodeId) -> bool {
+        if let Some(&r) = self.reach.get(&(from, to)) {
+            return r;
+        }
+        let g = self.g;
+        let mut seen = BTreeSet::new();
+        let mut stack = vec![from];
+        let mut found = false;
+        while let Some(n) = stack.pop() {
+            if !seen.insert(n) {
+                continue;
+            }
+            let node = g.node(n);
+            for &f in &node.outgoing {
+                let target = g.flow(f).target;
+                if target == to {
+                    found = true;
+                    break;
+                }
+                stack.push(target);
+            }
+            if found {
+                break;
+            }
+            stack.extend(node.boundaries.iter().copied());
+        }
+        self.reach.insert((from, to), found);
+        found
+    }
+}

@@ -1,0 +1,43 @@
+//! executive-engine: the BPMN 2.0 token engine of TRACE. No I/O, no clock, no randomness, no
+//! threads, no hash-ordered collections.
+//!
+//! [`Engine::step`] takes one journaled [`Input`] (something that happened, stamped with its
+//! mission time) and returns the [`Action`]s the driver must perform, after moving every token
+//! that can move ("run to quiescence"). The same state and input always give the same state and
+//! actions, in the same order, so a journal replays exactly; [`State`] is serde-serializable and
+//! `Eq + Hash`, so it can be persisted and model-checked. A refused input ([`Rejected`]) leaves
+//! the state unchanged.
+//!
+//! # Dependencies
+//! - `executive-model`: the validated `ProcessGraph`; the engine never sees XML.
+//! - `cel`: expressions (conditions, mappings, scripts), compiled once at load, evaluated here.
+//! - `chrono`: ISO 8601 timer arithmetic in calendar units.
+//! - `serde`: the state and the journal entries are data.
+//! - `thiserror`: [`Rejected`] is a typed error.
+//!
+//! # Supported elements and their semantics
+//! See the table in the README; in short: every element the loader reads executes, with BPMN
+//! 2.0 chapter 13 token semantics, and an expression or mapping that fails at run time becomes an
+//! *incident* on its token (the instance keeps running, the ground sees the reason).
+
+mod engine;
+mod eval;
+mod events;
+mod gateway;
+mod io;
+mod looping;
+mod run;
+mod scope;
+mod state;
+mod value;
+
+pub use engine::Engine;
+pub use io::{
+    Action, Entry, Event, Input, InstanceId, Millis, Outcome, Record, Rejected, ScopeId, TaskKey,
+    TimerKey, TokenId, Trigger, WaitId,
+};
+pub use state::{
+    At, Compensable, CompensationRun, Handler, Instance, Loop, On, ScopeKind, ScopeState, State,
+    Token, Wait,
+};
+pub use value::{F64, Value, Vars};

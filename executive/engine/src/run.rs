@@ -1,0 +1,778 @@
+//! Moving tokens to quiescence: arriving at nodes, leaving them, consuming tokens, incidents.
+
+use std::collections::VecDeque;
+
+use executive_model::{
+    EventDefinition, FlowId, NodeId, NodeKind, ProcessGraph, Scope, SubProcessKind, TaskKind,
+};
+
+use crate::eval;
+use crate::io::{Action, Entry, InstanceId, Millis, Record, ScopeId, TokenId, Trigger, WaitId};
+use crate::state::{At, On, ScopeKind, State, Token};
+use crate::value::{Value, Vars};
+
+/// One step's working context: the state being changed, the actions produced, the tokens that
+/// still have to move.
+pub(crate) struct Run<'a> {
+    pub(crate) g: &'a ProcessGraph,
+    pub(crate) s: &'a mut State,
+    pub(crate) now: Millis,
+    pub(crate) out: Vec<Action>,
+    pub(crate) ready: VecDeque<TokenId>,
+    /// Record token moves (entered / left / took). Off only for benchmarks of raw stepping.
+    pub(crate) trace_moves: bool,
+    /// Signal throwers waiting for the ready tokens to settle.
+    pub(crate) deferred: Vec<TokenId>,
+    /// Deferred throwers now due to throw.
+    pub(crate) throw_now: std::collections::BTreeSet<TokenId>,
+    /// Reachability between nodes, memoised (derived from the graph only, not state).
+    pub(crate) reach: &'a mut std::collections::BTreeMap<(NodeId, NodeId), bool>,
+}
+
+/// Conditional events re-evaluated this many rounds in one step at most (a condition that keeps
+/// flipping would otherwise never let the step end).
+const MAX_CONDITION_ROUNDS: usize = 1000;
+
+impl Run<'_> {
+    pub(crate) fn mint(&mut self) -> u64 {
+        self.s.next_id += 1;
+        self.s.next_id
+    }
+
+    pub(crate) fn record(&mut self, instance: InstanceId, entry: Entry) {
+        self.out.push(Action::Record(Record {
+            instance,
+            at: self.now,
+            entry,
+        }));
+    }
+
+    /// Creates a token at `node` in `scope`, ready to arrive there.
+    pub(crate) fn spawn(&mut self, scope: ScopeId, node: NodeId, via: Option<FlowId>) -> TokenId {
+        let id = TokenId(self.mint());
+        let instance = self.s.scopes[&scope].instance;
+        self.s.tokens.insert(
+            id,
+            Token {
+                instance,
+                scope,
+                node,
+                via,
+                at: At::Ready,
+                attempts: 0,
+                body: false,
+                compensating: None,
+                waits: Vec::new(),
+            },
+        );
+        if let Some(sc) = self.s.scopes.get_mut(&scope) {
+            sc.live += 1;
+        }
+        self.ready.push_back(id);
+        id
+    }
+
+    /// Moves every ready token, then re-evaluates joins and conditions, until nothing moves.
+    pub(crate) fn quiesce(&mut self) {
+        for _ in 0..MAX_CONDITION_ROUNDS {
+            while let Some(t) = self.ready.pop_front() {
+                if self.s.tokens.get(&t).is_some_and(|t| t.at == At::Ready) {
+                    self.arrive(t);
+                }
+            }
+            if !self.deferred.is_empty() {
+                for t in std::mem::take(&mut self.deferred) {
+                    if let Some(tok) = self.s.tokens.get_mut(&t) {
+                        tok.at = At::Ready;
+                        self.throw_now.insert(t);
+                        self.ready.push_back(t);
+                    }
+                }
+                continue;
+            }
+            if self.joins() || self.conditions() {
+                continue;
+            }
+            return;
+        }
+        // Conditions kept firing: leave the remaining work for the next input.
+    }
+
+    /// Variable lookup from a scope: the scope chain up to the enclosing process, then system
+    /// data.
+    pub(crate) fn lookup(&self, scope: ScopeId, name: &str) -> Option<Value> {
+        let mut cur = Some(scope);
+        while let Some(id) = cur {
+            let sc = self.s.scopes.get(&id)?;
+            if let Some(v) = sc.vars.get(name) {
+                return Some(v.clone());
+            }
+            if matches!(sc.kind, ScopeKind::Process(_)) {
+                break;
+            }
+            cur = sc.parent;
+        }
+        self.s.data.get(name).cloned()
+    }
+
+    /// Writes a variable where it is defined in the scope chain, else in the enclosing process.
+    pub(crate) fn set_var(&mut self, scope: ScopeId, name: &str, value: Value) {
+        let mut cur = scope;
+        loop {
+            let Some(sc) = self.s.scopes.get(&cur) else {
+                return;
+            };
+            let top = matches!(sc.kind, ScopeKind::Process(_)) || sc.parent.is_none();
+            if sc.vars.contains_key(name) || top {
+                break;
+            }
+            match sc.parent {
+                Some(p) => cur = p,
+                None => break,
+            }
+        }
+        if let Some(sc) = self.s.scopes.get_mut(&cur) {
+            sc.vars.insert(name.to_owned(), value);
+        }
+    }
+
+    pub(crate) fn eval(
+        &self,
+        scope: ScopeId,
+        expr: &executive_model::Expression,
+        read: &mut Vars,
+    ) -> Result<Value, String> {
+        eval::eval(expr, &|n| self.lookup(scope, n), read)
+    }
+
+    pub(crate) fn condition(
+        &self,
+        scope: ScopeId,
+        expr: &executive_model::Expression,
+        read: &mut Vars,
+    ) -> Result<bool, String> {
+        eval::condition(expr, &|n| self.lookup(scope, n), read)
+    }
+
+    /// The token is stuck: record why and leave it there.
+    pub(crate) fn incident(&mut self, t: TokenId, message: String) {
+        let Some(tok) = self.s.tokens.get_mut(&t) else {
+            return;
+        };
+        tok.at = At::Incident;
+        let (instance, node) = (tok.instance, tok.node);
+        if let Some(i) = self.s.instances.get_mut(&instance) {
+            i.incidents.push((node, message.clone()));
+        }
+        self.record(instance, Entry::Incident { node, message });
+    }
+
+    /// A token arrives at its node.
+    fn arrive(&mut self, t: TokenId) {
+        let g = self.g;
+        let tok = &self.s.tokens[&t];
+        let (node_id, instance, body) = (tok.node, tok.instance, tok.body);
+        let node = g.node(node_id);
+        if self.trace_moves && !self.throw_now.contains(&t) {
+            self.record(
+                instance,
+                Entry::Entered {
+                    node: node_id,
+                    token: t,
+                },
+            );
+        }
+        match &node.kind {
+            NodeKind::Start(_) | NodeKind::Boundary(_) => self.leave(t),
+            NodeKind::End(defs) => self.end_event(t, defs),
+            NodeKind::Throw(defs) => self.throw_event(t, defs),
+            NodeKind::Catch(c) => {
+                if let [EventDefinition::Link(_)] = c.triggers.as_slice() {
+                    self.leave(t);
+                } else {
+                    self.catch_event(t, node_id, &c.triggers);
+                }
+            }
+            NodeKind::Gateway(gw) => self.gateway(t, gw),
+            NodeKind::Task(_) | NodeKind::SubProcess(_) | NodeKind::CallActivity(_) => {
+                if node.start_quantity > 1 && !body && !self.quantity_reached(t) {
+                    return;
+                }
+                if node.looping.is_some() && !body {
+                    self.subscribe_boundaries(t);
+                    self.start_loop(t);
+                } else {
+                    if !body {
+                        self.subscribe_boundaries(t);
+                    }
+                    self.start_activity(t);
+                }
+            }
+        }
+    }
+
+    /// `startQuantity`: the activity starts when that many tokens have arrived; the others are
+    /// merged into this one.
+    fn quantity_reached(&mut self, t: TokenId) -> bool {
+        let tok = &self.s.tokens[&t];
+        let (scope, node) = (tok.scope, tok.node);
+        let need = self.g.node(node).start_quantity as usize;
+        let waiting: Vec<TokenId> = self
+            .tokens_in(scope)
+            .into_iter()
+            .filter(|o| {
+                *o != t && self.s.tokens[o].node == node && self.s.tokens[o].at == At::Joining
+            })
+            .collect();
+        if waiting.len() + 1 < need {
+            if let Some(tok) = self.s.tokens.get_mut(&t) {
+                tok.at = At::Joining;
+            }
+            return false;
+        }
+        for o in waiting.into_iter().take(need - 1) {
+            self.consume(o, false);
+        }
+        true
+    }
+
+    /// Starts the work of an activity (one body of it, for loops).
+    pub(crate) fn start_activity(&mut self, t: TokenId) {
+        let g = self.g;
+        let tok = &self.s.tokens[&t];
+        let (node_id, scope) = (tok.node, tok.scope);
+        let node = g.node(node_id);
+        match &node.kind {
+            NodeKind::Task(task) => self.start_task(t, task),
+            NodeKind::SubProcess(sp) => {
+                let child = self.open_scope(t, ScopeKind::SubProcess(node_id), Vars::new());
+                self.start_scope(child, node_id, &sp.kind);
+            }
+            NodeKind::CallActivity(call) => match &call.called {
+                Some(executive_model::Called::Process(p)) => {
+                    let vars = self.call_inputs(t, scope, call.binding.as_ref());
+                    let child = self.open_scope(t, ScopeKind::Process(*p), vars);
+                    self.start_process_scope(child, *p);
+                }
+                Some(executive_model::Called::GlobalTask(id)) => match g.global_tasks.get(id) {
+                    Some(task) => self.start_task(t, task),
+                    None => self.incident(t, format!("global task `{id}` is missing")),
+                },
+                None => self.incident(t, "the call activity calls nothing".to_owned()),
+            },
+            _ => self.leave(t),
+        }
+    }
+
+    fn call_inputs(
+        &mut self,
+        t: TokenId,
+        scope: ScopeId,
+        binding: Option<&executive_model::binding::TaskBinding>,
+    ) -> Vars {
+        let mut vars = Vars::new();
+        let all = binding.is_none_or(|b| b.all_in || b.inputs.is_empty());
+        if all {
+            let mut cur = Some(scope);
+            let mut chain = Vec::new();
+            while let Some(id) = cur {
+                let Some(sc) = self.s.scopes.get(&id) else {
+                    break;
+                };
+                chain.push(id);
+                if matches!(sc.kind, ScopeKind::Process(_)) {
+                    break;
+                }
+                cur = sc.parent;
+            }
+            for id in chain.into_iter().rev() {
+                vars.extend(self.s.scopes[&id].vars.clone());
+            }
+        }
+        if let Some(b) = binding {
+            for m in &b.inputs {
+                match self.eval(scope, &m.source, &mut Vars::new()) {
+                    Ok(v) => eval::set_path(&mut vars, &m.target, v),
+                    Err(e) => {
+                        self.incident(t, format!("input `{}`: {e}", m.target));
+                    }
+                }
+            }
+        }
+        vars
+    }
+
+    fn start_task(&mut self, t: TokenId, task: &executive_model::Task) {
+        let tok = &self.s.tokens[&t];
+        let (scope, node, instance) = (tok.scope, tok.node, tok.instance);
+        match task.kind {
+            TaskKind::User => {
+                let key = self.next_key(t);
+                let context = self.visible_vars(scope);
+                if let Some(tok) = self.s.tokens.get_mut(&t) {
+                    tok.at = At::UserTask(key);
+                }
+                self.record(instance, Entry::Opened { task: key, node });
+                self.out.push(Action::OpenUserTask {
+                    task: key,
+                    node,
+                    context,
+                });
+            }
+            TaskKind::Receive => {
+                let name = self.message_name(task.message);
+                self.subscribe(t, node, On::Message(name, None));
+                if let Some(tok) = self.s.tokens.get_mut(&t) {
+                    tok.at = At::Catching;
+                }
+            }
+            TaskKind::Script
+                if task
+                    .script
+                    .as_ref()
+                    .is_some_and(|s| s.assignments.is_some()) =>
+            {
+                let assignments = task
+                    .script
+                    .as_ref()
+                    .and_then(|s| s.assignments.as_ref())
+                    .map(Vec::as_slice)
+                    .unwrap_or_default();
+                for (name, expr) in assignments {
+                    match self.eval(scope, expr, &mut Vars::new()) {
+                        Ok(v) => self.set_var(scope, name, v),
+                        Err(e) => return self.incident(t, format!("script: {e}")),
+                    }
+                }
+                self.complete_activity(t);
+            }
+            TaskKind::Script | TaskKind::Service | TaskKind::BusinessRule | TaskKind::Send
+                if task.binding.as_ref().is_some_and(|b| b.resource.is_some())
+                    || task.kind == TaskKind::Script
+                    || (task.kind != TaskKind::Send && task.binding.is_some()) =>
+            {
+                let resource = match (&task.binding, &task.script) {
+                    (Some(b), _) if b.resource.is_some() => b.resource.clone().unwrap_or_default(),
+                    (_, Some(s)) => s.text.clone(),
+                    _ => self.g.node(node).id.clone(),
+                };
+                self.dispatch(t, resource, task.binding.as_ref());
+            }
+            TaskKind::Send => {
+                let name = self.message_name(task.message);
+                let payload = self.visible_vars(scope);
+                self.send_message(instance, Some(node), name, payload);
+                self.complete_activity(t);
+            }
+            TaskKind::Service | TaskKind::BusinessRule => {
+                let resource = self.g.node(node).id.clone();
+                self.dispatch(t, resource, None);
+            }
+            TaskKind::Script | TaskKind::Manual | TaskKind::Plain => self.complete_activity(t),
+        }
+    }
+
+    fn next_key(&mut self, t: TokenId) -> crate::io::TaskKey {
+        let tok = self.s.tokens.get_mut(&t).expect("token exists");
+        tok.attempts += 1;
+        crate::io::TaskKey {
+            instance: tok.instance,
+            token: t,
+            attempt: tok.attempts,
+        }
+    }
+
+    fn dispatch(
+        &mut self,
+        t: TokenId,
+        resource: String,
+        binding: Option<&executive_model::binding::TaskBinding>,
+    ) {
+        let tok = &self.s.tokens[&t];
+        let (scope, node, instance) = (tok.scope, tok.node, tok.instance);
+        let request = match binding.filter(|b| !b.inputs.is_empty()) {
+            None => self.visible_vars(scope),
+            Some(b) => {
+                let mut request = Vars::new();
+                for m in &b.inputs {
+                    let value =
+                        self.eval(scope, &m.source, &mut Vars::new())
+                            .and_then(|v| match &m.ty {
+                                Some(ty) => eval::convert(v, ty),
+                                None => Ok(v),
+                            });
+                    match value {
+                        Ok(v) => eval::set_path(&mut request, &m.target, v),
+                        Err(e) => {
+                            let message = format!(
+                                "input `{}` of `{}`: {e}",
+                                m.target,
+                                self.g.node(node).label()
+                            );
+                            return self.task_error(t, "TYPE_MISMATCH", &message);
+                        }
+                    }
+                }
+                request
+            }
+        };
+        let key = self.next_key(t);
+        if let Some(tok) = self.s.tokens.get_mut(&t) {
+            tok.at = At::Task(key);
+        }
+        self.record(
+            instance,
+            Entry::Dispatched {
+                task: key,
+                node,
+                resource: resource.clone(),
+                request: request.clone(),
+            },
+        );
+        self.out.push(Action::DispatchTask {
+            task: key,
+            node,
+            resource,
+            request,
+        });
+    }
+
+    /// Every variable visible from a scope (inner ones win), without system data.
+    pub(crate) fn visible_vars(&self, scope: ScopeId) -> Vars {
+        let mut chain = Vec::new();
+        let mut cur = Some(scope);
+        while let Some(id) = cur {
+            let Some(sc) = self.s.scopes.get(&id) else {
+                break;
+            };
+            chain.push(&sc.vars);
+            if matches!(sc.kind, ScopeKind::Process(_)) {
+                break;
+            }
+            cur = sc.parent;
+        }
+        let mut out = Vars::new();
+        for v in chain.into_iter().rev() {
+            out.extend(v.iter().map(|(k, v)| (k.clone(), v.clone())));
+        }
+        out
+    }
+
+    pub(crate) fn message_name(&self, m: Option<executive_model::MessageId>) -> String {
+        m.map(|m| self.g.messages[m.index()].name.clone())
+            .unwrap_or_default()
+    }
+
+    /// Applies a task's result: declared outputs, or every field when none is declared.
+    pub(crate) fn apply_outputs(&mut self, t: TokenId, output: &Vars) -> Result<(), String> {
+        let g = self.g;
+        let tok = &self.s.tokens[&t];
+        let (scope, node) = (tok.scope, tok.node);
+        let binding = match &g.node(node).kind {
+            NodeKind::Task(task) => task.binding.as_ref(),
+            NodeKind::CallActivity(c) => match &c.called {
+                Some(executive_model::Called::GlobalTask(id)) => {
+                    g.global_tasks.get(id).and_then(|t| t.binding.as_ref())
+                }
+                _ => c.binding.as_ref(),
+            },
+            _ => None,
+        };
+        match binding.filter(|b| !b.outputs.is_empty()) {
+            None => {
+                for (k, v) in output {
+                    self.set_var(scope, k, v.clone());
+                }
+            }
+            Some(b) => {
+                for m in &b.outputs {
+                    let v = eval::eval(&m.source, &|n| output.get(n).cloned(), &mut Vars::new())
+                        .and_then(|v| match &m.ty {
+                            Some(ty) => eval::convert(v, ty),
+                            None => Ok(v),
+                        })
+                        .map_err(|e| format!("output `{}`: {e}", m.target))?;
+                    self.set_var(scope, &m.target, v);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The activity's work is done: register compensation, drop boundaries, leave.
+    pub(crate) fn complete_activity(&mut self, t: TokenId) {
+        let g = self.g;
+        let tok = &self.s.tokens[&t];
+        let (node, scope, body) = (tok.node, tok.scope, tok.body);
+        if body {
+            // One body of a loop: its scope ends, and the loop decides what follows.
+            self.consume(t, true);
+            return;
+        }
+        if g.node(node).compensation_handler.is_some() {
+            let vars = self.visible_vars(scope);
+            if let Some(sc) = self.s.scopes.get_mut(&scope) {
+                sc.compensable.push(crate::state::Compensable {
+                    node,
+                    vars,
+                    inner: Vec::new(),
+                });
+            }
+        }
+        self.drop_waits(t);
+        self.leave(t);
+    }
+
+    /// Leaves the token's node along its outgoing flows (none: the token is consumed).
+    pub(crate) fn leave(&mut self, t: TokenId) {
+        let g = self.g;
+        let tok = &self.s.tokens[&t];
+        let (node_id, scope, instance) = (tok.node, tok.scope, tok.instance);
+        let node = g.node(node_id);
+        if self.trace_moves {
+            self.record(
+                instance,
+                Entry::Left {
+                    node: node_id,
+                    token: t,
+                },
+            );
+        }
+        let flows = match self.outgoing(t, node_id, scope) {
+            Ok(f) => f,
+            Err(e) => return self.incident(t, e),
+        };
+        self.take(t, &flows, node.completion_quantity);
+    }
+
+    /// Moves the token along `flows` (copies for the others); no flow consumes it.
+    pub(crate) fn take(&mut self, t: TokenId, flows: &[FlowId], quantity: u32) {
+        let g = self.g;
+        let tok = &self.s.tokens[&t];
+        let (scope, instance) = (tok.scope, tok.instance);
+        if flows.is_empty() {
+            self.consume(t, true);
+            return;
+        }
+        let mut first = true;
+        for &f in flows {
+            for _ in 0..quantity.max(1) {
+                if self.trace_moves {
+                    self.record(instance, Entry::Took { flow: f });
+                }
+                let target = g.flow(f).target;
+                if first {
+                    first = false;
+                    if let Some(tok) = self.s.tokens.get_mut(&t) {
+                        tok.node = target;
+                        tok.via = Some(f);
+                        tok.at = At::Ready;
+                        tok.body = false;
+                    }
+                    self.ready.push_back(t);
+                } else {
+                    self.spawn(scope, target, Some(f));
+                }
+            }
+        }
+    }
+
+    /// The flows leaving a node that is not a gateway: conditional flows whose condition holds,
+    /// unconditional ones, and the default only when no condition held.
+    fn outgoing(
+        &mut self,
+        t: TokenId,
+        node_id: NodeId,
+        scope: ScopeId,
+    ) -> Result<Vec<FlowId>, String> {
+        let g = self.g;
+        let node = g.node(node_id);
+        if node.outgoing.iter().all(|f| g.flow(*f).condition.is_none()) {
+            return Ok(node.outgoing.clone());
+        }
+        let mut taken = Vec::new();
+        let mut read = Vars::new();
+        let mut any_condition = false;
+        for &f in &node.outgoing {
+            if Some(f) == node.default_flow {
+                continue;
+            }
+            match &g.flow(f).condition {
+                None => taken.push(f),
+                Some(c) => {
+                    if self.condition(scope, c, &mut read)? {
+                        any_condition = true;
+                        taken.push(f);
+                    }
+                }
+            }
+        }
+        if !any_condition && let Some(d) = node.default_flow {
+            taken.push(d);
+        }
+        let instance = self.s.tokens[&t].instance;
+        self.record(
+            instance,
+            Entry::Decided {
+                node: node_id,
+                flows: taken.clone(),
+                read,
+            },
+        );
+        if taken.is_empty() {
+            return Err(format!(
+                "no outgoing flow of `{}` could be taken",
+                node.label()
+            ));
+        }
+        Ok(taken)
+    }
+
+    /// Removes a token that has finished; its scope may complete. `done` false: merged away at
+    /// a join (no record of leaving).
+    pub(crate) fn consume(&mut self, t: TokenId, done: bool) {
+        let _ = done;
+        self.drop_waits(t);
+        let Some(tok) = self.s.tokens.remove(&t) else {
+            return;
+        };
+        self.s.joins.remove(&t);
+        let scope = tok.scope;
+        if let Some(run) = tok.compensating {
+            self.compensation_step(scope, run);
+        }
+        let Some(sc) = self.s.scopes.get_mut(&scope) else {
+            return;
+        };
+        sc.live = sc.live.saturating_sub(1);
+        if sc.live == 0 && !sc.ending {
+            self.complete_scope(scope);
+        }
+    }
+
+    /// Removes a token's subscriptions (boundaries, catch events).
+    pub(crate) fn drop_waits(&mut self, t: TokenId) {
+        let Some(tok) = self.s.tokens.get_mut(&t) else {
+            return;
+        };
+        let waits = std::mem::take(&mut tok.waits);
+        for w in waits {
+            self.unsubscribe(w);
+        }
+    }
+
+    /// Removes one subscription, cancelling its timer.
+    pub(crate) fn unsubscribe(&mut self, w: WaitId) {
+        if let Some(wait) = self.s.waits.remove(&w)
+            && let On::Timer { key, .. } = wait.on
+        {
+            self.out.push(Action::CancelTimer { timer: key });
+        }
+    }
+
+    /// Tokens in a scope, in id order.
+    pub(crate) fn tokens_in(&self, scope: ScopeId) -> Vec<TokenId> {
+        self.s
+            .tokens
+            .iter()
+            .filter(|(_, t)| t.scope == scope)
+            .map(|(id, _)| *id)
+            .collect()
+    }
+
+    /// The start nodes of a scope element: none start events, or (no start event at all) every
+    /// activity and gateway without incoming flows.
+    pub(crate) fn start_nodes(&self, scope: Scope) -> Vec<NodeId> {
+        let g = self.g;
+        let nodes = g.scope_nodes(scope);
+        let starts: Vec<NodeId> = nodes
+            .iter()
+            .copied()
+            .filter(|n| matches!(&g.node(*n).kind, NodeKind::Start(s) if s.triggers.is_empty()))
+            .collect();
+        if !starts.is_empty()
+            || nodes
+                .iter()
+                .any(|n| matches!(g.node(*n).kind, NodeKind::Start(_)))
+        {
+            return starts;
+        }
+        nodes
+            .iter()
+            .copied()
+            .filter(|n| {
+                let node = g.node(*n);
+                node.incoming.is_empty()
+                    && !node.for_compensation
+                    && !matches!(node.kind, NodeKind::Boundary(_))
+                    && !matches!(&node.kind, NodeKind::Catch(c) if c.triggers.iter().any(|d| matches!(d, EventDefinition::Link(_))))
+                    && !matches!(&node.kind, NodeKind::SubProcess(sp) if matches!(sp.kind, SubProcessKind::Event))
+            })
+            .collect()
+    }
+
+    /// Joins (inclusive, complex) waiting for tokens that can no longer come: fire them.
+    fn joins(&mut self) -> bool {
+        if self.s.joins.is_empty() {
+            return false;
+        }
+        let waiting: Vec<TokenId> = self.s.joins.iter().copied().collect();
+        let mut fired = false;
+        for t in waiting {
+            if self.s.tokens.get(&t).is_some_and(|t| t.at == At::Joining) && self.try_join(t) {
+                fired = true;
+            }
+        }
+        fired
+    }
+
+    /// Re-evaluates conditional subscriptions; fires those that became true.
+    fn conditions(&mut self) -> bool {
+        let g = self.g;
+        let waits: Vec<(WaitId, ScopeId, NodeId, usize, bool)> = self
+            .s
+            .waits
+            .iter()
+            .filter_map(|(id, w)| match w.on {
+                On::Condition { trigger, last } => Some((*id, w.scope, w.node, trigger, last)),
+                _ => None,
+            })
+            .collect();
+        let mut fired = false;
+        for (w, scope, node, trigger, last) in waits {
+            if !self.s.waits.contains_key(&w) {
+                continue;
+            }
+            let Some(EventDefinition::Conditional(expr)) = triggers_of(g, node).get(trigger) else {
+                continue;
+            };
+            // The condition of a waiting token reads its own scope.
+            let scope = self.s.waits[&w]
+                .token
+                .and_then(|t| self.s.tokens.get(&t))
+                .map_or(scope, |t| t.scope);
+            let now = self
+                .condition(scope, expr, &mut Vars::new())
+                .unwrap_or(false);
+            if let Some(On::Condition { last: l, .. }) = self.s.waits.get_mut(&w).map(|w| &mut w.on)
+            {
+                *l = now;
+            }
+            if now && !last {
+                fired = true;
+                self.trigger(w, Trigger::Condition, expr.source.clone(), &Vars::new());
+            }
+        }
+        fired
+    }
+}
+
+/// The event definitions a catching node reacts to.
+pub(crate) fn triggers_of(g: &ProcessGraph, node: NodeId) -> &[EventDefinition] {
+    match &g.node(node).kind {
+        NodeKind::Start(s) => &s.triggers,
+        NodeKind::Catch(c) => &c.triggers,
+        NodeKind::Boundary(b) => &b.triggers,
+        _ => &[],
+    }
+}

@@ -1,0 +1,310 @@
+//! Scopes: opening and starting them, completing them, cancelling them, ending instances.
+
+use executive_model::{EventDefinition, NodeId, NodeKind, ProcessId, Scope, SubProcessKind};
+
+use crate::io::{Action, Entry, InstanceId, Outcome, ScopeId, TokenId};
+use crate::run::Run;
+use crate::state::{At, ScopeKind, ScopeState};
+use crate::value::Vars;
+
+impl Run<'_> {
+    /// Opens a child scope run by token `owner`.
+    pub(crate) fn open_scope(&mut self, owner: TokenId, kind: ScopeKind, vars: Vars) -> ScopeId {
+        let id = ScopeId(self.mint());
+        let tok = &self.s.tokens[&owner];
+        let (instance, parent) = (tok.instance, tok.scope);
+        self.s.scopes.insert(
+            id,
+            ScopeState {
+                instance,
+                parent: Some(parent),
+                owner: Some(owner),
+                kind,
+                vars,
+                compensable: Vec::new(),
+                ending: false,
+                live: 0,
+                waits: Vec::new(),
+            },
+        );
+        if let Some(tok) = self.s.tokens.get_mut(&owner) {
+            tok.at = At::Scope(id);
+        }
+        id
+    }
+
+    /// Opens the root scope of a new instance of `process`.
+    pub(crate) fn open_instance(
+        &mut self,
+        process: ProcessId,
+        vars: Vars,
+    ) -> (InstanceId, ScopeId) {
+        let instance = InstanceId(self.mint());
+        let root = ScopeId(self.mint());
+        self.s.instances.insert(
+            instance,
+            crate::state::Instance {
+                process,
+                root: Some(root),
+                outcome: None,
+                uncaught_escalations: Vec::new(),
+                incidents: Vec::new(),
+            },
+        );
+        self.s.scopes.insert(
+            root,
+            ScopeState {
+                instance,
+                parent: None,
+                owner: None,
+                kind: ScopeKind::Process(process),
+                vars: vars.clone(),
+                compensable: Vec::new(),
+                ending: false,
+                live: 0,
+                waits: Vec::new(),
+            },
+        );
+        let name = self.g.process(process).id.clone();
+        self.record(
+            instance,
+            Entry::InstanceStarted {
+                process: name,
+                vars,
+            },
+        );
+        (instance, root)
+    }
+
+    /// Starts a process scope at its none start events.
+    pub(crate) fn start_process_scope(&mut self, scope: ScopeId, process: ProcessId) {
+        self.subscribe_event_subprocesses(scope, Scope::Process(process));
+        let starts = self.start_nodes(Scope::Process(process));
+        self.start_at(scope, &starts);
+    }
+
+    /// Starts a sub-process scope.
+    pub(crate) fn start_scope(&mut self, scope: ScopeId, node: NodeId, kind: &SubProcessKind) {
+        let _ = kind;
+        self.subscribe_event_subprocesses(scope, Scope::SubProcess(node));
+        let starts = self.start_nodes(Scope::SubProcess(node));
+        self.start_at(scope, &starts);
+    }
+
+    fn start_at(&mut self, scope: ScopeId, starts: &[NodeId]) {
+        for &n in starts {
+            self.spawn(scope, n, None);
+        }
+        if starts.is_empty() {
+            // Nothing to run: the scope is complete at once.
+            self.complete_scope(scope);
+        }
+    }
+
+    /// A scope has no token left: it completes, and its owner moves on.
+    pub(crate) fn complete_scope(&mut self, scope: ScopeId) {
+        let Some(sc) = self.s.scopes.get_mut(&scope) else {
+            return;
+        };
+        if sc.ending {
+            return;
+        }
+        sc.ending = true;
+        let waits = std::mem::take(&mut sc.waits);
+        for w in waits {
+            self.unsubscribe(w);
+        }
+        let Some(sc) = self.s.scopes.remove(&scope) else {
+            return;
+        };
+        let Some(owner) = sc.owner else {
+            self.finish_instance(sc.instance, Outcome::Completed);
+            return;
+        };
+        let Some(tok) = self.s.tokens.get(&owner) else {
+            return;
+        };
+        let node = tok.node;
+        match sc.kind {
+            ScopeKind::Body(_) => self.body_done(owner, scope, &sc.vars),
+            ScopeKind::Process(_) => {
+                // A called process: map its outputs back into the caller.
+                let out = sc.vars;
+                let binding = match &self.g.node(node).kind {
+                    NodeKind::CallActivity(c) => c.binding.as_ref(),
+                    _ => None,
+                };
+                if let Some(b) = binding.filter(|b| !b.outputs.is_empty() || b.all_out) {
+                    if b.all_out {
+                        let caller = self.s.tokens[&owner].scope;
+                        for (k, v) in &out {
+                            self.set_var(caller, k, v.clone());
+                        }
+                    }
+                    if let Err(e) = self.apply_outputs(owner, &out) {
+                        return self.incident(owner, e);
+                    }
+                }
+                self.complete_activity(owner);
+            }
+            ScopeKind::SubProcess(n) => {
+                let event = matches!(&self.g.node(n).kind, NodeKind::SubProcess(sp) if matches!(sp.kind, SubProcessKind::Event));
+                if event {
+                    // An event sub-process run ends; its token has nowhere to go.
+                    self.consume(owner, true);
+                } else {
+                    // Its completed activities stay compensable, through the sub-process.
+                    let keep =
+                        !sc.compensable.is_empty() || self.compensation_event_sub(n).is_some();
+                    if keep && self.g.node(n).compensation_handler.is_none() {
+                        let parent = self.s.tokens[&owner].scope;
+                        let vars = self.visible_vars(parent);
+                        if let Some(p) = self.s.scopes.get_mut(&parent) {
+                            p.compensable.push(crate::state::Compensable {
+                                node: n,
+                                vars,
+                                inner: sc.compensable,
+                            });
+                        }
+                    }
+                    self.complete_activity(owner);
+                }
+            }
+            ScopeKind::GlobalTask(_) => self.complete_activity(owner),
+        }
+    }
+
+    /// Withdraws a token: cancels its task, user task, child scope or loop bodies, and removes
+    /// it without completing anything.
+    pub(crate) fn withdraw(&mut self, t: TokenId) {
+        let Some(tok) = self.s.tokens.get(&t) else {
+            return;
+        };
+        let (at, node, instance) = (tok.at.clone(), tok.node, tok.instance);
+        match at {
+            At::Task(key) => {
+                self.record(instance, Entry::Cancelled { task: key });
+                self.out.push(Action::CancelTask { task: key });
+            }
+            At::UserTask(key) => self.out.push(Action::CloseUserTask { task: key }),
+            At::Scope(child) => self.cancel_scope(child),
+            At::Looping(l) => {
+                for child in l.running {
+                    self.cancel_scope(child);
+                }
+            }
+            _ => {}
+        }
+        if self.trace_moves {
+            self.record(instance, Entry::Withdrawn { node, token: t });
+        }
+        self.drop_waits(t);
+        if let Some(tok) = self.s.tokens.remove(&t) {
+            self.s.joins.remove(&t);
+            if let Some(sc) = self.s.scopes.get_mut(&tok.scope) {
+                sc.live = sc.live.saturating_sub(1);
+            }
+        }
+    }
+
+    /// Cancels a scope and everything in it (no completion).
+    pub(crate) fn cancel_scope(&mut self, scope: ScopeId) {
+        let Some(sc) = self.s.scopes.get_mut(&scope) else {
+            return;
+        };
+        sc.ending = true;
+        let waits = std::mem::take(&mut sc.waits);
+        for w in waits {
+            self.unsubscribe(w);
+        }
+        for t in self.tokens_in(scope) {
+            self.withdraw(t);
+        }
+        self.s.scopes.remove(&scope);
+    }
+
+    /// Withdraws every token of a scope but keeps the scope open (interrupting events,
+    /// terminate).
+    pub(crate) fn clear_scope(&mut self, scope: ScopeId, keep_subscriptions: bool) {
+        if !keep_subscriptions && let Some(sc) = self.s.scopes.get_mut(&scope) {
+            let waits = std::mem::take(&mut sc.waits);
+            for w in waits {
+                self.unsubscribe(w);
+            }
+        }
+        for t in self.tokens_in(scope) {
+            self.withdraw(t);
+        }
+    }
+
+    /// Ends an instance: cancels whatever still runs, reports the outcome.
+    pub(crate) fn finish_instance(&mut self, instance: InstanceId, outcome: Outcome) {
+        let Some(inst) = self.s.instances.get_mut(&instance) else {
+            return;
+        };
+        if inst.outcome.is_some() {
+            return;
+        }
+        inst.outcome = Some(outcome.clone());
+        let root = inst.root.take();
+        let uncaught_escalations = inst.uncaught_escalations.clone();
+        if let Some(root) = root {
+            self.cancel_scope(root);
+        }
+        self.ready.retain(|t| self.s.tokens.contains_key(t));
+        self.record(
+            instance,
+            Entry::InstanceFinished {
+                outcome: outcome.clone(),
+                uncaught_escalations,
+            },
+        );
+        self.out
+            .push(Action::InstanceFinished { instance, outcome });
+    }
+
+    /// Subscribes the message, signal, timer and conditional starts of the event
+    /// sub-processes directly inside `element`.
+    pub(crate) fn subscribe_event_subprocesses(&mut self, scope: ScopeId, element: Scope) {
+        let g = self.g;
+        for &n in g.scope_nodes(element) {
+            let NodeKind::SubProcess(sp) = &g.node(n).kind else {
+                continue;
+            };
+            if !matches!(sp.kind, SubProcessKind::Event) {
+                continue;
+            }
+            for &start in &sp.nodes {
+                if let NodeKind::Start(s) = &g.node(start).kind {
+                    for (i, d) in s.triggers.iter().enumerate() {
+                        if matches!(
+                            d,
+                            EventDefinition::Message(_)
+                                | EventDefinition::Signal(_)
+                                | EventDefinition::Timer(_)
+                                | EventDefinition::Conditional(_)
+                        ) {
+                            self.subscribe_scope(scope, start, d, i);
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+impl Run<'_> {
+    /// The compensation start event of an event sub-process directly inside sub-process `sp`.
+    pub(crate) fn compensation_event_sub(&self, sp: NodeId) -> Option<NodeId> {
+        let g = self.g;
+        g.scope_nodes(Scope::SubProcess(sp)).iter().find_map(|&n| match &g.node(n).kind {
+            NodeKind::SubProcess(esp) if matches!(esp.kind, SubProcessKind::Event) => {
+                esp.nodes.iter().copied().find(|s| {
+                    matches!(&g.node(*s).kind, NodeKind::Start(st)
+                        if st.triggers.iter().any(|d| matches!(d, EventDefinition::Compensate { .. })))
+                })
+            }
+            _ => None,
+        })
+    }
+}

@@ -1,0 +1,223 @@
+//! The engine's state: instances, scopes, tokens and subscriptions, in ordered maps only, so
+//! that the state is serializable, comparable and hashable (replay checks and model checking).
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use serde::{Deserialize, Serialize};
+
+use crate::io::{InstanceId, Millis, Outcome, ScopeId, TaskKey, TimerKey, TokenId, WaitId};
+use crate::value::{Value, Vars};
+use executive_model::{FlowId, NodeId, ProcessId};
+
+/// Everything the engine knows. Restore it to resume; compare two to check a replay.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct State {
+    /// Next id to mint (instances, scopes, tokens and waits share the counter).
+    pub next_id: u64,
+    /// Sequence number of the last accepted input.
+    pub last_seq: u64,
+    /// Mission time of the last accepted input.
+    pub now: Millis,
+    /// Instances, running or ended.
+    pub instances: BTreeMap<InstanceId, Instance>,
+    /// Live scope instances.
+    pub scopes: BTreeMap<ScopeId, ScopeState>,
+    /// Live tokens.
+    pub tokens: BTreeMap<TokenId, Token>,
+    /// Live subscriptions.
+    pub waits: BTreeMap<WaitId, Wait>,
+    /// System data from `DataChanged`, visible to every expression after the variables.
+    pub data: Vars,
+    /// Tokens waiting at inclusive or complex joins, re-checked when tokens move.
+    pub joins: BTreeSet<TokenId>,
+    /// Complex gateways that fired and now absorb the rest of their wave, by scope.
+    pub fired_complex: BTreeSet<(ScopeId, NodeId)>,
+}
+
+/// One process instance.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct Instance {
+    /// The process it runs.
+    pub process: ProcessId,
+    /// Its root scope while it runs.
+    pub root: Option<ScopeId>,
+    /// How it ended, once it has.
+    pub outcome: Option<Outcome>,
+    /// Escalations nothing caught, by code.
+    pub uncaught_escalations: Vec<String>,
+    /// Incidents: tokens stuck with a reason, by node.
+    pub incidents: Vec<(NodeId, String)>,
+}
+
+/// A running scope: a process, sub-process, called process, or one body of a loop.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct ScopeState {
+    /// The instance.
+    pub instance: InstanceId,
+    /// The enclosing scope; `None` for the instance root.
+    pub parent: Option<ScopeId>,
+    /// The token (in the parent scope) whose activity this scope executes.
+    pub owner: Option<TokenId>,
+    /// What it executes.
+    pub kind: ScopeKind,
+    /// Local variables.
+    pub vars: Vars,
+    /// Completed activities that can be compensated, oldest first.
+    pub compensable: Vec<Compensable>,
+    /// Set while the scope is being torn down, so completion is not reported twice.
+    pub ending: bool,
+    /// Tokens in the scope.
+    pub live: u32,
+    /// Event sub-process start subscriptions of the scope.
+    pub waits: Vec<WaitId>,
+}
+
+/// What a scope executes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum ScopeKind {
+    /// A process: the instance root, or one called by a call activity.
+    Process(ProcessId),
+    /// A sub-process node (embedded, event, transaction, ad-hoc).
+    SubProcess(NodeId),
+    /// One execution of the body of a looping or multi-instance activity.
+    Body(NodeId),
+    /// A global task called by a call activity.
+    GlobalTask(NodeId),
+}
+
+/// A token: a position in a scope.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct Token {
+    /// The instance.
+    pub instance: InstanceId,
+    /// The scope it moves in.
+    pub scope: ScopeId,
+    /// The node it is at.
+    pub node: NodeId,
+    /// The flow it arrived by.
+    pub via: Option<FlowId>,
+    /// What it is doing there.
+    pub at: At,
+    /// Dispatches so far (task attempts).
+    pub attempts: u32,
+    /// The token runs the body of a looping activity: finishing it ends the body scope.
+    pub body: bool,
+    /// The token runs a compensation handler for this thrower (waiting throw token, if any).
+    pub compensating: Option<CompensationRun>,
+    /// Its subscriptions (catch events, boundaries).
+    pub waits: Vec<WaitId>,
+}
+
+/// A completed activity that can be compensated.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct Compensable {
+    /// The activity.
+    pub node: NodeId,
+    /// Its variables when it completed.
+    pub vars: Vars,
+    /// A completed sub-process: its own completed activities, oldest first.
+    pub inner: Vec<Compensable>,
+}
+
+/// One compensation handler to run.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Handler {
+    /// The activity associated with a compensation boundary event.
+    Activity(NodeId, Vars),
+    /// A compensation event sub-process (its start event) of a completed sub-process, with
+    /// that sub-process's completed activities.
+    EventSub(NodeId, Vec<Compensable>),
+}
+
+/// A compensation run in progress: the handlers still to run, newest first.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct CompensationRun {
+    /// The token waiting for the run to finish (throw event or transaction cancel), if any.
+    pub waiter: Option<TokenId>,
+    /// Handlers still to run after the current one.
+    pub rest: Vec<Handler>,
+}
+
+/// What a token is doing at its node.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum At {
+    /// Moving; the run loop advances it.
+    Ready,
+    /// A task dispatched to a connector.
+    Task(TaskKey),
+    /// A user task open on the ground.
+    UserTask(TaskKey),
+    /// Waiting for events (catch event, receive task, event-based gateway).
+    Catching,
+    /// Waiting at a join (gateway or `startQuantity`).
+    Joining,
+    /// Running a child scope (sub-process, call activity, loop).
+    Scope(ScopeId),
+    /// Running the bodies of a looping or multi-instance activity.
+    Looping(Loop),
+    /// Waiting for compensation handlers to finish.
+    Compensating,
+    /// Stuck; the reason is an incident of the instance.
+    Incident,
+}
+
+/// The progress of a standard loop or a multi-instance activity.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct Loop {
+    /// Bodies started so far.
+    pub started: u64,
+    /// Bodies completed so far.
+    pub completed: u64,
+    /// Multi-instance: how many bodies in all (standard loop: `None`).
+    pub total: Option<u64>,
+    /// Running body scopes.
+    pub running: Vec<ScopeId>,
+    /// Multi-instance output elements by loop counter.
+    pub outputs: BTreeMap<u64, Value>,
+    /// The multi-instance input items, if an input collection is used.
+    pub items: Option<Vec<Value>>,
+    /// Multi-instance behaviour events thrown so far.
+    pub thrown: u64,
+}
+
+/// A subscription: what a waiting token or scope will react to.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct Wait {
+    /// The instance.
+    pub instance: InstanceId,
+    /// The catching node: catch event, boundary event, event sub-process start, receive task,
+    /// or the target of an event-based gateway.
+    pub node: NodeId,
+    /// The token waiting (catch event, receive task, gateway) or carrying the boundary
+    /// (the activity's token). `None` for event sub-process starts.
+    pub token: Option<TokenId>,
+    /// The scope whose event sub-process start this is.
+    pub scope: ScopeId,
+    /// What triggers it.
+    pub on: On,
+}
+
+/// What triggers a subscription.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum On {
+    /// A message by name, optionally with the correlation value it expects.
+    Message(String, Option<Value>),
+    /// A signal by name.
+    Signal(String),
+    /// A timer armed until `due`; `left` repetitions after this one (`None` = unbounded).
+    Timer {
+        /// The current arming.
+        key: TimerKey,
+        /// Deadline.
+        due: Millis,
+        /// Repetitions left after this one.
+        left: Option<u32>,
+    },
+    /// A condition; `last` is its value at the previous evaluation (fires on false -> true).
+    Condition {
+        /// The index of the trigger in the node's event definitions.
+        trigger: usize,
+        /// Value at the last evaluation.
+        last: bool,
+    },
+}
