@@ -1,8 +1,9 @@
-//! Integration tier `it`: the loader against external corpora, the shipped missions, hostile
-//! input and the `trace` command, all in one test binary.
+//! Integration tier `it`: the loader and the engine against external corpora, the shipped
+//! missions, hostile input and the `trace` command, all in one test binary.
 
 mod cli;
 mod conformance;
+mod engine;
 mod hostile;
 mod missions;
 mod tidy;

@@ -253,6 +253,7 @@ impl Run<'_> {
                     self.set_var(scope, k, v.clone());
                 }
                 if b.interrupting {
+                    self.forget(w);
                     self.withdraw(owner);
                 } else {
                     self.rearm_or_keep(w);
@@ -265,6 +266,7 @@ impl Run<'_> {
                     return;
                 };
                 if s.interrupting {
+                    self.forget(w);
                     self.clear_scope(scope, false);
                 } else {
                     self.rearm_or_keep(w);
@@ -309,6 +311,7 @@ impl Run<'_> {
                         return;
                     }
                 }
+                self.forget(w);
                 self.drop_waits(t);
                 if at_node != wait.node {
                     // An event-based gateway: move to the target that fired.
@@ -350,6 +353,21 @@ impl Run<'_> {
                     self.leave(t);
                 }
             }
+        }
+    }
+
+    /// Removes a subscription that has just fired (its timer needs no cancelling).
+    fn forget(&mut self, w: WaitId) {
+        let Some(wait) = self.s.waits.remove(&w) else {
+            return;
+        };
+        if let Some(t) = wait.token
+            && let Some(tok) = self.s.tokens.get_mut(&t)
+        {
+            tok.waits.retain(|x| *x != w);
+        }
+        if let Some(sc) = self.s.scopes.get_mut(&wait.scope) {
+            sc.waits.retain(|x| *x != w);
         }
     }
 

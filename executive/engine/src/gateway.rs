@@ -30,9 +30,7 @@ impl Run<'_> {
             }
             GatewayKind::Inclusive | GatewayKind::Complex => {
                 if n.incoming.len() > 1 {
-                    if let Some(tok) = self.s.tokens.get_mut(&t) {
-                        tok.at = At::Joining;
-                    }
+                    self.park(t);
                     self.s.joins.insert(t);
                     self.try_join(t);
                 } else {
@@ -112,15 +110,12 @@ impl Run<'_> {
     /// Tokens of the same scope waiting at the same join as `t`, `t` included.
     fn joining(&self, t: TokenId) -> Vec<TokenId> {
         let tok = &self.s.tokens[&t];
-        let (scope, node) = (tok.scope, tok.node);
         let mut out: Vec<TokenId> = self
-            .tokens_in(scope)
-            .into_iter()
-            .filter(|o| {
-                let x = &self.s.tokens[o];
-                x.node == node && x.at == At::Joining
-            })
-            .collect();
+            .s
+            .joining
+            .get(&(tok.scope, tok.node))
+            .map(|s| s.iter().copied().collect())
+            .unwrap_or_default();
         if !out.contains(&t) {
             out.push(t);
         }
@@ -130,19 +125,22 @@ impl Run<'_> {
     /// A parallel join fires when a token waits on every incoming flow.
     fn parallel_join(&mut self, t: TokenId) -> bool {
         let g = self.g;
-        if let Some(tok) = self.s.tokens.get_mut(&t) {
-            tok.at = At::Joining;
-        }
+        self.park(t);
         let node = self.s.tokens[&t].node;
-        let waiting = self.joining(t);
+        // The first waiting token of each incoming flow; the arriving token covers its own.
+        let mut by_flow: std::collections::BTreeMap<FlowId, TokenId> = Default::default();
+        if let Some(f) = self.s.tokens[&t].via {
+            by_flow.insert(f, t);
+        }
+        for o in self.joining(t) {
+            if let Some(f) = self.s.tokens[&o].via {
+                by_flow.entry(f).or_insert(o);
+            }
+        }
         let mut picked = Vec::new();
-        for &f in &g.node(node).incoming {
-            // The arriving token covers its own flow first.
-            let cover = std::iter::once(t)
-                .chain(waiting.iter().copied())
-                .find(|o| self.s.tokens[o].via == Some(f) && !picked.contains(o));
-            match cover {
-                Some(o) => picked.push(o),
+        for f in &g.node(node).incoming {
+            match by_flow.get(f) {
+                Some(&o) => picked.push(o),
                 None => return false,
             }
         }
@@ -151,6 +149,7 @@ impl Run<'_> {
                 self.consume(o, false);
             }
         }
+        self.unpark(t);
         if let Some(tok) = self.s.tokens.get_mut(&t) {
             tok.at = At::Ready;
         }
@@ -172,7 +171,6 @@ impl Run<'_> {
             if self.s.fired_complex.contains(&(scope, node)) {
                 // The rest of a wave that already activated the gateway is absorbed.
                 for o in waiting {
-                    self.s.joins.remove(&o);
                     self.consume(o, false);
                 }
                 if !self.can_arrive(scope, node, &[]) {
@@ -194,7 +192,7 @@ impl Run<'_> {
                     match crate::eval::condition(expr, &lookup, &mut Vars::new()) {
                         Ok(b) => b,
                         Err(e) => {
-                            self.s.joins.remove(&t);
+                            self.unpark(t);
                             self.incident(t, e);
                             return false;
                         }
@@ -211,11 +209,11 @@ impl Run<'_> {
             return false;
         }
         for &o in &waiting {
-            self.s.joins.remove(&o);
             if o != t {
                 self.consume(o, false);
             }
         }
+        self.unpark(t);
         if let Some(tok) = self.s.tokens.get_mut(&t) {
             tok.at = At::Ready;
         }

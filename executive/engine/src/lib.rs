@@ -41,3 +41,8 @@ pub use state::{
     Token, Wait,
 };
 pub use value::{F64, Value, Vars};
+
+#[cfg(test)]
+mod properties;
+#[cfg(test)]
+mod tests;

@@ -157,7 +157,7 @@ impl Run<'_> {
                 vars,
                 compensable: Vec::new(),
                 ending: false,
-                live: 0,
+                tokens: Default::default(),
                 waits: Vec::new(),
             },
         );

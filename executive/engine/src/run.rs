@@ -66,7 +66,7 @@ impl Run<'_> {
             },
         );
         if let Some(sc) = self.s.scopes.get_mut(&scope) {
-            sc.live += 1;
+            sc.tokens.insert(id);
         }
         self.ready.push_back(id);
         id
@@ -218,20 +218,21 @@ impl Run<'_> {
         let (scope, node) = (tok.scope, tok.node);
         let need = self.g.node(node).start_quantity as usize;
         let waiting: Vec<TokenId> = self
-            .tokens_in(scope)
-            .into_iter()
-            .filter(|o| {
-                *o != t && self.s.tokens[o].node == node && self.s.tokens[o].at == At::Joining
-            })
-            .collect();
+            .s
+            .joining
+            .get(&(scope, node))
+            .map(|s| s.iter().copied().filter(|o| *o != t).collect())
+            .unwrap_or_default();
         if waiting.len() + 1 < need {
-            if let Some(tok) = self.s.tokens.get_mut(&t) {
-                tok.at = At::Joining;
-            }
+            self.park(t);
             return false;
         }
         for o in waiting.into_iter().take(need - 1) {
             self.consume(o, false);
+        }
+        self.unpark(t);
+        if let Some(tok) = self.s.tokens.get_mut(&t) {
+            tok.at = At::Ready;
         }
         true
     }
@@ -628,15 +629,40 @@ impl Run<'_> {
         Ok(taken)
     }
 
+    /// The token waits at its node's join.
+    pub(crate) fn park(&mut self, t: TokenId) {
+        let Some(tok) = self.s.tokens.get_mut(&t) else {
+            return;
+        };
+        tok.at = At::Joining;
+        let key = (tok.scope, tok.node);
+        self.s.joining.entry(key).or_default().insert(t);
+    }
+
+    /// The token no longer waits at a join (it fired, was merged, or was withdrawn).
+    pub(crate) fn unpark(&mut self, t: TokenId) {
+        self.s.joins.remove(&t);
+        let Some(tok) = self.s.tokens.get(&t) else {
+            return;
+        };
+        let key = (tok.scope, tok.node);
+        if let Some(set) = self.s.joining.get_mut(&key) {
+            set.remove(&t);
+            if set.is_empty() {
+                self.s.joining.remove(&key);
+            }
+        }
+    }
+
     /// Removes a token that has finished; its scope may complete. `done` false: merged away at
     /// a join (no record of leaving).
     pub(crate) fn consume(&mut self, t: TokenId, done: bool) {
         let _ = done;
         self.drop_waits(t);
+        self.unpark(t);
         let Some(tok) = self.s.tokens.remove(&t) else {
             return;
         };
-        self.s.joins.remove(&t);
         let scope = tok.scope;
         if let Some(run) = tok.compensating {
             self.compensation_step(scope, run);
@@ -644,8 +670,8 @@ impl Run<'_> {
         let Some(sc) = self.s.scopes.get_mut(&scope) else {
             return;
         };
-        sc.live = sc.live.saturating_sub(1);
-        if sc.live == 0 && !sc.ending {
+        sc.tokens.remove(&t);
+        if sc.tokens.is_empty() && !sc.ending {
             self.complete_scope(scope);
         }
     }
@@ -673,11 +699,10 @@ impl Run<'_> {
     /// Tokens in a scope, in id order.
     pub(crate) fn tokens_in(&self, scope: ScopeId) -> Vec<TokenId> {
         self.s
-            .tokens
-            .iter()
-            .filter(|(_, t)| t.scope == scope)
-            .map(|(id, _)| *id)
-            .collect()
+            .scopes
+            .get(&scope)
+            .map(|s| s.tokens.iter().copied().collect())
+            .unwrap_or_default()
     }
 
     /// The start nodes of a scope element: none start events, or (no start event at all) every

@@ -23,7 +23,7 @@ impl Run<'_> {
                 vars,
                 compensable: Vec::new(),
                 ending: false,
-                live: 0,
+                tokens: Default::default(),
                 waits: Vec::new(),
             },
         );
@@ -61,7 +61,7 @@ impl Run<'_> {
                 vars: vars.clone(),
                 compensable: Vec::new(),
                 ending: false,
-                live: 0,
+                tokens: Default::default(),
                 waits: Vec::new(),
             },
         );
@@ -199,11 +199,11 @@ impl Run<'_> {
             self.record(instance, Entry::Withdrawn { node, token: t });
         }
         self.drop_waits(t);
-        if let Some(tok) = self.s.tokens.remove(&t) {
-            self.s.joins.remove(&t);
-            if let Some(sc) = self.s.scopes.get_mut(&tok.scope) {
-                sc.live = sc.live.saturating_sub(1);
-            }
+        self.unpark(t);
+        if let Some(tok) = self.s.tokens.remove(&t)
+            && let Some(sc) = self.s.scopes.get_mut(&tok.scope)
+        {
+            sc.tokens.remove(&t);
         }
     }
 

@@ -30,6 +30,9 @@ pub struct State {
     pub data: Vars,
     /// Tokens waiting at inclusive or complex joins, re-checked when tokens move.
     pub joins: BTreeSet<TokenId>,
+    /// Tokens waiting at any join (gateway or `startQuantity`), by scope and node.
+    #[serde(with = "pairs")]
+    pub joining: BTreeMap<(ScopeId, NodeId), BTreeSet<TokenId>>,
     /// Complex gateways that fired and now absorb the rest of their wave, by scope.
     pub fired_complex: BTreeSet<(ScopeId, NodeId)>,
 }
@@ -67,7 +70,7 @@ pub struct ScopeState {
     /// Set while the scope is being torn down, so completion is not reported twice.
     pub ending: bool,
     /// Tokens in the scope.
-    pub live: u32,
+    pub tokens: BTreeSet<TokenId>,
     /// Event sub-process start subscriptions of the scope.
     pub waits: Vec<WaitId>,
 }
@@ -220,4 +223,27 @@ pub enum On {
         /// Value at the last evaluation.
         last: bool,
     },
+}
+
+/// Serializes a map with composite keys as a list of pairs (JSON keys must be strings).
+mod pairs {
+    use std::collections::BTreeMap;
+
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    pub(super) fn serialize<K: Serialize, V: Serialize, S: Serializer>(
+        map: &BTreeMap<K, V>,
+        s: S,
+    ) -> Result<S::Ok, S::Error> {
+        s.collect_seq(map.iter())
+    }
+
+    pub(super) fn deserialize<'de, K, V, D>(d: D) -> Result<BTreeMap<K, V>, D::Error>
+    where
+        K: Deserialize<'de> + Ord,
+        V: Deserialize<'de>,
+        D: Deserializer<'de>,
+    {
+        Ok(Vec::<(K, V)>::deserialize(d)?.into_iter().collect())
+    }
 }

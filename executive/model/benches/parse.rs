@@ -6,15 +6,12 @@
 //! installed once into a scratch copy of the harness (`$TMPDIR/trace-bench-peers`), since
 //! `shared/` is read-only. Run with `cargo bench -p executive-model --bench parse`.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::path::Path;
 use std::time::Instant;
 
-fn shared() -> PathBuf {
-    std::env::var_os("TRACE_SHARED")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared"))
-}
+#[path = "peers.rs"]
+mod peers;
+use peers::{peers, shared};
 
 /// start -> `n - 2` service tasks -> end, bound for both us and the peers.
 fn generated(n: usize) -> String {
@@ -54,63 +51,10 @@ fn ours(bytes: &[u8], reps: usize) -> (f64, usize) {
     (times[reps / 2], diagnostics)
 }
 
-fn run(cmd: &mut Command) -> Option<String> {
-    let out = cmd.output().ok()?;
-    if !out.status.success() {
-        eprintln!(
-            "{:?} failed: {}",
-            cmd,
-            String::from_utf8_lossy(&out.stderr)
-                .lines()
-                .last()
-                .unwrap_or("")
-        );
-    }
-    Some(String::from_utf8_lossy(&out.stdout).into_owned())
-}
-
-/// A scratch copy of the peer harness with bpmn-engine and SpiffWorkflow installed.
-fn peers() -> Option<PathBuf> {
-    let dir = std::env::temp_dir().join("trace-bench-peers");
-    if !dir.join("node_modules/bpmn-engine/package.json").exists()
-        || !dir.join(".venv/bin/python").exists()
-    {
-        std::fs::create_dir_all(&dir).ok()?;
-        for f in [
-            "package.json",
-            "package-lock.json",
-            "requirements.txt",
-            "run_bpmn_engine.js",
-            "run_spiff.py",
-        ] {
-            std::fs::copy(shared().join("bench/peers").join(f), dir.join(f)).ok()?;
-        }
-        run(Command::new("npm")
-            .args(["ci", "--no-audit", "--no-fund", "--silent"])
-            .current_dir(&dir))?;
-        run(Command::new("python3")
-            .args(["-m", "venv", ".venv"])
-            .current_dir(&dir))?;
-        run(Command::new(dir.join(".venv/bin/pip"))
-            .args(["install", "-q", "-r", "requirements.txt"])
-            .current_dir(&dir))?;
-    }
-    Some(dir)
-}
-
 /// Warm median parse time (ms) reported by a peer runner in parse mode.
 fn peer(dir: &Path, engine: &str, model: &Path, reps: usize) -> Option<f64> {
     let reps = reps.to_string();
-    let model = model.to_str()?;
-    let out = match engine {
-        "bpmn-engine" => run(Command::new("node")
-            .args(["run_bpmn_engine.js", model, &reps, "--mode", "parse"])
-            .current_dir(dir))?,
-        _ => run(Command::new(dir.join(".venv/bin/python"))
-            .args(["run_spiff.py", model, &reps, "--mode", "parse", "--deep"])
-            .current_dir(dir))?,
-    };
-    let line: serde_json::Value = serde_json::from_str(out.lines().last()?).ok()?;
+    let line = peers::report(dir, engine, model, &[&reps, "--mode", "parse"])?;
     line["parse_warm_median_ms"]
         .as_f64()
         .or_else(|| line["parse_cold_ms"].as_f64())

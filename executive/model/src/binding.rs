@@ -23,6 +23,8 @@ use crate::xml::{Element, Ns};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Dialect {
+    /// The standard `implementation` attribute (resource name only).
+    Bpmn,
     /// `urn:trace:bpmn:1.0`.
     Trace,
     /// Camunda 8 (`zeebe:`).
@@ -199,7 +201,7 @@ impl Reader<'_> {
         if found.len() > 1 {
             self.problem(el.offset, "conflicting-bindings", "the task carries bindings in more than one dialect (trace, zeebe, camunda); keep one".to_owned());
         }
-        found.into_iter().next()
+        found.into_iter().next().or_else(|| implementation(el))
     }
 
     fn read_trace(&mut self, el: &Element) -> Option<TaskBinding> {
@@ -455,4 +457,22 @@ fn serde_json_string(value: &str) -> String {
     }
     out.push('"');
     out
+}
+
+/// The standard `implementation` attribute as the resource name, when no extension binds the
+/// task: `implementation="excavation.excavate"`, or an engine-style `${environment.services.noop}`
+/// (the `${…}` is removed). The BPMN defaults `##WebService` and `##unspecified` name nothing.
+fn implementation(el: &Element) -> Option<TaskBinding> {
+    let raw = el.attr("implementation")?.trim();
+    if raw.starts_with("##") || raw.is_empty() {
+        return None;
+    }
+    let name = raw
+        .strip_prefix("${")
+        .and_then(|r| r.strip_suffix('}'))
+        .unwrap_or(raw)
+        .trim();
+    let mut b = TaskBinding::new(Dialect::Bpmn);
+    b.resource = Some(name.to_owned());
+    Some(b)
 }

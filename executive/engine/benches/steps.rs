@@ -1,0 +1,233 @@
+//! Engine throughput and idle memory against bpmn-engine and SpiffWorkflow, same run.
+//!
+//! For each workload of `../shared/bench/peers/models` the engine runs one verification
+//! instance (completed flow nodes must match `manifest.json`), then K instances back to back
+//! with service tasks completing at once (`noop`, `inc`, `fail` as the peer harness defines
+//! them); the peers run the same files in the same run. Prints completed flow nodes per second,
+//! instances per second and the ratio to the faster peer; then memory per idle instance waiting
+//! on a user task. Run with `cargo bench -p executive-engine --bench steps`.
+
+use std::collections::{BTreeMap, VecDeque};
+use std::path::Path;
+use std::sync::Arc;
+use std::time::Instant;
+
+use executive_engine::{Action, Engine, Entry, Event, Input, Value, Vars};
+
+#[path = "../../model/benches/peers.rs"]
+mod peers;
+use peers::{peers, report, shared};
+
+/// Service operation of each service task, from `implementation="${environment.services.op}"`.
+fn operations(xml: &str) -> BTreeMap<String, String> {
+    let mut ops = BTreeMap::new();
+    for part in xml.split("<bpmn:serviceTask ").skip(1) {
+        let tag = part.split('>').next().unwrap_or("");
+        let id = tag.split("id=\"").nth(1).and_then(|r| r.split('"').next());
+        let op = tag
+            .split("environment.services.")
+            .nth(1)
+            .and_then(|r| r.split('}').next());
+        if let (Some(id), Some(op)) = (id, op) {
+            ops.insert(id.to_owned(), op.to_owned());
+        }
+    }
+    ops
+}
+
+/// Runs one instance to its end; returns the completed flow nodes (if counted).
+fn instance(e: &mut Engine, seq: &mut u64, process: &str, ops: &BTreeMap<String, String>) -> usize {
+    let g = Arc::clone(e.graph());
+    let mut queue = VecDeque::from([Event::InstanceStarted {
+        process: process.to_owned(),
+        vars: Vars::new(),
+    }]);
+    let mut completed = 0;
+    while let Some(event) = queue.pop_front() {
+        *seq += 1;
+        let actions = e
+            .step(Input {
+                seq: *seq,
+                at: 0,
+                event,
+            })
+            .expect("accepted");
+        for a in actions {
+            match a {
+                Action::DispatchTask {
+                    task,
+                    node,
+                    request,
+                    ..
+                } => {
+                    let op = ops.get(&g.node(node).id).map_or("noop", String::as_str);
+                    queue.push_back(match op {
+                        "fail" => Event::TaskFailed {
+                            task,
+                            code: "SVC_FAIL".into(),
+                            message: String::new(),
+                        },
+                        "inc" => {
+                            let count = match request.get("count") {
+                                Some(Value::Int(c)) => *c,
+                                _ => 0,
+                            };
+                            Event::TaskCompleted {
+                                task,
+                                output: [("count".to_owned(), Value::Int(count + 1))].into(),
+                            }
+                        }
+                        _ => Event::TaskCompleted {
+                            task,
+                            output: Vars::new(),
+                        },
+                    });
+                }
+                Action::Record(r) if matches!(r.entry, Entry::Left { .. }) => completed += 1,
+                _ => {}
+            }
+        }
+    }
+    completed
+}
+
+struct Row {
+    steps_per_s: f64,
+    instances_per_s: f64,
+}
+
+fn ours(path: &Path, process: &str, expected: usize, min_seconds: f64) -> Result<Row, String> {
+    let xml = std::fs::read_to_string(path).map_err(|e| e.to_string())?;
+    let loaded = executive_model::load(xml.as_bytes());
+    let graph = Arc::new(
+        loaded
+            .graph
+            .ok_or_else(|| format!("{:?}", loaded.diagnostics.first()))?,
+    );
+    let ops = operations(&xml);
+    let mut e = Engine::new(Arc::clone(&graph));
+    let mut seq = 0;
+    let steps = instance(&mut e, &mut seq, process, &ops);
+    if steps != expected {
+        return Err(format!("{steps} flow nodes completed, expected {expected}"));
+    }
+    let start = Instant::now();
+    let mut n = 0u64;
+    while start.elapsed().as_secs_f64() < min_seconds || n < 3 {
+        // A fresh engine per batch keeps the finished instances from piling up.
+        let mut e = Engine::new(Arc::clone(&graph));
+        let mut seq = 0;
+        for _ in 0..16 {
+            instance(&mut e, &mut seq, process, &ops);
+            n += 1;
+        }
+    }
+    let s = start.elapsed().as_secs_f64();
+    Ok(Row {
+        steps_per_s: (n as f64 * steps as f64) / s,
+        instances_per_s: n as f64 / s,
+    })
+}
+
+fn rss_kb() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    status
+        .lines()
+        .find(|l| l.starts_with("VmRSS:"))?
+        .split_whitespace()
+        .nth(1)?
+        .parse()
+        .ok()
+}
+
+fn idle_kb_per_instance(path: &Path, n: usize) -> Option<f64> {
+    let loaded = executive_model::load(&std::fs::read(path).ok()?);
+    let graph = Arc::new(loaded.graph?);
+    let before = rss_kb()?;
+    let mut e = Engine::new(graph);
+    for i in 0..n {
+        let _ = e.step(Input {
+            seq: i as u64 + 1,
+            at: 0,
+            event: Event::InstanceStarted {
+                process: "wait_user".into(),
+                vars: Vars::new(),
+            },
+        });
+    }
+    let waiting = e
+        .state()
+        .instances
+        .values()
+        .filter(|i| i.outcome.is_none())
+        .count();
+    assert_eq!(waiting, n, "every instance waits on its user task");
+    let after = rss_kb()?;
+    Some((after.saturating_sub(before)) as f64 / n as f64)
+}
+
+fn main() {
+    let models = shared().join("bench/peers/models");
+    let manifest: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(models.join("manifest.json")).expect("manifest"),
+    )
+    .expect("manifest json");
+    let peers = peers();
+    // (ours, bpmn-engine's file, peer K)
+    let rows = [
+        ("seq-100.bpmn", "seq-100.bpmn", "20"),
+        ("seq-1000.bpmn", "seq-1000.bpmn", "2"),
+        ("par-100.bpmn", "par-100.bpmn", "20"),
+        ("loop-1000.spiff.bpmn", "loop-1000.bpmn-engine.bpmn", "2"),
+        ("error-boundary.bpmn", "error-boundary.bpmn", "200"),
+    ];
+    println!(
+        "{:<22} {:>14} {:>14} {:>14} {:>10} {:>12}",
+        "model", "ours steps/s", "bpmn-engine", "Spiff", "x faster", "ours inst/s"
+    );
+    for (file, engine_file, k) in rows {
+        let m = &manifest[file];
+        let process = m["process_id"].as_str().unwrap_or_default();
+        let expected = m["expected_completed_flow_nodes"].as_u64().unwrap_or(0) as usize;
+        let ours = match ours(&models.join(file), process, expected, 1.0) {
+            Ok(r) => r,
+            Err(e) => {
+                println!("{file:<22} ours failed: {e}");
+                continue;
+            }
+        };
+        let steps = |engine: &str, f: &str| {
+            peers
+                .as_deref()
+                .and_then(|d| report(d, engine, &models.join(f), &[k]))
+                .and_then(|l| l["steps_per_s"].as_f64())
+        };
+        let be = steps("bpmn-engine", engine_file);
+        let sp = steps("spiff", file);
+        let faster = [be, sp].into_iter().flatten().reduce(f64::max);
+        let show = |v: Option<f64>| v.map_or("-".to_owned(), |v| format!("{v:.0}"));
+        let ratio = faster.map_or("-".to_owned(), |f| format!("{:.0}x", ours.steps_per_s / f));
+        println!(
+            "{file:<22} {:>14.0} {:>14} {:>14} {ratio:>10} {:>12.0}",
+            ours.steps_per_s,
+            show(be),
+            show(sp),
+            ours.instances_per_s
+        );
+    }
+    let wait = models.join("wait-user.bpmn");
+    let ours_kb = idle_kb_per_instance(&wait, 10_000);
+    let idle = |engine: &str| {
+        peers
+            .as_deref()
+            .and_then(|d| report(d, engine, &wait, &["1000", "--mode", "idle"]))
+            .and_then(|l| l["rss_delta_kb_per_instance"].as_f64())
+    };
+    let show = |v: Option<f64>| v.map_or("-".to_owned(), |v| format!("{v:.2}"));
+    println!(
+        "idle instance (KB, RSS delta): ours {} (10,000 held), bpmn-engine {}, Spiff {} (1,000 held)",
+        show(ours_kb),
+        show(idle("bpmn-engine")),
+        show(idle("spiff"))
+    );
+}
