@@ -38,6 +38,11 @@ enum Corpus {
         /// The expectations file (JSON array of tests and cases).
         expectations: PathBuf,
     },
+    /// A bpmn-js-token-simulation corpus: `scenarios.json` and `simulator/` diagrams and traces.
+    TokenSimulation {
+        /// The corpus folder.
+        dir: PathBuf,
+    },
 }
 
 fn main() -> anyhow::Result<ExitCode> {
@@ -57,11 +62,20 @@ fn main() -> anyhow::Result<ExitCode> {
         Command::Conformance(Corpus::Betsy { dir, expectations }) => {
             let stdout = std::io::stdout();
             let totals = executive::conformance::betsy(&dir, &expectations, &mut stdout.lock())?;
-            Ok(if totals.failed == 0 {
-                ExitCode::SUCCESS
-            } else {
-                ExitCode::FAILURE
-            })
+            Ok(verdict(totals))
         }
+        Command::Conformance(Corpus::TokenSimulation { dir }) => {
+            let stdout = std::io::stdout();
+            let totals = executive::conformance::token_simulation(&dir, &mut stdout.lock())?;
+            Ok(verdict(totals))
+        }
+    }
+}
+
+fn verdict(totals: executive::conformance::Totals) -> ExitCode {
+    if totals.failed == 0 {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
     }
 }

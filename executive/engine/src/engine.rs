@@ -10,12 +10,21 @@ use crate::run::Run;
 use crate::state::{At, On, State};
 use crate::value::Vars;
 
+/// Token-game mode: the engine as a simulator (model exploration, the token-simulation
+/// corpus). Never used to run a mission.
+#[derive(Clone, Debug, Default)]
+pub struct Game {
+    /// Gateways whose outgoing flows are chosen from outside, by node.
+    pub choices: BTreeMap<NodeId, Vec<executive_model::FlowId>>,
+}
+
 /// The BPMN token engine over one validated model.
 pub struct Engine {
     graph: Arc<ProcessGraph>,
     state: State,
     reach: BTreeMap<(NodeId, NodeId), bool>,
     trace_moves: bool,
+    game: Option<Game>,
 }
 
 impl Engine {
@@ -31,7 +40,15 @@ impl Engine {
             state,
             reach: BTreeMap::new(),
             trace_moves: true,
+            game: None,
         }
+    }
+
+    /// Switches token-game mode on: every task is dispatched (the player completes it), a
+    /// gateway takes the flows chosen in [`Game::choices`] (none chosen: the token stops
+    /// there), and timers without a value only fire when triggered.
+    pub fn game(&mut self) -> &mut Game {
+        self.game.get_or_insert_with(Game::default)
     }
 
     /// Turns the `entered` / `left` / `took` record entries off (benchmarks of raw stepping).
@@ -70,6 +87,7 @@ impl Engine {
             ready: Default::default(),
             trace_moves: self.trace_moves,
             deferred: Vec::new(),
+            game: self.game.as_ref(),
             throw_now: Default::default(),
             reach: &mut self.reach,
         };
@@ -84,9 +102,10 @@ impl Engine {
         let g = &self.graph;
         match event {
             Event::InstanceStarted { process, .. } => {
+                let game = self.game.is_some();
                 let p = g
                     .process_by_id(process)
-                    .filter(|p| g.process(*p).executable)
+                    .filter(|p| game || g.process(*p).executable)
                     .ok_or_else(|| Rejected::UnknownProcess(process.clone()))?;
                 unsupported(g, p)
             }
@@ -142,6 +161,10 @@ impl Engine {
             Event::CancelRequested { instance } => match s.instances.get(instance) {
                 Some(i) if i.outcome.is_none() => Ok(()),
                 _ => Err(Rejected::UnknownInstance(instance.0)),
+            },
+            Event::WaitTriggered { wait } => match s.waits.contains_key(wait) {
+                true => Ok(()),
+                false => Err(Rejected::UnknownWait(*wait)),
             },
             Event::SignalReceived { .. } | Event::DataChanged { .. } => Ok(()),
         }
@@ -293,6 +316,16 @@ fn apply(run: &mut Run<'_>, event: Event) {
                 }
             }
             run.s.data.insert(key, value);
+        }
+        Event::WaitTriggered { wait } => {
+            let what = match run.s.waits.get(&wait).map(|w| &w.on) {
+                Some(On::Message(..)) => Trigger::Message,
+                Some(On::Signal(_)) => Trigger::Signal,
+                Some(On::Timer { .. }) => Trigger::Timer,
+                Some(On::Manual) => Trigger::Signal,
+                _ => Trigger::Condition,
+            };
+            run.trigger(wait, what, "triggered".to_owned(), &Vars::new());
         }
         Event::CancelRequested { instance } => run.finish_instance(instance, Outcome::Cancelled),
     }

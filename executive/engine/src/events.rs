@@ -94,6 +94,8 @@ impl Run<'_> {
                 .map_or(scope, |t| t.scope);
             match eval::deadline(timer, self.now, &|n| self.lookup(lookup_scope, n)) {
                 Ok((due, left)) => self.arm(w, due, left, 1),
+                // A token game's timers without a value fire only when triggered.
+                Err(_) if self.game.is_some() => self.arm(w, crate::io::Millis::MAX, Some(0), 1),
                 Err(e) => {
                     self.unsubscribe(w);
                     if let Some(t) = t {
@@ -166,8 +168,12 @@ impl Run<'_> {
         let tok = &self.s.tokens[&t];
         let (node, scope) = (tok.node, tok.scope);
         for &b in &g.node(node).boundaries {
-            for (i, d) in triggers_of(g, b).iter().enumerate() {
+            let triggers = triggers_of(g, b);
+            for (i, d) in triggers.iter().enumerate() {
                 self.subscribe_def(Some(t), scope, b, d, i);
+            }
+            if triggers.is_empty() && self.game.is_some() {
+                self.subscribe(t, b, On::Manual);
             }
         }
     }
@@ -191,6 +197,9 @@ impl Run<'_> {
         }
         for (i, d) in triggers.iter().enumerate() {
             self.subscribe_def(Some(t), scope, node, d, i);
+        }
+        if triggers.is_empty() && self.game.is_some() {
+            self.subscribe(t, node, On::Manual);
         }
         if self
             .s
@@ -372,6 +381,10 @@ impl Run<'_> {
     }
 
     fn rearm_or_keep(&mut self, w: WaitId) {
+        if self.game.is_some() {
+            // A token game triggers by hand: the subscription stays.
+            return;
+        }
         if matches!(self.s.waits.get(&w).map(|w| &w.on), Some(On::Timer { .. })) {
             self.rearm(w);
         }
@@ -552,6 +565,9 @@ impl Run<'_> {
             return Some(Catcher::Boundary(t, b));
         }
         let mut scope = tok.scope;
+        // Leaving an event sub-process, its siblings are not asked: an event sub-process does
+        // not catch what it throws itself (a rethrow goes to the enclosing scope's parent).
+        let mut from_event_sub = false;
         loop {
             let sc = self.s.scopes.get(&scope)?;
             let element = match sc.kind {
@@ -559,14 +575,17 @@ impl Run<'_> {
                 ScopeKind::SubProcess(n) => Some(Scope::SubProcess(n)),
                 _ => None,
             };
-            if let Some(el) = element
+            if !from_event_sub
+                && let Some(el) = element
                 && let Some(start) = self.event_subprocess_start(el, what, code)
             {
                 return Some(Catcher::EventSub(scope, start));
             }
+            from_event_sub = matches!(sc.kind, ScopeKind::SubProcess(n)
+                if matches!(&g.node(n).kind, NodeKind::SubProcess(sp) if matches!(sp.kind, SubProcessKind::Event)));
             let owner = sc.owner?;
             let otok = self.s.tokens.get(&owner)?;
-            if let Some(b) = boundary_of(otok.node) {
+            if !from_event_sub && let Some(b) = boundary_of(otok.node) {
                 return Some(Catcher::Boundary(owner, b));
             }
             scope = sc.parent?;
@@ -827,7 +846,7 @@ impl Run<'_> {
         let g = self.g;
         let mut out = Vec::new();
         for (i, p) in g.processes.iter().enumerate() {
-            if !p.executable {
+            if !p.executable && self.game.is_none() {
                 continue;
             }
             for &n in &p.nodes {

@@ -66,6 +66,21 @@ impl Run<'_> {
         if n.outgoing.len() == 1 && g.flow(n.outgoing[0]).condition.is_none() {
             return Ok(n.outgoing.clone());
         }
+        if let Some(game) = self.game {
+            let unconditioned = n.outgoing.iter().all(|f| g.flow(*f).condition.is_none());
+            if let Some(chosen) = game.choices.get(&node) {
+                return Ok(n
+                    .outgoing
+                    .iter()
+                    .copied()
+                    .filter(|f| chosen.contains(f))
+                    .collect());
+            }
+            if (unconditioned && n.outgoing.len() > 1) || n.outgoing.is_empty() {
+                // Nobody chose a branch (or there is none): the token stops here.
+                return Ok(Vec::new());
+            }
+        }
         let scope = self.s.tokens[&t].scope;
         let mut read = Vars::new();
         let mut taken = Vec::new();
@@ -208,8 +223,17 @@ impl Run<'_> {
         } else if pending {
             return false;
         }
+        // One token per incoming flow is merged; later tokens on the same flow wait for the
+        // next activation.
+        let mut flows = BTreeSet::new();
+        if let Some(f) = self.s.tokens[&t].via {
+            flows.insert(f);
+        }
         for &o in &waiting {
-            if o != t {
+            if o != t
+                && (gw.kind == GatewayKind::Complex
+                    || flows.insert(self.s.tokens[&o].via.unwrap_or(FlowId(u32::MAX))))
+            {
                 self.consume(o, false);
             }
         }
@@ -260,6 +284,25 @@ impl Run<'_> {
                 break;
             }
             stack.extend(node.boundaries.iter().copied());
+            // A link throw continues at the link catch events of its name.
+            if let NodeKind::Throw(defs) = &node.kind {
+                for d in defs {
+                    if let executive_model::EventDefinition::Link(name) = d {
+                        for &c in g.scope_nodes(node.scope) {
+                            if matches!(&g.node(c).kind, NodeKind::Catch(k) if k.triggers.iter().any(|x| matches!(x, executive_model::EventDefinition::Link(l) if l == name)))
+                            {
+                                if c == to {
+                                    found = true;
+                                }
+                                stack.push(c);
+                            }
+                        }
+                    }
+                }
+            }
+            if found {
+                break;
+            }
         }
         self.reach.insert((from, to), found);
         found

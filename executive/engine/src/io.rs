@@ -133,6 +133,12 @@ pub enum Event {
         /// The new value.
         value: Value,
     },
+    /// An operator fires a subscription by hand (a contingency forced from the ground, or a
+    /// step of a token game), as if its event had occurred.
+    WaitTriggered {
+        /// The subscription.
+        wait: WaitId,
+    },
     /// Cancel an instance: every in-flight task is cancelled and the instance ends.
     CancelRequested {
         /// Which instance.
@@ -428,6 +434,9 @@ pub enum Rejected {
     /// No task is waiting for this key: it finished, was cancelled, or the attempt is stale.
     #[error("no task is waiting for key {0} (finished, cancelled or a stale attempt)")]
     UnknownTask(TaskKey),
+    /// No subscription has this id.
+    #[error("no subscription {0:?} is waiting")]
+    UnknownWait(WaitId),
     /// No timer is armed with this key.
     #[error("no timer is armed with key {0}")]
     UnknownTimer(TimerKey),

@@ -31,7 +31,7 @@ mod scope;
 mod state;
 mod value;
 
-pub use engine::Engine;
+pub use engine::{Engine, Game};
 pub use io::{
     Action, Entry, Event, Input, InstanceId, Millis, Outcome, Record, Rejected, ScopeId, TaskKey,
     TimerKey, TokenId, Trigger, WaitId,

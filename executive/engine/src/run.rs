@@ -21,6 +21,8 @@ pub(crate) struct Run<'a> {
     pub(crate) ready: VecDeque<TokenId>,
     /// Record token moves (entered / left / took). Off only for benchmarks of raw stepping.
     pub(crate) trace_moves: bool,
+    /// Token-game settings, if the engine plays a token game.
+    pub(crate) game: Option<&'a crate::engine::Game>,
     /// Signal throwers waiting for the ready tokens to settle.
     pub(crate) deferred: Vec<TokenId>,
     /// Deferred throwers now due to throw.
@@ -32,6 +34,10 @@ pub(crate) struct Run<'a> {
 /// Conditional events re-evaluated this many rounds in one step at most (a condition that keeps
 /// flipping would otherwise never let the step end).
 const MAX_CONDITION_ROUNDS: usize = 1000;
+
+/// Token arrivals in one step at most. A model that loops without ever waiting would otherwise
+/// never return; its tokens become incidents instead.
+const MAX_MOVES: usize = 1_000_000;
 
 impl Run<'_> {
     pub(crate) fn mint(&mut self) -> u64 {
@@ -74,9 +80,15 @@ impl Run<'_> {
 
     /// Moves every ready token, then re-evaluates joins and conditions, until nothing moves.
     pub(crate) fn quiesce(&mut self) {
+        let mut moves = 0;
         for _ in 0..MAX_CONDITION_ROUNDS {
             while let Some(t) = self.ready.pop_front() {
                 if self.s.tokens.get(&t).is_some_and(|t| t.at == At::Ready) {
+                    moves += 1;
+                    if moves > MAX_MOVES {
+                        self.incident(t, format!("the step exceeded {MAX_MOVES} token moves: the model loops without waiting"));
+                        continue;
+                    }
                     self.arrive(t);
                 }
             }
@@ -306,6 +318,10 @@ impl Run<'_> {
     fn start_task(&mut self, t: TokenId, task: &executive_model::Task) {
         let tok = &self.s.tokens[&t];
         let (scope, node, instance) = (tok.scope, tok.node, tok.instance);
+        if self.game.is_some() && task.kind != TaskKind::Receive {
+            let resource = self.g.node(node).id.clone();
+            return self.dispatch(t, resource, None);
+        }
         match task.kind {
             TaskKind::User => {
                 let key = self.next_key(t);

@@ -151,6 +151,16 @@ impl Run<'_> {
                 let event = matches!(&self.g.node(n).kind, NodeKind::SubProcess(sp) if matches!(sp.kind, SubProcessKind::Event));
                 if event {
                     // An event sub-process run ends; its token has nowhere to go.
+                    if self.trace_moves {
+                        let instance = sc.instance;
+                        self.record(
+                            instance,
+                            Entry::Left {
+                                node: n,
+                                token: owner,
+                            },
+                        );
+                    }
                     self.consume(owner, true);
                 } else {
                     // Its completed activities stay compensable, through the sub-process.

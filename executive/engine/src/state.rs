@@ -216,6 +216,8 @@ pub enum On {
         /// Repetitions left after this one.
         left: Option<u32>,
     },
+    /// Nothing but a manual trigger (token games: an event without a definition).
+    Manual,
     /// A condition; `last` is its value at the previous evaluation (fires on false -> true).
     Condition {
         /// The index of the trigger in the node's event definitions.

@@ -95,6 +95,10 @@ pub struct Options {
     /// A script connector is present: scripts that are not written in the expression language
     /// (and carry no `scriptFormat`) are accepted and run by it instead of being refused.
     pub script_connector: bool,
+    /// Token-game mode (simulation, teaching, model exploration): a model that reads as BPMN
+    /// yields a graph even with errors (sketches without resource names, conditions, timer
+    /// values, messages, …); the diagnostics are still reported. Never used to run a mission.
+    pub token_game: bool,
 }
 
 /// Loads a mission model with the default [`Options`]; imports cannot be resolved.
@@ -223,7 +227,7 @@ pub fn load_bundle(
     } else {
         None
     };
-    let ok = !sink.has_errors();
+    let ok = options.token_game || !sink.has_errors();
     let texts: Vec<diagnostic::SourceText<'_>> = parts
         .iter()
         .map(|p| diagnostic::SourceText {
