@@ -1018,16 +1018,18 @@ impl Run<'_> {
             },
         );
         self.cancel_scope(scope);
+        if let Some(b) = boundary {
+            self.record(
+                instance,
+                Entry::Caught {
+                    what: Trigger::Cancel,
+                    name: String::new(),
+                    node: b,
+                },
+            );
+        }
         self.withdraw(owner);
         let Some(b) = boundary else { return };
-        self.record(
-            instance,
-            Entry::Caught {
-                what: Trigger::Cancel,
-                name: String::new(),
-                node: b,
-            },
-        );
         let waiter = self.spawn(parent, b, None);
         self.run_handlers(waiter, parent, handlers);
     }
@@ -1046,8 +1048,10 @@ impl Run<'_> {
                 out.push(Handler::Activity(h, c.vars.clone()));
             } else if let Some(start) = self.compensation_event_sub(c.node) {
                 out.push(Handler::EventSub(start, c.inner.clone()));
+                out.push(Handler::Done(c.node));
             } else {
                 out.extend(self.handlers(&c.inner, None));
+                out.push(Handler::Done(c.node));
             }
         }
         out
@@ -1102,13 +1106,25 @@ impl Run<'_> {
         if handlers.is_empty() {
             return self.resume_waiter(waiter);
         }
-        let first = handlers.remove(0);
+        let mut first = handlers.remove(0);
+        while let Handler::Done(n) = first {
+            if self.trace_moves
+                && let Some(instance) = self.s.tokens.get(&waiter).map(|t| t.instance)
+            {
+                self.record(instance, Entry::Left { node: n, token: waiter });
+            }
+            if handlers.is_empty() {
+                return self.resume_waiter(waiter);
+            }
+            first = handlers.remove(0);
+        }
         let run = CompensationRun {
             waiter: Some(waiter),
             rest: handlers,
         };
         let h = match first {
             Handler::Activity(node, _vars) => self.spawn(scope, node, None),
+            Handler::Done(_) => return,
             Handler::EventSub(start, inner) => {
                 let Scope::SubProcess(esp) = self.g.node(start).scope else {
                     return self.resume_waiter(waiter);
@@ -1153,7 +1169,6 @@ impl Run<'_> {
         tok.at = At::Ready;
         let node = tok.node;
         match &self.g.node(node).kind {
-            NodeKind::End(_) => self.consume(w, true),
             _ => self.leave(w),
         }
     }

@@ -130,6 +130,8 @@ pub enum Handler {
     /// A compensation event sub-process (its start event) of a completed sub-process, with
     /// that sub-process's completed activities.
     EventSub(NodeId, Vec<Compensable>),
+    /// The compensation of this completed sub-process is over (recorded as leaving it).
+    Done(NodeId),
 }
 
 /// A compensation run in progress: the handlers still to run, newest first.
