@@ -781,9 +781,60 @@ impl Run<'_> {
                 node,
             },
         );
+        if let Some(node) = node
+            && self.along_message_flows(node, &name, &payload)
+        {
+            return;
+        }
         if !self.deliver_message(&name, None, &payload) {
             self.out.push(Action::SendMessage { name, payload });
         }
+    }
+
+    /// Delivers a message along the message flows drawn from `node` (collaborations): to the
+    /// catch event, receive task or start event at the other end, or to the process of the
+    /// pool it points at. False if no flow leaves `node` or nothing at their ends takes it.
+    pub(crate) fn along_message_flows(&mut self, node: NodeId, name: &str, payload: &Vars) -> bool {
+        let g = self.g;
+        let source = &g.node(node).id;
+        let targets: Vec<String> = g
+            .collaborations
+            .iter()
+            .flat_map(|c| &c.message_flows)
+            .filter(|m| &m.source == source)
+            .map(|m| m.target.clone())
+            .collect();
+        let mut delivered = false;
+        for target in targets {
+            if let Some(n) = g.node_by_id(&target) {
+                let wait = self
+                    .s
+                    .waits
+                    .iter()
+                    .find(|(_, w)| w.node == n && matches!(w.on, On::Message(..) | On::Manual))
+                    .map(|(id, _)| *id);
+                if let Some(w) = wait {
+                    self.trigger(w, Trigger::Message, name.to_owned(), payload);
+                    delivered = true;
+                } else if let (NodeKind::Start(_), Scope::Process(p)) =
+                    (&g.node(n).kind, g.node(n).scope)
+                {
+                    self.start_instance_at(p, n, payload.clone(), Trigger::Message, name);
+                    delivered = true;
+                }
+            } else if let Some(p) = g
+                .collaborations
+                .iter()
+                .flat_map(|c| &c.participants)
+                .find(|p| p.id == target)
+                .and_then(|p| p.process)
+            {
+                let (_, root) = self.open_instance(p, payload.clone());
+                self.start_process_scope(root, p);
+                delivered = true;
+            }
+        }
+        delivered
     }
 
     /// Delivers a message inside the engine; false if nothing takes it.
@@ -1111,7 +1162,13 @@ impl Run<'_> {
             if self.trace_moves
                 && let Some(instance) = self.s.tokens.get(&waiter).map(|t| t.instance)
             {
-                self.record(instance, Entry::Left { node: n, token: waiter });
+                self.record(
+                    instance,
+                    Entry::Left {
+                        node: n,
+                        token: waiter,
+                    },
+                );
             }
             if handlers.is_empty() {
                 return self.resume_waiter(waiter);
@@ -1162,15 +1219,14 @@ impl Run<'_> {
         }
     }
 
+    /// The compensation a token waited for is over: it moves on (an end event is left, which
+    /// consumes it).
     fn resume_waiter(&mut self, w: TokenId) {
         let Some(tok) = self.s.tokens.get_mut(&w) else {
             return;
         };
         tok.at = At::Ready;
-        let node = tok.node;
-        match &self.g.node(node).kind {
-            _ => self.leave(w),
-        }
+        self.leave(w);
     }
 }
 

@@ -555,6 +555,14 @@ impl Run<'_> {
                 },
             );
         }
+        // A token game passes a message along every message flow drawn from an element
+        // without a message definition of its own (message throwers send when they throw).
+        if self.game.is_some() && !sends_message(&node.kind) {
+            self.along_message_flows(node_id, "", &Vars::new());
+            if !self.s.tokens.contains_key(&t) {
+                return;
+            }
+        }
         let flows = match self.outgoing(t, node_id, scope) {
             Ok(f) => f,
             Err(e) => return self.incident(t, e),
@@ -815,5 +823,16 @@ pub(crate) fn triggers_of(g: &ProcessGraph, node: NodeId) -> &[EventDefinition] 
         NodeKind::Catch(c) => &c.triggers,
         NodeKind::Boundary(b) => &b.triggers,
         _ => &[],
+    }
+}
+
+/// Whether a node sends a message itself (message throw or end event, send task).
+fn sends_message(kind: &NodeKind) -> bool {
+    match kind {
+        NodeKind::Throw(defs) | NodeKind::End(defs) => defs
+            .iter()
+            .any(|d| matches!(d, EventDefinition::Message(_))),
+        NodeKind::Task(t) => t.kind == TaskKind::Send,
+        _ => false,
     }
 }

@@ -881,12 +881,21 @@ impl<'d> Builder<'d, '_> {
                 let triggers = self.event_definitions(el, &owner, strict);
                 let attached = el.attr("attachedToRef").map(local_ref);
                 let attached_to = match attached.and_then(|a| self.node_ref(el.offset, a)) {
+                    // Judged by the element name: the activity may come later in the document,
+                    // so its details may not be read yet.
                     Some(a)
-                        if self.g.node(a).is_activity()
-                            || matches!(
-                                self.node_src[a.index()].el.name.as_str(),
-                                "subProcess" | "transaction" | "adHocSubProcess" | "callActivity"
-                            ) =>
+                        if {
+                            let n = self.node_src[a.index()].el.name.as_str();
+                            n.ends_with("Task")
+                                || n == "task"
+                                || matches!(
+                                    n,
+                                    "subProcess"
+                                        | "transaction"
+                                        | "adHocSubProcess"
+                                        | "callActivity"
+                                )
+                        } =>
                     {
                         if self.g.node(a).scope != self.g.node(nid).scope {
                             self.sink.error("cross-scope-boundary", el.offset, Some(&owner), "boundary event is attached to an activity of another process or sub-process level".to_owned());

@@ -402,3 +402,14 @@ fn imports_resolve_through_the_callers_resolver() {
             .any(|d| d.code == "unresolved-import" && d.constraint == Some("EXT.001"))
     );
 }
+
+#[test]
+fn a_boundary_event_may_come_before_its_activity() {
+    // bpmn-js writes elements in creation order, so a boundary event can precede its task.
+    let g = ok(&around(
+        r#"<bpmn:boundaryEvent id="b" attachedToRef="x"><bpmn:timerEventDefinition><bpmn:timeDuration xsi:type="bpmn:tFormalExpression">PT1H</bpmn:timeDuration></bpmn:timerEventDefinition></bpmn:boundaryEvent>
+        <bpmn:userTask id="x"/><bpmn:endEvent id="e2"/><bpmn:sequenceFlow id="f3" sourceRef="b" targetRef="e2"/>"#,
+    ));
+    let t = g.node_by_id("x").expect("x");
+    assert_eq!(g.node(t).boundaries, vec![g.node_by_id("b").expect("b")]);
+}

@@ -50,7 +50,8 @@ pub fn betsy(dir: &Path, expectations: &Path, out: &mut dyn Write) -> std::io::R
 pub fn token_simulation(dir: &Path, out: &mut dyn Write) -> std::io::Result<Totals> {
     let results = token_sim::run_corpus(dir).map_err(std::io::Error::other)?;
     let mut groups: BTreeMap<&str, (usize, usize)> = BTreeMap::new();
-    for r in results.iter().filter(|r| !r.informative) {
+    let counted = |r: &&token_sim::ScenarioResult| !r.informative && r.deviation.is_none();
+    for r in results.iter().filter(counted) {
         let e = groups.entry(r.section.as_str()).or_default();
         if r.failure.is_none() {
             e.0 += 1;
@@ -62,12 +63,19 @@ pub fn token_simulation(dir: &Path, out: &mut dyn Write) -> std::io::Result<Tota
         writeln!(out, "{g:<40} {p:>4} passed {f:>4} failed")?;
     }
     for r in &results {
-        if let Some(why) = &r.failure {
+        if let Some(why) = r.deviation {
+            let state = if r.failure.is_some() {
+                "differs"
+            } else {
+                "now agrees"
+            };
+            writeln!(out, "DEVIATION {} ({state}): {why}", r.name)?;
+        } else if let Some(why) = &r.failure {
             let tag = if r.informative { "INFO" } else { "FAIL" };
             writeln!(out, "{tag} {}: {why}", r.name)?;
         }
     }
-    let counted: Vec<_> = results.iter().filter(|r| !r.informative).collect();
+    let counted: Vec<_> = results.iter().filter(counted).collect();
     let passed = counted.iter().filter(|r| r.failure.is_none()).count();
     let failed = counted.len() - passed;
     writeln!(out, "{passed} passed, {failed} failed")?;
