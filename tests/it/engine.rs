@@ -48,15 +48,11 @@ fn betsy_runner_reports_failures_and_exits_nonzero() {
 /// Token-simulation scenarios the engine does not reproduce yet (tracked in the issue; a
 /// scenario leaving this list is progress, a scenario joining it is a regression).
 const TOKEN_SIMULATION_OPEN: &[&str] = &[
-    "parallel-gateway-stuck",
     "signal-rethrow",
-    "process-implicit-start-trigger",
     "process-implicit-start-collaboration",
-    "sub-process-multiple-starts",
     "collapsed-compensation-event-sub-process",
     "compensation-error",
     "compensation-nested",
-    "event-sub-process-implicit-start",
 ];
 
 #[test]

@@ -41,6 +41,7 @@ fn instance(e: &mut Engine, seq: &mut u64, process: &str, ops: &BTreeMap<String,
     let mut queue = VecDeque::from([Event::InstanceStarted {
         process: process.to_owned(),
         vars: Vars::new(),
+        start: None,
     }]);
     let mut completed = 0;
     while let Some(event) = queue.pop_front() {
@@ -152,6 +153,7 @@ fn idle_kb_per_instance(path: &Path, n: usize) -> Option<f64> {
             event: Event::InstanceStarted {
                 process: "wait_user".into(),
                 vars: Vars::new(),
+                start: None,
             },
         });
     }

@@ -101,12 +101,24 @@ impl Engine {
         let s = &self.state;
         let g = &self.graph;
         match event {
-            Event::InstanceStarted { process, .. } => {
+            Event::InstanceStarted { process, start, .. } => {
                 let game = self.game.is_some();
                 let p = g
                     .process_by_id(process)
                     .filter(|p| game || g.process(*p).executable)
                     .ok_or_else(|| Rejected::UnknownProcess(process.clone()))?;
+                if let Some(start) = start {
+                    let ok = g.node_by_id(start).is_some_and(|n| {
+                        g.node(n).scope == executive_model::Scope::Process(p)
+                            && g.node(n).incoming.is_empty()
+                    });
+                    if !ok {
+                        return Err(Rejected::UnknownStart {
+                            process: process.clone(),
+                            start: start.clone(),
+                        });
+                    }
+                }
                 unsupported(g, p)
             }
             Event::TaskCompleted { task, .. } | Event::TaskFailed { task, .. } => {
@@ -215,12 +227,17 @@ fn check_answer(
 
 fn apply(run: &mut Run<'_>, event: Event) {
     match event {
-        Event::InstanceStarted { process, vars } => {
+        Event::InstanceStarted {
+            process,
+            vars,
+            start,
+        } => {
             let Some(p) = run.g.process_by_id(&process) else {
                 return;
             };
             let (_, root) = run.open_instance(p, vars);
-            run.start_process_scope(root, p);
+            let start = start.and_then(|s| run.g.node_by_id(&s));
+            run.start_process_scope(root, p, start);
         }
         Event::TaskCompleted { task, output } => {
             let t = task.token;

@@ -405,6 +405,9 @@ impl Run<'_> {
             );
         }
         self.spawn(child, start, None);
+        for n in self.implicit_starts(Scope::SubProcess(esp)) {
+            self.spawn(child, n, None);
+        }
     }
 
     /// A signal throw waits until the other ready tokens of the step have settled, so that
@@ -830,7 +833,7 @@ impl Run<'_> {
                 .and_then(|p| p.process)
             {
                 let (_, root) = self.open_instance(p, payload.clone());
-                self.start_process_scope(root, p);
+                self.start_process_scope(root, p, None);
                 delivered = true;
             }
         }

@@ -81,6 +81,11 @@ pub enum Event {
         process: String,
         /// Initial variables.
         vars: Vars,
+        /// The start event (by id) that starts it. Without one, the first none start event in
+        /// document order (each start event is an independent way to start a process), or,
+        /// without start events, every activity and gateway without incoming flow.
+        #[serde(default)]
+        start: Option<String>,
     },
     /// A dispatched task finished successfully.
     TaskCompleted {
@@ -434,6 +439,14 @@ pub enum Rejected {
     /// No task is waiting for this key: it finished, was cancelled, or the attempt is stale.
     #[error("no task is waiting for key {0} (finished, cancelled or a stale attempt)")]
     UnknownTask(TaskKey),
+    /// The start element is not a start of that process.
+    #[error("`{start}` is not a start event of process `{process}`")]
+    UnknownStart {
+        /// The process.
+        process: String,
+        /// The element id given.
+        start: String,
+    },
     /// No subscription has this id.
     #[error("no subscription {0:?} is waiting")]
     UnknownWait(WaitId),

@@ -202,7 +202,7 @@ proptest! {
         let mut now = 0i64;
         let mut accepted: Vec<(Input, Vec<Action>)> = Vec::new();
         let mut last: Option<Input> = None;
-        let start = || Event::InstanceStarted { process: "p".into(), vars: Vars::new() };
+        let start = || Event::InstanceStarted { process: "p".into(), vars: Vars::new(), start: None };
         for op in std::iter::once(Op::Start).chain(ops) {
             let event = match op {
                 Op::Start => start(),

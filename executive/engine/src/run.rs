@@ -265,7 +265,7 @@ impl Run<'_> {
                 Some(executive_model::Called::Process(p)) => {
                     let vars = self.call_inputs(t, scope, call.binding.as_ref());
                     let child = self.open_scope(t, ScopeKind::Process(*p), vars);
-                    self.start_process_scope(child, *p);
+                    self.start_process_scope(child, *p, None);
                 }
                 Some(executive_model::Called::GlobalTask(id)) => match g.global_tasks.get(id) {
                     Some(task) => self.start_task(t, task),
@@ -319,7 +319,8 @@ impl Run<'_> {
         let tok = &self.s.tokens[&t];
         let (scope, node, instance) = (tok.scope, tok.node, tok.instance);
         if self.game.is_some() && task.kind != TaskKind::Receive {
-            let resource = self.g.node(node).id.clone();
+            let id = &self.g.node(node).id;
+            let resource = id.clone();
             return self.dispatch(t, resource, None);
         }
         match task.kind {
@@ -729,31 +730,33 @@ impl Run<'_> {
             .unwrap_or_default()
     }
 
-    /// The start nodes of a scope element: none start events, or (no start event at all) every
-    /// activity and gateway without incoming flows.
+    /// The nodes a scope starts at: its none start events, and every other node without
+    /// incoming flow (implicit start: activities, gateways, throw and end events; not boundary
+    /// events, link catch events, compensation handlers or event sub-processes).
     pub(crate) fn start_nodes(&self, scope: Scope) -> Vec<NodeId> {
         let g = self.g;
-        let nodes = g.scope_nodes(scope);
-        let starts: Vec<NodeId> = nodes
+        g.scope_nodes(scope)
             .iter()
             .copied()
-            .filter(|n| matches!(&g.node(*n).kind, NodeKind::Start(s) if s.triggers.is_empty()))
-            .collect();
-        if !starts.is_empty()
-            || nodes
-                .iter()
-                .any(|n| matches!(g.node(*n).kind, NodeKind::Start(_)))
-        {
-            return starts;
-        }
-        nodes
+            .filter(|n| match &g.node(*n).kind {
+                NodeKind::Start(s) => s.triggers.is_empty(),
+                _ => false,
+            })
+            .chain(self.implicit_starts(scope))
+            .collect()
+    }
+
+    /// Nodes of a scope that start without a start event (no incoming flow).
+    pub(crate) fn implicit_starts(&self, scope: Scope) -> Vec<NodeId> {
+        let g = self.g;
+        g.scope_nodes(scope)
             .iter()
             .copied()
             .filter(|n| {
                 let node = g.node(*n);
                 node.incoming.is_empty()
                     && !node.for_compensation
-                    && !matches!(node.kind, NodeKind::Boundary(_))
+                    && !matches!(node.kind, NodeKind::Start(_) | NodeKind::Boundary(_))
                     && !matches!(&node.kind, NodeKind::Catch(c) if c.triggers.iter().any(|d| matches!(d, EventDefinition::Link(_))))
                     && !matches!(&node.kind, NodeKind::SubProcess(sp) if matches!(sp.kind, SubProcessKind::Event))
             })
@@ -826,13 +829,13 @@ pub(crate) fn triggers_of(g: &ProcessGraph, node: NodeId) -> &[EventDefinition] 
     }
 }
 
-/// Whether a node sends a message itself (message throw or end event, send task).
+/// Whether a node sends its message when it throws (message throw or end event); in a token
+/// game every other node, send tasks included, passes messages on when it is left.
 fn sends_message(kind: &NodeKind) -> bool {
     match kind {
         NodeKind::Throw(defs) | NodeKind::End(defs) => defs
             .iter()
             .any(|d| matches!(d, EventDefinition::Message(_))),
-        NodeKind::Task(t) => t.kind == TaskKind::Send,
         _ => false,
     }
 }

@@ -76,10 +76,32 @@ impl Run<'_> {
         (instance, root)
     }
 
-    /// Starts a process scope at its none start events.
-    pub(crate) fn start_process_scope(&mut self, scope: ScopeId, process: ProcessId) {
+    /// Starts a process scope at `start`, or at its first none start event (each start event
+    /// is an independent way in), or, without start events, at every node without incoming flow.
+    pub(crate) fn start_process_scope(
+        &mut self,
+        scope: ScopeId,
+        process: ProcessId,
+        start: Option<NodeId>,
+    ) {
         self.subscribe_event_subprocesses(scope, Scope::Process(process));
-        let starts = self.start_nodes(Scope::Process(process));
+        let element = Scope::Process(process);
+        let first_none_start = || {
+            self.g.scope_nodes(element).iter().copied().find(
+                |n| matches!(&self.g.node(*n).kind, NodeKind::Start(s) if s.triggers.is_empty()),
+            )
+        };
+        let mut starts: Vec<NodeId> = start.or_else(first_none_start).into_iter().collect();
+        starts.retain(|s| {
+            self.g.node(*s).incoming.is_empty()
+                && matches!(self.g.node(*s).kind, NodeKind::Start(_))
+        });
+        starts.extend(self.implicit_starts(element));
+        if let Some(s) = start
+            && !starts.contains(&s)
+        {
+            starts.insert(0, s);
+        }
         self.start_at(scope, &starts);
     }
 

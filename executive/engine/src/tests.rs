@@ -97,6 +97,7 @@ impl Driver {
         self.step(Event::InstanceStarted {
             process: "p".into(),
             vars,
+            start: None,
         })
         .expect("starts")
     }

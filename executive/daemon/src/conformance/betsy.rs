@@ -176,6 +176,7 @@ fn run_case(g: &Arc<ProcessGraph>, test: &Test, case: &Case, number: usize) -> V
         h.inputs.push_back(Event::InstanceStarted {
             process: "ParallelProcess".to_owned(),
             vars: Vars::new(),
+            start: None,
         });
         h.drain();
     }
@@ -191,6 +192,7 @@ fn run_case(g: &Arc<ProcessGraph>, test: &Test, case: &Case, number: usize) -> V
     h.inputs.push_back(Event::InstanceStarted {
         process: test.name.clone(),
         vars,
+        start: None,
     });
     h.drain();
     let test_instance = h

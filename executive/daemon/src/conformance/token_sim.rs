@@ -218,6 +218,7 @@ impl Player {
             return self.apply(Event::InstanceStarted {
                 process,
                 vars: Vars::new(),
+                start: Some(element.to_owned()),
             });
         }
         let s = self.engine.state();
@@ -263,6 +264,7 @@ impl Player {
         self.apply(Event::InstanceStarted {
             process,
             vars: Vars::new(),
+            start: None,
         })
     }
 
@@ -291,6 +293,14 @@ impl Player {
                                 task,
                                 output: Vars::new(),
                             });
+                        }
+                    }
+                    Action::CancelTask { task } => {
+                        queue.retain(
+                            |e| !matches!(e, Event::TaskCompleted { task: k, .. } if *k == task),
+                        );
+                        for held in self.held.values_mut() {
+                            held.retain(|k| *k != task);
                         }
                     }
                     Action::Record(r) => self.project(r.instance, r.entry),
