@@ -5,7 +5,8 @@
 //! with service tasks completing at once (`noop`, `inc`, `fail` as the peer harness defines
 //! them); the peers run the same files in the same run. Prints completed flow nodes per second,
 //! instances per second and the ratio to the faster peer; then memory per idle instance waiting
-//! on a user task. Run with `cargo bench -p executive-engine --bench steps`.
+//! on a user task. Run with `cargo bench -p executive-engine --bench steps`
+//! (`STEPS_ONLY=<model>` for one row).
 
 use std::collections::{BTreeMap, VecDeque};
 use std::path::Path;
@@ -35,9 +36,21 @@ fn operations(xml: &str) -> BTreeMap<String, String> {
     ops
 }
 
+/// The service operation of each node, bound once before running (as the peers bind their
+/// service functions once).
+fn bind(g: &executive_model::ProcessGraph, ops: &BTreeMap<String, String>) -> Vec<&'static str> {
+    g.nodes
+        .iter()
+        .map(|n| match ops.get(&n.id).map(String::as_str) {
+            Some("fail") => "fail",
+            Some("inc") => "inc",
+            _ => "noop",
+        })
+        .collect()
+}
+
 /// Runs one instance to its end; returns the completed flow nodes (if counted).
-fn instance(e: &mut Engine, seq: &mut u64, process: &str, ops: &BTreeMap<String, String>) -> usize {
-    let g = Arc::clone(e.graph());
+fn instance(e: &mut Engine, seq: &mut u64, process: &str, ops: &[&'static str]) -> usize {
     let mut queue = VecDeque::from([Event::InstanceStarted {
         process: process.to_owned(),
         vars: Vars::new(),
@@ -61,8 +74,7 @@ fn instance(e: &mut Engine, seq: &mut u64, process: &str, ops: &BTreeMap<String,
                     request,
                     ..
                 } => {
-                    let op = ops.get(&g.node(node).id).map_or("noop", String::as_str);
-                    queue.push_back(match op {
+                    queue.push_back(match ops[node.index()] {
                         "fail" => Event::TaskFailed {
                             task,
                             code: "SVC_FAIL".into(),
@@ -105,7 +117,7 @@ fn ours(path: &Path, process: &str, expected: usize, min_seconds: f64) -> Result
             .graph
             .ok_or_else(|| format!("{:?}", loaded.diagnostics.first()))?,
     );
-    let ops = operations(&xml);
+    let ops = bind(&graph, &operations(&xml));
     let mut e = Engine::new(Arc::clone(&graph));
     let mut seq = 0;
     let steps = instance(&mut e, &mut seq, process, &ops);
@@ -197,7 +209,12 @@ fn main() {
         "{:<22} {:>14} {:>14} {:>14} {:>10} {:>12}",
         "model", "ours steps/s", "bpmn-engine", "Spiff", "x faster", "ours inst/s"
     );
+    // `STEPS_ONLY=error-boundary` runs the rows whose model name contains it (for profiling).
+    let only = std::env::var("STEPS_ONLY").ok();
     for (file, engine_file, k, flags) in rows {
+        if only.as_deref().is_some_and(|o| !file.contains(o)) {
+            continue;
+        }
         let m = &manifest[file];
         let process = m["process_id"].as_str().unwrap_or_default();
         let expected = m["expected_completed_flow_nodes"].as_u64().unwrap_or(0) as usize;

@@ -83,7 +83,7 @@ impl Engine {
             g: &self.graph,
             s: &mut self.state,
             now: input.at,
-            out: Vec::new(),
+            out: Vec::with_capacity(16),
             ready: Default::default(),
             trace_moves: self.trace_moves,
             deferred: Vec::new(),

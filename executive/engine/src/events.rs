@@ -525,13 +525,16 @@ impl Run<'_> {
     }
 
     fn catches(&self, d: &EventDefinition, what: Trigger, code: &str) -> bool {
+        // Compared in place: this runs for every boundary on every throw.
         match (d, what) {
-            (EventDefinition::Error { error, .. }, Trigger::Error) => {
-                error.is_none() || self.error_code(*error).0 == code
-            }
-            (EventDefinition::Escalation(e), Trigger::Escalation) => {
-                e.is_none() || self.escalation_code(*e) == code
-            }
+            (EventDefinition::Error { error, .. }, Trigger::Error) => error.is_none_or(|e| {
+                let x = &self.g.errors[e.index()];
+                x.code.as_deref().unwrap_or(&x.id) == code
+            }),
+            (EventDefinition::Escalation(e), Trigger::Escalation) => e.is_none_or(|e| {
+                let x = &self.g.escalations[e.index()];
+                x.code.as_deref().unwrap_or(&x.id) == code
+            }),
             _ => false,
         }
     }

@@ -141,7 +141,12 @@ impl Run<'_> {
     fn parallel_join(&mut self, t: TokenId) -> bool {
         let g = self.g;
         self.park(t);
-        let node = self.s.tokens[&t].node;
+        let (node, scope) = (self.s.tokens[&t].node, self.s.tokens[&t].scope);
+        // Fewer waiting tokens than incoming flows: it cannot fire yet (checked in O(1)).
+        let waiting = self.s.joining.get(&(scope, node)).map_or(0, |s| s.len());
+        if waiting < g.node(node).incoming.len() {
+            return false;
+        }
         // The first waiting token of each incoming flow; the arriving token covers its own.
         let mut by_flow: std::collections::BTreeMap<FlowId, TokenId> = Default::default();
         if let Some(f) = self.s.tokens[&t].via {
