@@ -16,6 +16,9 @@ use crate::value::Vars;
 pub struct Game {
     /// Gateways whose outgoing flows are chosen from outside, by node.
     pub choices: BTreeMap<NodeId, Vec<executive_model::FlowId>>,
+    /// Tasks that wait to be completed from outside (dispatched); every other task completes
+    /// at once.
+    pub hold: std::collections::BTreeSet<NodeId>,
 }
 
 /// The BPMN token engine over one validated model.
@@ -44,9 +47,10 @@ impl Engine {
         }
     }
 
-    /// Switches token-game mode on: every task is dispatched (the player completes it), a
-    /// gateway takes the flows chosen in [`Game::choices`] (none chosen: the token stops
-    /// there), and timers without a value only fire when triggered.
+    /// Switches token-game mode on: tasks complete at once unless held ([`Game::hold`]: they
+    /// are dispatched and the player completes them), a gateway takes the flows chosen in
+    /// [`Game::choices`] (none chosen: the token stops there), events without a definition and
+    /// timers without a value fire only when triggered (`Event::WaitTriggered`).
     pub fn game(&mut self) -> &mut Game {
         self.game.get_or_insert_with(Game::default)
     }

@@ -978,13 +978,25 @@ impl Run<'_> {
                 },
             );
         }
-        let waits: Vec<WaitId> = self
+        // Inner scopes first (an event sub-process hears the signal before a boundary event
+        // of its enclosing sub-process interrupts it), then in subscription order.
+        let depth = |mut s: ScopeId| {
+            let mut d = 0usize;
+            while let Some(p) = self.s.scopes.get(&s).and_then(|x| x.parent) {
+                d += 1;
+                s = p;
+            }
+            d
+        };
+        let mut waits: Vec<(std::cmp::Reverse<usize>, WaitId)> = self
             .s
             .waits
             .iter()
             .filter(|(_, w)| matches!(&w.on, On::Signal(n) if n == name))
-            .map(|(id, _)| *id)
+            .map(|(id, w)| (std::cmp::Reverse(depth(w.scope)), *id))
             .collect();
+        waits.sort();
+        let waits: Vec<WaitId> = waits.into_iter().map(|(_, w)| w).collect();
         let starts = self.start_events_on(
             |d, r| matches!(d, EventDefinition::Signal(s) if r.signal_name(*s) == name),
         );

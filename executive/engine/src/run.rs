@@ -319,8 +319,10 @@ impl Run<'_> {
         let tok = &self.s.tokens[&t];
         let (scope, node, instance) = (tok.scope, tok.node, tok.instance);
         if self.game.is_some() && task.kind != TaskKind::Receive {
-            let id = &self.g.node(node).id;
-            let resource = id.clone();
+            if self.game.is_some_and(|g| !g.hold.contains(&node)) {
+                return self.complete_activity(t);
+            }
+            let resource = self.g.node(node).id.clone();
             return self.dispatch(t, resource, None);
         }
         match task.kind {
