@@ -496,6 +496,14 @@ impl Run<'_> {
                 let payload = self.visible_vars(scope);
                 self.send_message(instance, Some(node), name, payload);
             }
+            // A token game's anonymous signal goes to the nearest catcher up the scope chain,
+            // like an escalation; with none there, it is broadcast.
+            EventDefinition::Signal(None)
+                if self.game.is_some()
+                    && self.find_catcher(t, Trigger::Signal, "", false).is_some() =>
+            {
+                self.throw_up(t, Trigger::Signal, "");
+            }
             EventDefinition::Signal(s) => {
                 let name = self.signal_name(*s);
                 self.broadcast(instance, Some(node), &name);
@@ -531,6 +539,7 @@ impl Run<'_> {
                 let x = &self.g.errors[e.index()];
                 x.code.as_deref().unwrap_or(&x.id) == code
             }),
+            (EventDefinition::Signal(None), Trigger::Signal) => true,
             (EventDefinition::Escalation(e), Trigger::Escalation) => e.is_none_or(|e| {
                 let x = &self.g.escalations[e.index()];
                 x.code.as_deref().unwrap_or(&x.id) == code
@@ -714,24 +723,30 @@ impl Run<'_> {
     /// Throws an escalation from token `t`; the token may be withdrawn by an interrupting
     /// catcher.
     fn throw_escalation(&mut self, t: TokenId, code: &str) {
+        self.throw_up(t, Trigger::Escalation, code);
+    }
+
+    /// Throws an escalation (or, in a token game, an anonymous signal) to the nearest catcher
+    /// up the scope chain; the token may be withdrawn by an interrupting catcher.
+    fn throw_up(&mut self, t: TokenId, what: Trigger, code: &str) {
         let g = self.g;
         let tok = &self.s.tokens[&t];
         let (instance, node) = (tok.instance, tok.node);
         self.record(
             instance,
             Entry::Thrown {
-                what: Trigger::Escalation,
+                what,
                 name: code.to_owned(),
                 node: Some(node),
             },
         );
-        match self.find_catcher(t, Trigger::Escalation, code, false) {
+        match self.find_catcher(t, what, code, false) {
             Some(Catcher::Boundary(owner, b)) => {
                 let scope = self.s.tokens[&owner].scope;
                 self.record(
                     instance,
                     Entry::Caught {
-                        what: Trigger::Escalation,
+                        what,
                         name: code.to_owned(),
                         node: b,
                     },
@@ -747,7 +762,7 @@ impl Run<'_> {
                 self.record(
                     instance,
                     Entry::Caught {
-                        what: Trigger::Escalation,
+                        what,
                         name: code.to_owned(),
                         node: start,
                     },
@@ -763,7 +778,9 @@ impl Run<'_> {
                 self.run_event_subprocess(scope, esp, start, Vars::new());
             }
             None => {
-                if let Some(i) = self.s.instances.get_mut(&instance) {
+                if what == Trigger::Escalation
+                    && let Some(i) = self.s.instances.get_mut(&instance)
+                {
                     i.uncaught_escalations.push(code.to_owned());
                 }
             }
@@ -946,6 +963,11 @@ impl Run<'_> {
         );
         self.subscribe_event_subprocesses(root, Scope::Process(process));
         let t = self.spawn(root, start, None);
+        for n in self.implicit_starts(Scope::Process(process)) {
+            if n != start {
+                self.spawn(root, n, None);
+            }
+        }
         if self.g.node(start).is_activity() {
             // An instantiating receive task: its message has arrived.
             if let Some(tok) = self.s.tokens.get_mut(&t) {
@@ -1062,7 +1084,17 @@ impl Run<'_> {
     /// activities are compensated, then its cancel boundary event is taken.
     fn cancel_transaction(&mut self, t: TokenId) {
         let g = self.g;
-        let scope = self.s.tokens[&t].scope;
+        // The nearest enclosing transaction (the cancel end may sit in one of its event
+        // sub-processes).
+        let mut scope = self.s.tokens[&t].scope;
+        while let Some(sc) = self.s.scopes.get(&scope) {
+            let is_transaction = matches!(sc.kind, ScopeKind::SubProcess(n)
+                if matches!(&g.node(n).kind, NodeKind::SubProcess(sp) if matches!(sp.kind, SubProcessKind::Transaction)));
+            match sc.parent {
+                Some(p) if !is_transaction => scope = p,
+                _ => break,
+            }
+        }
         let Some(sc) = self.s.scopes.get(&scope) else {
             return;
         };
@@ -1113,15 +1145,19 @@ impl Run<'_> {
             .rev()
             .filter(|c| only.is_none_or(|a| a == c.node))
         {
-            if let Some(h) = self.g.node(c.node).compensation_handler {
-                out.push(Handler::Activity(h, c.vars.clone()));
-            } else if let Some(start) = self.compensation_event_sub(c.node) {
-                out.push(Handler::EventSub(start, c.inner.clone()));
-                out.push(Handler::Done(c.node));
-            } else {
-                out.extend(self.handlers(&c.inner, None));
-                out.push(Handler::Done(c.node));
+            let handler = self.g.node(c.node).compensation_handler;
+            if !matches!(self.g.node(c.node).kind, NodeKind::SubProcess(_)) {
+                out.extend(handler.map(|h| Handler::Activity(h, c.vars.clone())));
+                continue;
             }
+            // A sub-process: its inner compensation first (its compensation event
+            // sub-process, else its own completed activities), then its handler.
+            match self.compensation_event_sub(c.node) {
+                Some(start) => out.push(Handler::EventSub(start, c.inner.clone())),
+                None => out.extend(self.handlers(&c.inner, None)),
+            }
+            out.extend(handler.map(|h| Handler::Activity(h, c.vars.clone())));
+            out.push(Handler::Done(c.node));
         }
         out
     }

@@ -319,6 +319,22 @@ impl Run<'_> {
         let tok = &self.s.tokens[&t];
         let (scope, node, instance) = (tok.scope, tok.node, tok.instance);
         if self.game.is_some() && task.kind != TaskKind::Receive {
+            // An implicitly started task that a message flow points at waits for the message.
+            let id = &self.g.node(node).id;
+            let messaged = self.g.node(node).incoming.is_empty()
+                && self
+                    .g
+                    .collaborations
+                    .iter()
+                    .flat_map(|c| &c.message_flows)
+                    .any(|m| &m.target == id);
+            if messaged {
+                self.subscribe(t, node, On::Message(String::new(), None));
+                if let Some(tok) = self.s.tokens.get_mut(&t) {
+                    tok.at = At::Catching;
+                }
+                return;
+            }
             if self.game.is_some_and(|g| !g.hold.contains(&node)) {
                 return self.complete_activity(t);
             }
@@ -529,7 +545,10 @@ impl Run<'_> {
             self.consume(t, true);
             return;
         }
-        if g.node(node).compensation_handler.is_some() {
+        // (A sub-process registers itself, with its inner activities, when its scope ends.)
+        if g.node(node).compensation_handler.is_some()
+            && !matches!(g.node(node).kind, NodeKind::SubProcess(_))
+        {
             let vars = self.visible_vars(scope);
             if let Some(sc) = self.s.scopes.get_mut(&scope) {
                 sc.compensable.push(crate::state::Compensable {

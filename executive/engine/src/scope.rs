@@ -186,9 +186,10 @@ impl Run<'_> {
                     self.consume(owner, true);
                 } else {
                     // Its completed activities stay compensable, through the sub-process.
-                    let keep =
-                        !sc.compensable.is_empty() || self.compensation_event_sub(n).is_some();
-                    if keep && self.g.node(n).compensation_handler.is_none() {
+                    let keep = !sc.compensable.is_empty()
+                        || self.compensation_event_sub(n).is_some()
+                        || self.g.node(n).compensation_handler.is_some();
+                    if keep {
                         let parent = self.s.tokens[&owner].scope;
                         let vars = self.visible_vars(parent);
                         if let Some(p) = self.s.scopes.get_mut(&parent) {

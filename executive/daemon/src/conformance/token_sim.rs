@@ -150,6 +150,11 @@ fn run(dir: &Path, s: &Scenario) -> Result<(), String> {
                     .filter_map(|e| {
                         let mut parts = e.split(':');
                         let (action, element) = (parts.next()?, parts.next()?);
+                        // A collapsed sub-process is reported by its diagram plane, `<id>_plane`.
+                        let element = element
+                            .strip_suffix("_plane")
+                            .filter(|id| p.g.node_by_id(id).is_some())
+                            .unwrap_or(element);
                         (matches!(action, "enter" | "exit") && p.g.node_by_id(element).is_some())
                             .then(|| format!("{action}:{element}"))
                     })
