@@ -15,10 +15,11 @@
 //! - `serde`: the state and the journal entries are data.
 //! - `thiserror`: [`Rejected`] is a typed error.
 //!
-//! # Supported elements and their semantics
-//! See the table in the README; in short: every element the loader reads executes, with BPMN
-//! 2.0 chapter 13 token semantics, and an expression or mapping that fails at run time becomes an
-//! *incident* on its token (the instance keeps running, the ground sees the reason).
+//! Every element the loader reads executes, with BPMN 2.0 chapter 13 token semantics; an
+//! expression or mapping that fails at run time becomes an *incident* on its token (the instance
+//! keeps running, the ground sees the reason). The table below is `docs/engine-semantics.md`.
+//!
+#![doc = include_str!("../../../docs/engine-semantics.md")]
 
 mod engine;
 mod eval;
