@@ -1,0 +1,273 @@
+//! The store on sled: trees `meta`, `journal` (seq -> input), `outbox` (seq -> the step's
+//! actions), `done` (seq, index -> performed) and `snapshots` (seq -> state); keys are
+//! big-endian so they sort by sequence number.
+
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::path::Path;
+
+use executive_engine::{Action, Input, State};
+use sled::Transactional;
+
+use crate::{FORMAT, Recovered, Step, Store, StoreError};
+
+/// Snapshots kept; older ones are removed when a new one is written.
+const KEEP_SNAPSHOTS: usize = 2;
+
+/// A store in a directory on disk.
+pub struct SledStore {
+    path: String,
+    db: sled::Db,
+    meta: sled::Tree,
+    journal: sled::Tree,
+    outbox: sled::Tree,
+    done: sled::Tree,
+    snapshots: sled::Tree,
+}
+
+fn io(e: impl std::fmt::Display) -> StoreError {
+    StoreError::Io(e.to_string())
+}
+
+fn seq_key(seq: u64) -> [u8; 8] {
+    seq.to_be_bytes()
+}
+
+fn seq_of(tree: &'static str, key: &[u8]) -> Result<u64, StoreError> {
+    let bytes: [u8; 8] = key
+        .get(..8)
+        .and_then(|k| k.try_into().ok())
+        .ok_or_else(|| StoreError::Corrupt {
+            tree,
+            key: format!("{key:?}"),
+            reason: "the key is not a sequence number".to_owned(),
+        })?;
+    Ok(u64::from_be_bytes(bytes))
+}
+
+fn decode<T: serde::de::DeserializeOwned>(
+    tree: &'static str,
+    seq: u64,
+    bytes: &[u8],
+) -> Result<T, StoreError> {
+    serde_json::from_slice(bytes).map_err(|e| StoreError::Corrupt {
+        tree,
+        key: seq.to_string(),
+        reason: e.to_string(),
+    })
+}
+
+impl SledStore {
+    /// Opens (or creates) the store in directory `path`. A directory holding anything but a
+    /// TRACE store of this format, or a damaged one, is refused with the reason.
+    pub fn open(path: &Path) -> Result<SledStore, StoreError> {
+        let shown = path.display().to_string();
+        if path.is_file() {
+            return Err(StoreError::Foreign {
+                path: shown,
+                found: "a file, not a store directory".to_owned(),
+            });
+        }
+        // sled reports most damage as errors, but not all of it: a panic while reading a
+        // damaged file is turned into a refusal too.
+        let opened = catch_unwind(AssertUnwindSafe(|| sled::Config::new().path(path).open()));
+        let db = match opened {
+            Ok(Ok(db)) => db,
+            Ok(Err(e)) => {
+                return Err(StoreError::Open {
+                    path: shown,
+                    reason: e.to_string(),
+                });
+            }
+            Err(_) => {
+                return Err(StoreError::Open {
+                    path: shown,
+                    reason: "the store files are damaged (sled could not read them)".to_owned(),
+                });
+            }
+        };
+        let tree = |name: &str| db.open_tree(name).map_err(io);
+        let store = SledStore {
+            meta: tree("meta")?,
+            journal: tree("journal")?,
+            outbox: tree("outbox")?,
+            done: tree("done")?,
+            snapshots: tree("snapshots")?,
+            path: shown,
+            db,
+        };
+        store.check_format()?;
+        tracing::debug!(path = %store.path, "store opened");
+        Ok(store)
+    }
+
+    fn check_format(&self) -> Result<(), StoreError> {
+        match self.meta.get("format").map_err(io)? {
+            Some(f) if f.as_ref() == FORMAT.as_bytes() => Ok(()),
+            Some(f) => Err(StoreError::Foreign {
+                path: self.path.clone(),
+                found: format!("format `{}`", String::from_utf8_lossy(&f)),
+            }),
+            None => {
+                let others: Vec<String> = self
+                    .db
+                    .tree_names()
+                    .into_iter()
+                    .map(|n| String::from_utf8_lossy(&n).into_owned())
+                    .filter(|n| {
+                        ![
+                            "__sled__default",
+                            "meta",
+                            "journal",
+                            "outbox",
+                            "done",
+                            "snapshots",
+                        ]
+                        .contains(&n.as_str())
+                    })
+                    .collect();
+                let used = !self.journal.is_empty() || !self.db.is_empty() || !others.is_empty();
+                if used {
+                    return Err(StoreError::Foreign {
+                        path: self.path.clone(),
+                        found: "a sled database without a TRACE format marker".to_owned(),
+                    });
+                }
+                self.meta.insert("format", FORMAT.as_bytes()).map_err(io)?;
+                self.db.flush().map_err(io)?;
+                Ok(())
+            }
+        }
+    }
+
+    fn last_seq(&self) -> Result<u64, StoreError> {
+        match self.journal.last().map_err(io)? {
+            Some((k, _)) => seq_of("journal", &k),
+            None => Ok(0),
+        }
+    }
+}
+
+impl Store for SledStore {
+    fn commit(&mut self, input: &Input, actions: &[Action]) -> Result<(), StoreError> {
+        let last = self.last_seq()?;
+        if input.seq <= last {
+            return Err(StoreError::OutOfOrder {
+                seq: input.seq,
+                last,
+            });
+        }
+        let key = seq_key(input.seq);
+        let input_bytes = serde_json::to_vec(input).map_err(io)?;
+        let action_bytes = serde_json::to_vec(actions).map_err(io)?;
+        (&self.journal, &self.outbox)
+            .transaction(|(j, o)| {
+                j.insert(&key, input_bytes.as_slice())?;
+                o.insert(&key, action_bytes.as_slice())?;
+                Ok::<(), sled::transaction::ConflictableTransactionError<()>>(())
+            })
+            .map_err(|e| io(format!("{e:?}")))?;
+        self.db.flush().map_err(io)?;
+        Ok(())
+    }
+
+    fn done(&mut self, seq: u64, index: u32) -> Result<(), StoreError> {
+        let actions = self.outbox.get(seq_key(seq)).map_err(io)?;
+        let count = match actions {
+            Some(bytes) => decode::<Vec<Action>>("outbox", seq, &bytes)?.len(),
+            None => 0,
+        };
+        if index as usize >= count {
+            return Err(StoreError::UnknownAction { seq, index });
+        }
+        let mut key = seq_key(seq).to_vec();
+        key.extend_from_slice(&index.to_be_bytes());
+        self.done.insert(key, &[]).map_err(io)?;
+        Ok(())
+    }
+
+    fn snapshot(&mut self, seq: u64, state: &State) -> Result<(), StoreError> {
+        let bytes = serde_json::to_vec(state).map_err(io)?;
+        self.snapshots.insert(seq_key(seq), bytes).map_err(io)?;
+        let keys: Vec<sled::IVec> = self
+            .snapshots
+            .iter()
+            .keys()
+            .collect::<Result<_, _>>()
+            .map_err(io)?;
+        for old in keys.iter().take(keys.len().saturating_sub(KEEP_SNAPSHOTS)) {
+            self.snapshots.remove(old).map_err(io)?;
+        }
+        self.db.flush().map_err(io)?;
+        Ok(())
+    }
+
+    fn set_meta(&mut self, key: &str, value: &str) -> Result<(), StoreError> {
+        self.meta.insert(key, value.as_bytes()).map_err(io)?;
+        self.db.flush().map_err(io)?;
+        Ok(())
+    }
+
+    fn flush(&mut self) -> Result<(), StoreError> {
+        self.db.flush().map_err(io)?;
+        Ok(())
+    }
+
+    fn recover(&self) -> Result<Recovered, StoreError> {
+        let snapshot = match self.snapshots.last().map_err(io)? {
+            Some((k, v)) => {
+                let seq = seq_of("snapshots", &k)?;
+                Some((seq, decode::<State>("snapshots", seq, &v)?))
+            }
+            None => None,
+        };
+        let after = snapshot.as_ref().map_or(0, |(s, _)| *s);
+        let mut steps = Vec::new();
+        for entry in self.journal.range(seq_key(after + 1)..) {
+            let (k, v) = entry.map_err(io)?;
+            let seq = seq_of("journal", &k)?;
+            let input: Input = decode("journal", seq, &v)?;
+            let actions: Vec<Action> = match self.outbox.get(&k).map_err(io)? {
+                Some(bytes) => decode("outbox", seq, &bytes)?,
+                None => {
+                    return Err(StoreError::Corrupt {
+                        tree: "outbox",
+                        key: seq.to_string(),
+                        reason: "a journaled step has no outbox entry".to_owned(),
+                    });
+                }
+            };
+            let mut done = vec![false; actions.len()];
+            for d in self.done.scan_prefix(&k) {
+                let (dk, _) = d.map_err(io)?;
+                let index = dk
+                    .get(8..12)
+                    .and_then(|b| <[u8; 4]>::try_from(b).ok())
+                    .map(u32::from_be_bytes);
+                if let Some(flag) = index.and_then(|i| done.get_mut(i as usize)) {
+                    *flag = true;
+                }
+            }
+            steps.push(Step {
+                input,
+                actions,
+                done,
+            });
+        }
+        let mut meta = Vec::new();
+        for entry in self.meta.iter() {
+            let (k, v) = entry.map_err(io)?;
+            if k.as_ref() == b"format" {
+                continue;
+            }
+            meta.push((
+                String::from_utf8_lossy(&k).into_owned(),
+                String::from_utf8_lossy(&v).into_owned(),
+            ));
+        }
+        Ok(Recovered {
+            snapshot,
+            steps,
+            meta,
+        })
+    }
+}

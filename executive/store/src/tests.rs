@@ -1,0 +1,239 @@
+//! The sled store against its in-memory twin on random operation sequences, and the refusal of
+//! foreign, damaged and out-of-order input.
+
+use std::path::PathBuf;
+
+use executive_engine::{Action, Event, Input, State, TimerKey};
+use proptest::prelude::*;
+
+use crate::{MemStore, SledStore, Store, StoreError};
+
+fn scratch(name: &str) -> PathBuf {
+    static N: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let n = N.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!("trace-store-{}-{name}-{n}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+fn input(seq: u64) -> Input {
+    Input {
+        seq,
+        at: seq as i64 * 1000,
+        event: Event::SignalReceived {
+            name: format!("S{seq}"),
+        },
+    }
+}
+
+fn actions(seq: u64, n: usize) -> Vec<Action> {
+    (0..n)
+        .map(|i| Action::StartTimer {
+            timer: TimerKey {
+                instance: executive_engine::InstanceId(seq),
+                wait: executive_engine::WaitId(i as u64),
+                firing: 1,
+            },
+            at: seq as i64 + i as i64,
+        })
+        .collect()
+}
+
+fn state(n: u64) -> State {
+    State {
+        next_id: n,
+        last_seq: n,
+        ..State::default()
+    }
+}
+
+#[derive(Clone, Debug)]
+enum Op {
+    Commit(usize),
+    Done(usize, usize),
+    Snapshot,
+    Meta(u8),
+    Flush,
+    Reopen,
+    Stale,
+}
+
+fn op() -> impl Strategy<Value = Op> {
+    prop_oneof![
+        5 => (0usize..4).prop_map(Op::Commit),
+        3 => (any::<usize>(), any::<usize>()).prop_map(|(a, b)| Op::Done(a, b)),
+        1 => Just(Op::Snapshot),
+        1 => any::<u8>().prop_map(Op::Meta),
+        1 => Just(Op::Flush),
+        1 => Just(Op::Reopen),
+        1 => Just(Op::Stale),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+
+    #[test]
+    fn sled_store_and_memory_twin_agree(ops in prop::collection::vec(op(), 1..40)) {
+        let dir = scratch("model");
+        let mut disk = SledStore::open(&dir).expect("opens");
+        let mut mem = MemStore::new();
+        let mut seq = 0u64;
+        let mut committed: Vec<(u64, usize)> = Vec::new();
+        for op in ops {
+            match op {
+                Op::Commit(n) => {
+                    seq += 1;
+                    let (i, a) = (input(seq), actions(seq, n));
+                    disk.commit(&i, &a).expect("disk commit");
+                    mem.commit(&i, &a).expect("memory commit");
+                    committed.push((seq, n));
+                }
+                Op::Done(s, i) => {
+                    if let Some(&(step, n)) = committed.get(s % committed.len().max(1)) {
+                        let index = (i % n.max(1)) as u32;
+                        let a = disk.done(step, index).is_ok();
+                        let b = mem.done(step, index).is_ok();
+                        prop_assert_eq!(a, b);
+                    }
+                }
+                Op::Snapshot => {
+                    disk.snapshot(seq, &state(seq)).expect("disk snapshot");
+                    mem.snapshot(seq, &state(seq)).expect("memory snapshot");
+                }
+                Op::Meta(v) => {
+                    disk.set_meta("model", &v.to_string()).expect("disk meta");
+                    mem.set_meta("model", &v.to_string()).expect("memory meta");
+                }
+                Op::Flush => {
+                    disk.flush().expect("disk flush");
+                    mem.flush().expect("memory flush");
+                }
+                Op::Reopen => {
+                    // A clean restart: both keep what they wrote and flushed.
+                    disk.flush().expect("flush");
+                    mem.flush().expect("flush");
+                    drop(disk);
+                    disk = SledStore::open(&dir).expect("reopens");
+                    mem = mem.crash();
+                }
+                Op::Stale => {
+                    let a = disk.commit(&input(seq), &[]);
+                    let b = mem.commit(&input(seq), &[]);
+                    let refused = matches!(a, Err(StoreError::OutOfOrder { .. }));
+                    prop_assert!(refused || seq == 0, "a stale commit was accepted");
+                    prop_assert_eq!(a.is_ok(), b.is_ok());
+                    if a.is_ok() {
+                        seq += 1;
+                        committed.push((seq, 0));
+                    }
+                }
+            }
+            prop_assert_eq!(disk.recover().expect("disk recovers"), mem.recover().expect("memory recovers"));
+        }
+        drop(disk);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
+
+#[test]
+fn a_crash_keeps_every_commit_and_forgets_unflushed_done_marks() {
+    let mut mem = MemStore::new();
+    mem.commit(&input(1), &actions(1, 2)).expect("commit");
+    mem.done(1, 0).expect("done");
+    let after = mem.crash().recover().expect("recovers");
+    assert_eq!(after.steps.len(), 1);
+    assert_eq!(
+        after.pending().len(),
+        2,
+        "the unflushed mark is lost: both actions are redone"
+    );
+    mem.flush().expect("flush");
+    assert_eq!(mem.crash().recover().expect("recovers").pending().len(), 1);
+}
+
+#[test]
+fn recovery_starts_at_the_newest_snapshot() {
+    let dir = scratch("snap");
+    let mut s = SledStore::open(&dir).expect("opens");
+    for seq in 1..=5 {
+        s.commit(&input(seq), &actions(seq, 1)).expect("commit");
+        if seq == 3 {
+            s.snapshot(3, &state(3)).expect("snapshot");
+        }
+    }
+    drop(s);
+    let r = SledStore::open(&dir)
+        .expect("reopens")
+        .recover()
+        .expect("recovers");
+    assert_eq!(r.snapshot.as_ref().map(|(s, _)| *s), Some(3));
+    assert_eq!(
+        r.steps.iter().map(|s| s.input.seq).collect::<Vec<_>>(),
+        [4, 5]
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn foreign_and_damaged_stores_are_refused_with_the_reason() {
+    // A file where a directory should be.
+    let file = scratch("file");
+    std::fs::write(&file, b"not a store").expect("write");
+    let e = SledStore::open(&file).err().expect("refused");
+    assert!(e.to_string().contains("a file"), "{e}");
+    let _ = std::fs::remove_file(&file);
+
+    // Another program's sled database.
+    let other = scratch("other");
+    {
+        let db = sled::open(&other).expect("sled");
+        db.insert("hello", "world").expect("insert");
+        db.flush().expect("flush");
+    }
+    let e = SledStore::open(&other).err().expect("refused");
+    assert!(matches!(e, StoreError::Foreign { .. }), "{e}");
+    let _ = std::fs::remove_dir_all(&other);
+
+    // A store whose files were overwritten with garbage.
+    let damaged = scratch("damaged");
+    {
+        let mut s = SledStore::open(&damaged).expect("opens");
+        s.commit(&input(1), &actions(1, 1)).expect("commit");
+    }
+    for entry in std::fs::read_dir(&damaged).expect("dir") {
+        let path = entry.expect("entry").path();
+        if path.is_file() {
+            std::fs::write(&path, vec![0xA5u8; 4096]).expect("overwrite");
+        }
+    }
+    match SledStore::open(&damaged) {
+        Err(e) => assert!(!e.to_string().is_empty()),
+        // If sled salvages the directory, what it returns must still be a clean refusal or
+        // readable data, never a panic.
+        Ok(s) => {
+            let _ = s.recover();
+        }
+    }
+    let _ = std::fs::remove_dir_all(&damaged);
+}
+
+#[test]
+fn out_of_order_commits_and_unknown_actions_are_refused() {
+    let dir = scratch("order");
+    let mut s = SledStore::open(&dir).expect("opens");
+    s.commit(&input(2), &actions(2, 1)).expect("commit");
+    assert!(matches!(
+        s.commit(&input(2), &[]),
+        Err(StoreError::OutOfOrder { seq: 2, last: 2 })
+    ));
+    assert!(matches!(
+        s.done(2, 5),
+        Err(StoreError::UnknownAction { seq: 2, index: 5 })
+    ));
+    assert!(matches!(
+        s.done(9, 0),
+        Err(StoreError::UnknownAction { .. })
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+}
