@@ -9,6 +9,12 @@
 //!   hand-formatting, and small (no proc-macros, unlike `miette`).
 //! - `anyhow` only in `main`; this library returns typed errors.
 //! - `tracing` + `tracing-subscriber` for logs with an env filter.
+//! - `tokio` (current-thread runtime, timers, channels, signals) for the driver loop: one
+//!   thread is enough, since the engine step is microseconds and everything else waits.
+//! - `chrono` for wall-clock stamps in the execution record.
 
 pub mod conformance;
+pub mod driver;
+pub mod record;
+pub mod script;
 pub mod validate;

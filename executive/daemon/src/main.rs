@@ -24,9 +24,41 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Run a mission (or resume the one its store holds) until every instance ends.
+    Run {
+        /// The mission model.
+        mission: PathBuf,
+        #[command(flatten)]
+        run: RunArgs,
+    },
+    /// Resume the mission a store holds after a crash or reboot.
+    Resume {
+        #[command(flatten)]
+        run: RunArgs,
+    },
     /// Run a public conformance corpus against the engine (exit 1 if a case fails).
     #[command(subcommand)]
     Conformance(Corpus),
+}
+
+#[derive(clap::Args)]
+struct RunArgs {
+    /// The store directory (journal, snapshots, outbox); default `<mission>.store`.
+    #[arg(long)]
+    store: Option<PathBuf>,
+    /// The execution record (JSON Lines); default `record.jsonl` in the store.
+    #[arg(long)]
+    record: Option<PathBuf>,
+    /// Script for the in-process scripted connector (JSON); without one, activities complete
+    /// at once.
+    #[arg(long)]
+    script: Option<PathBuf>,
+    /// Mission time runs this many times faster than wall time.
+    #[arg(long, default_value_t = 1.0)]
+    speed: f64,
+    /// Write an engine-state snapshot every this many steps.
+    #[arg(long, default_value_t = 1000)]
+    snapshot_every: u64,
 }
 
 #[derive(Subcommand)]
@@ -59,6 +91,8 @@ fn main() -> anyhow::Result<ExitCode> {
             let verdict = executive::validate::run(&files, json, &mut stdout.lock())?;
             Ok(ExitCode::from(verdict.exit_code() as u8))
         }
+        Command::Run { mission, run } => drive(Some(mission), run),
+        Command::Resume { run } => drive(None, run),
         Command::Conformance(Corpus::Betsy { dir, expectations }) => {
             let stdout = std::io::stdout();
             let totals = executive::conformance::betsy(&dir, &expectations, &mut stdout.lock())?;
@@ -78,4 +112,36 @@ fn verdict(totals: executive::conformance::Totals) -> ExitCode {
     } else {
         ExitCode::FAILURE
     }
+}
+
+fn drive(mission: Option<PathBuf>, args: RunArgs) -> anyhow::Result<ExitCode> {
+    let store = match (&args.store, &mission) {
+        (Some(s), _) => s.clone(),
+        (None, Some(m)) => executive::driver::default_store(m),
+        (None, None) => anyhow::bail!("trace resume needs --store DIR"),
+    };
+    let opts = executive::driver::RunOptions {
+        model: mission,
+        store,
+        record: args.record,
+        script: args.script,
+        speed: args.speed,
+        snapshot_every: args.snapshot_every,
+    };
+    let summary = executive::driver::run(&opts)?;
+    for (instance, outcome) in &summary.outcomes {
+        println!("instance {instance}: {outcome:?}");
+    }
+    println!(
+        "{} steps, {} reboots, record: {}{}",
+        summary.steps,
+        summary.reboots,
+        summary.record.display(),
+        if summary.interrupted {
+            " (interrupted)"
+        } else {
+            ""
+        }
+    );
+    Ok(ExitCode::SUCCESS)
 }

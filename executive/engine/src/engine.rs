@@ -66,6 +66,31 @@ impl Engine {
         &self.state
     }
 
+    /// The commands to give again after a restart, from the state alone: every dispatched task
+    /// and open user task (same keys, so a connector treats them as the same goal) and every
+    /// armed timer at its absolute deadline (an overdue one fires at once).
+    pub fn in_flight(&self) -> Vec<Action> {
+        let s = &self.state;
+        let commands = s.tokens.values().filter_map(|t| match (&t.at, &t.command) {
+            (At::Task(k), Some(c)) | (At::UserTask(k), Some(c))
+                if matches!(&**c, Action::DispatchTask { task, .. } | Action::OpenUserTask { task, .. } if task == k) =>
+            {
+                Some((**c).clone())
+            }
+            _ => None,
+        });
+        let timers = s.waits.values().filter_map(|w| match w.on {
+            On::Timer { key, due, .. } if due != crate::io::Millis::MAX => {
+                Some(Action::StartTimer {
+                    timer: key,
+                    at: due,
+                })
+            }
+            _ => None,
+        });
+        commands.chain(timers).collect()
+    }
+
     /// The model.
     pub fn graph(&self) -> &Arc<ProcessGraph> {
         &self.graph

@@ -152,7 +152,7 @@ pub enum Event {
 }
 
 /// Something the driver must do (imperative). Persist first, then act.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case")]
 pub enum Action {
     /// Run a task through the connector that serves `resource`.
@@ -236,7 +236,7 @@ pub enum Outcome {
 }
 
 /// One execution-record entry produced by a step.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub struct Record {
     /// The instance.
     pub instance: InstanceId,
@@ -247,7 +247,7 @@ pub struct Record {
 }
 
 /// The kinds of record entries.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Entry {
     /// The instance started.

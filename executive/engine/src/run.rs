@@ -69,6 +69,7 @@ impl Run<'_> {
                 body: false,
                 compensating: None,
                 waits: Vec::new(),
+                command: None,
             },
         );
         if let Some(sc) = self.s.scopes.get_mut(&scope) {
@@ -349,11 +350,15 @@ impl Run<'_> {
                     tok.at = At::UserTask(key);
                 }
                 self.record(instance, Entry::Opened { task: key, node });
-                self.out.push(Action::OpenUserTask {
+                let command = Action::OpenUserTask {
                     task: key,
                     node,
                     context,
-                });
+                };
+                if let Some(tok) = self.s.tokens.get_mut(&t) {
+                    tok.command = Some(Box::new(command.clone()));
+                }
+                self.out.push(command);
             }
             TaskKind::Receive => {
                 let name = self.message_name(task.message);
@@ -465,12 +470,16 @@ impl Run<'_> {
                 request: request.clone(),
             },
         );
-        self.out.push(Action::DispatchTask {
+        let command = Action::DispatchTask {
             task: key,
             node,
             resource,
             request,
-        });
+        };
+        if let Some(tok) = self.s.tokens.get_mut(&t) {
+            tok.command = Some(Box::new(command.clone()));
+        }
+        self.out.push(command);
     }
 
     /// Every variable visible from a scope (inner ones win), without system data.
@@ -615,6 +624,7 @@ impl Run<'_> {
                         tok.via = Some(f);
                         tok.at = At::Ready;
                         tok.body = false;
+                        tok.command = None;
                     }
                     self.ready.push_back(t);
                 } else {

@@ -109,6 +109,9 @@ pub struct Token {
     pub compensating: Option<CompensationRun>,
     /// Its subscriptions (catch events, boundaries).
     pub waits: Vec<WaitId>,
+    /// The command in flight for this token (dispatch or open user task), to re-command it
+    /// after a restart.
+    pub command: Option<Box<crate::io::Action>>,
 }
 
 /// A completed activity that can be compensated.

@@ -1,0 +1,475 @@
+//! The driver loop: feeds what happens (task results, timers, answers) into the engine one
+//! input at a time, commits each step to the store, then performs its actions — and on start
+//! resumes whatever the store holds.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Duration;
+
+use executive_engine::{Action, Engine, Event, Input, Millis, Outcome, TaskKey, TimerKey};
+use executive_model::ProcessGraph;
+use executive_store::{SledStore, Store, StoreError};
+use tokio::sync::mpsc;
+use tokio::task::JoinHandle;
+
+use crate::record::RecordWriter;
+use crate::script::{self, Script, ScriptConnector};
+
+/// How to run a mission.
+#[derive(Clone, Debug)]
+pub struct RunOptions {
+    /// The mission model; `None` to resume the mission the store holds.
+    pub model: Option<PathBuf>,
+    /// The store directory.
+    pub store: PathBuf,
+    /// The execution record (default: `record.jsonl` in the store directory).
+    pub record: Option<PathBuf>,
+    /// The scripted connector's script (JSON); without one every activity completes at once.
+    pub script: Option<PathBuf>,
+    /// Mission time runs this many times faster than wall time.
+    pub speed: f64,
+    /// A snapshot is written every this many steps.
+    pub snapshot_every: u64,
+}
+
+/// How a run ended.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Summary {
+    /// Each instance's outcome.
+    pub outcomes: Vec<(u64, Outcome)>,
+    /// Last committed sequence number.
+    pub steps: u64,
+    /// Restarts of this mission so far.
+    pub reboots: u64,
+    /// Where the execution record is.
+    pub record: PathBuf,
+    /// Stopped by a signal before the mission ended.
+    pub interrupted: bool,
+}
+
+/// Why a run could not proceed.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// The model does not load.
+    #[error(
+        "{path}: the mission model is invalid ({first}); run `trace validate` for every problem"
+    )]
+    Model {
+        /// The model file.
+        path: String,
+        /// The first problem.
+        first: String,
+    },
+    /// The store holds a different mission.
+    #[error("the store holds mission {held}, not {given}; use another --store or `trace resume`")]
+    DifferentMission {
+        /// The mission in the store.
+        held: String,
+        /// The mission given.
+        given: String,
+    },
+    /// Resuming needs a store with a mission in it.
+    #[error("the store at {0} holds no mission to resume")]
+    NothingToResume(String),
+    /// Replaying the journal gave different actions: the engine is not the one that wrote it.
+    #[error(
+        "replay of input {seq} produced different actions than were committed; refusing to continue this mission"
+    )]
+    Nondeterminism {
+        /// The input.
+        seq: u64,
+    },
+    /// The store failed.
+    #[error(transparent)]
+    Store(#[from] StoreError),
+    /// A file could not be read or written.
+    #[error("{0}")]
+    Io(String),
+}
+
+/// Messages into the loop.
+enum Msg {
+    Event(Event),
+    Finished {
+        task: TaskKey,
+        resource: String,
+        user: bool,
+        outcome: script::Outcome,
+    },
+}
+
+/// FNV-1a: a stable digest of the model bytes, to recognise the mission a store belongs to.
+fn digest(bytes: &[u8]) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in bytes {
+        h ^= u64::from(*b);
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    format!("{h:016x}")
+}
+
+fn wall_ms() -> Millis {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_millis() as Millis)
+}
+
+/// Mission time: anchored at the mission's first start, running at `speed` (downtime counts).
+#[derive(Clone, Copy, Debug)]
+struct Clock {
+    wall0: Millis,
+    mission0: Millis,
+    speed: f64,
+}
+
+impl Clock {
+    fn now(&self) -> Millis {
+        self.mission0 + ((wall_ms() - self.wall0) as f64 * self.speed) as Millis
+    }
+    fn wall_delay(&self, due: Millis) -> Duration {
+        let left = (due.saturating_sub(self.now())).max(0) as f64 / self.speed;
+        Duration::from_millis(left as u64)
+    }
+}
+
+/// Runs (or resumes) a mission to its end; blocks. Uses a single-threaded tokio runtime.
+pub fn run(opts: &RunOptions) -> Result<Summary, RunError> {
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_time()
+        .enable_io()
+        .build()
+        .map_err(|e| RunError::Io(e.to_string()))?;
+    rt.block_on(drive(opts))
+}
+
+struct Driver {
+    g: Arc<ProcessGraph>,
+    engine: Engine,
+    store: SledStore,
+    record: RecordWriter,
+    connector: ScriptConnector,
+    clock: Clock,
+    seq: u64,
+    tx: mpsc::UnboundedSender<Msg>,
+    timers: BTreeMap<TimerKey, JoinHandle<()>>,
+    tasks: BTreeMap<TaskKey, JoinHandle<()>>,
+    snapshot_every: u64,
+}
+
+fn meta(rec: &executive_store::Recovered, key: &str) -> Option<String> {
+    rec.meta
+        .iter()
+        .find(|(k, _)| k == key)
+        .map(|(_, v)| v.clone())
+}
+
+async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
+    let mut store = SledStore::open(&opts.store)?;
+    let rec = store.recover()?;
+    let held_model = meta(&rec, "model");
+    let model = match (&opts.model, &held_model) {
+        (Some(m), _) => m.clone(),
+        (None, Some(m)) => PathBuf::from(m),
+        (None, None) => return Err(RunError::NothingToResume(opts.store.display().to_string())),
+    };
+    let bytes =
+        std::fs::read(&model).map_err(|e| RunError::Io(format!("{}: {e}", model.display())))?;
+    let loaded = crate::validate::load_file(&model, &executive_model::Options::default())
+        .map_err(|e| RunError::Io(format!("{}: {e}", model.display())))?;
+    let graph = Arc::new(loaded.graph.ok_or_else(|| {
+        RunError::Model {
+            path: model.display().to_string(),
+            first: loaded
+                .diagnostics
+                .iter()
+                .find(|d| d.severity == executive_model::Severity::Error)
+                .map_or_else(String::new, |d| d.message.clone()),
+        }
+    })?);
+    let given = digest(&bytes);
+    if let Some(held) = meta(&rec, "digest")
+        && held != given
+    {
+        return Err(RunError::DifferentMission {
+            held: held_model.unwrap_or(held),
+            given: model.display().to_string(),
+        });
+    }
+    let resumed = rec.snapshot.is_some() || !rec.steps.is_empty();
+    let clock = match meta(&rec, "clock").and_then(|c| {
+        let mut p = c.split(',');
+        Some(Clock {
+            wall0: p.next()?.parse().ok()?,
+            mission0: p.next()?.parse().ok()?,
+            speed: p.next()?.parse().ok()?,
+        })
+    }) {
+        Some(c) => c,
+        None => {
+            let now = wall_ms();
+            let c = Clock {
+                wall0: now,
+                mission0: now,
+                speed: opts.speed.max(1e-6),
+            };
+            store.set_meta("clock", &format!("{},{},{}", c.wall0, c.mission0, c.speed))?;
+            c
+        }
+    };
+    store.set_meta("model", &model.display().to_string())?;
+    store.set_meta("digest", &given)?;
+
+    // Restore and replay: the journal after the snapshot must give the committed actions.
+    let mut engine = match &rec.snapshot {
+        Some((_, state)) => Engine::restore(Arc::clone(&graph), state.clone()),
+        None => Engine::new(Arc::clone(&graph)),
+    };
+    let mut seq = rec.snapshot.as_ref().map_or(0, |(s, _)| *s);
+    for step in &rec.steps {
+        let again = engine.step(step.input.clone());
+        if again.as_ref() != Ok(&step.actions) {
+            return Err(RunError::Nondeterminism {
+                seq: step.input.seq,
+            });
+        }
+        seq = step.input.seq;
+    }
+
+    let record_path = opts
+        .record
+        .clone()
+        .unwrap_or_else(|| opts.store.join("record.jsonl"));
+    let record = RecordWriter::open(&record_path, Arc::clone(&graph))
+        .map_err(|e| RunError::Io(format!("{}: {e}", record_path.display())))?;
+    let script = match &opts.script {
+        Some(p) => {
+            let text = std::fs::read_to_string(p)
+                .map_err(|e| RunError::Io(format!("{}: {e}", p.display())))?;
+            serde_json::from_str::<Script>(&text)
+                .map_err(|e| RunError::Io(format!("{}: {e}", p.display())))?
+        }
+        None => Script::default(),
+    };
+    let connector = ScriptConnector::new(script, &opts.store.join("effects.jsonl"))
+        .map_err(|e| RunError::Io(e.to_string()))?;
+    let (tx, mut rx) = mpsc::unbounded_channel();
+    let mut d = Driver {
+        g: graph,
+        engine,
+        store,
+        record,
+        connector,
+        clock,
+        seq,
+        tx,
+        timers: BTreeMap::new(),
+        tasks: BTreeMap::new(),
+        snapshot_every: opts.snapshot_every.max(1),
+    };
+    let mut reboots: u64 = meta(&rec, "reboots")
+        .and_then(|r| r.parse().ok())
+        .unwrap_or(0);
+    if resumed {
+        reboots += 1;
+        d.store.set_meta("reboots", &reboots.to_string())?;
+        let in_flight = d.engine.in_flight();
+        d.record
+            .reboot(d.clock.now(), wall_ms(), reboots, in_flight.len())
+            .map_err(|e| RunError::Io(e.to_string()))?;
+        tracing::info!(reboots, recommanded = in_flight.len(), "resumed");
+        // Actions committed but not performed, except commands: those come from the state.
+        for step in &rec.steps {
+            for (i, a) in step.actions.iter().enumerate() {
+                let commands = matches!(
+                    a,
+                    Action::DispatchTask { .. }
+                        | Action::OpenUserTask { .. }
+                        | Action::StartTimer { .. }
+                );
+                if !step.done.get(i).copied().unwrap_or(false) && !commands {
+                    d.perform(step.input.seq, i, a.clone())?;
+                }
+            }
+        }
+        for a in in_flight {
+            d.perform(d.seq, usize::MAX, a)?;
+        }
+    } else {
+        for p in d.g.primary_processes() {
+            let process = d.g.process(p).id.clone();
+            d.feed(Event::InstanceStarted {
+                process,
+                vars: Default::default(),
+                start: None,
+            })?;
+        }
+    }
+    let mut interrupted = false;
+    while !d.finished() {
+        let msg = tokio::select! {
+            m = rx.recv() => m,
+            _ = tokio::signal::ctrl_c() => { interrupted = true; None }
+        };
+        let Some(msg) = msg else { break };
+        match msg {
+            Msg::Event(e) => d.feed(e)?,
+            Msg::Finished {
+                task,
+                resource,
+                user,
+                outcome,
+            } => {
+                d.tasks.remove(&task);
+                d.connector
+                    .apply(task, &resource)
+                    .map_err(|e| RunError::Io(e.to_string()))?;
+                let event = match (outcome, user) {
+                    (script::Outcome::Complete { outputs, .. }, false) => Event::TaskCompleted {
+                        task,
+                        output: outputs,
+                    },
+                    (script::Outcome::Complete { outputs, .. }, true) => Event::UserTaskAnswered {
+                        task,
+                        answer: outputs,
+                        operator: "script".to_owned(),
+                    },
+                    (script::Outcome::Fail { code, .. }, _) => Event::TaskFailed {
+                        task,
+                        message: format!("{resource} failed with {code}"),
+                        code,
+                    },
+                };
+                d.feed(event)?;
+            }
+        }
+    }
+    d.store.flush()?;
+    let outcomes = d
+        .engine
+        .state()
+        .instances
+        .iter()
+        .filter_map(|(id, i)| i.outcome.clone().map(|o| (id.0, o)))
+        .collect();
+    Ok(Summary {
+        outcomes,
+        steps: d.seq,
+        reboots,
+        record: record_path,
+        interrupted,
+    })
+}
+
+impl Driver {
+    fn finished(&self) -> bool {
+        let i = &self.engine.state().instances;
+        !i.is_empty() && i.values().all(|i| i.outcome.is_some())
+    }
+
+    /// One input: step, commit, then act.
+    fn feed(&mut self, event: Event) -> Result<(), RunError> {
+        let input = Input {
+            seq: self.seq + 1,
+            at: self.clock.now(),
+            event,
+        };
+        let actions = match self.engine.step(input.clone()) {
+            Ok(a) => a,
+            Err(rejected) => {
+                tracing::warn!(%rejected, "input refused");
+                return Ok(());
+            }
+        };
+        self.seq = input.seq;
+        self.store.commit(&input, &actions)?;
+        for (i, a) in actions.into_iter().enumerate() {
+            self.perform(input.seq, i, a)?;
+        }
+        if self.seq.is_multiple_of(self.snapshot_every) {
+            self.store.snapshot(self.seq, self.engine.state())?;
+        }
+        Ok(())
+    }
+
+    /// Performs one action; `index` `usize::MAX` for re-commands (nothing to mark done).
+    fn perform(&mut self, seq: u64, index: usize, a: Action) -> Result<(), RunError> {
+        match a {
+            Action::DispatchTask { task, resource, .. } => self.command(task, resource, false),
+            Action::OpenUserTask { task, node, .. } => {
+                let resource = match &self.g.node(node).kind {
+                    executive_model::NodeKind::Task(t) => {
+                        t.binding.as_ref().and_then(|b| b.resource.clone())
+                    }
+                    _ => None,
+                }
+                .unwrap_or_else(|| self.g.node(node).id.clone());
+                self.command(task, resource, true);
+            }
+            Action::CancelTask { task } | Action::CloseUserTask { task } => {
+                if let Some(h) = self.tasks.remove(&task) {
+                    h.abort();
+                }
+            }
+            Action::StartTimer { timer, at } => {
+                let delay = self.clock.wall_delay(at);
+                let tx = self.tx.clone();
+                let h = tokio::spawn(async move {
+                    tokio::time::sleep(delay).await;
+                    let _ = tx.send(Msg::Event(Event::TimerFired { timer }));
+                });
+                if let Some(old) = self.timers.insert(timer, h) {
+                    old.abort();
+                }
+            }
+            Action::CancelTimer { timer } => {
+                if let Some(h) = self.timers.remove(&timer) {
+                    h.abort();
+                }
+            }
+            Action::Record(r) => self
+                .record
+                .write(seq, index, wall_ms(), &r)
+                .map_err(|e| RunError::Io(e.to_string()))?,
+            Action::SendMessage { name, .. } => {
+                tracing::info!(%name, "message sent out of the mission")
+            }
+            Action::InstanceFinished { instance, outcome } => {
+                tracing::info!(instance = instance.0, ?outcome, "instance finished");
+            }
+        }
+        if index != usize::MAX {
+            self.store.done(seq, index as u32)?;
+        }
+        Ok(())
+    }
+
+    /// Hands a command to the scripted connector (idempotent by key).
+    fn command(&mut self, task: TaskKey, resource: String, user: bool) {
+        if self.tasks.contains_key(&task) {
+            return;
+        }
+        let outcome = self.connector.plan(task, &resource);
+        let duration = match &outcome {
+            script::Outcome::Complete { duration_ms, .. }
+            | script::Outcome::Fail { duration_ms, .. } => *duration_ms,
+        };
+        let delay = Duration::from_millis((duration.max(0) as f64 / self.clock.speed) as u64);
+        let tx = self.tx.clone();
+        let h = tokio::spawn(async move {
+            tokio::time::sleep(delay).await;
+            let _ = tx.send(Msg::Finished {
+                task,
+                resource,
+                user,
+                outcome,
+            });
+        });
+        self.tasks.insert(task, h);
+    }
+}
+
+/// The store directory's default for a mission file: `<mission>.store` beside it.
+pub fn default_store(model: &Path) -> PathBuf {
+    model.with_extension("store")
+}

@@ -1,0 +1,220 @@
+//! The execution record: one JSON object per line, appended and flushed as the mission runs,
+//! so a record cut by a kill is valid up to its last line. Schema: `docs/record.md`.
+
+use std::fs::{File, OpenOptions};
+use std::io::Write;
+use std::path::Path;
+use std::sync::Arc;
+
+use executive_engine::{Entry, Record};
+use executive_model::{NodeId, ProcessGraph};
+use serde_json::{Map, Value, json};
+
+/// The record schema version written in every line (`"v"`).
+pub const RECORD_VERSION: u32 = 1;
+
+/// Appends record lines to a file.
+pub struct RecordWriter {
+    file: File,
+    graph: Arc<ProcessGraph>,
+}
+
+impl RecordWriter {
+    /// Opens `path` for appending (created if missing).
+    pub fn open(path: &Path, graph: Arc<ProcessGraph>) -> std::io::Result<RecordWriter> {
+        let file = OpenOptions::new().create(true).append(true).open(path)?;
+        Ok(RecordWriter { file, graph })
+    }
+
+    /// Writes one engine record entry, stamped with the input's sequence number, the action's
+    /// index in that step (a line written again after a crash repeats the same pair) and wall
+    /// time.
+    pub fn write(
+        &mut self,
+        seq: u64,
+        index: usize,
+        wall_ms: i64,
+        record: &Record,
+    ) -> std::io::Result<()> {
+        let mut line = to_json(&self.graph, seq, wall_ms, record);
+        line["idx"] = serde_json::json!(index);
+        self.line(&line)
+    }
+
+    /// Writes a line the executive itself produces (reboot markers).
+    pub fn reboot(
+        &mut self,
+        mission_ms: i64,
+        wall_ms: i64,
+        reboots: u64,
+        pending: usize,
+    ) -> std::io::Result<()> {
+        let line = json!({
+            "v": RECORD_VERSION,
+            "kind": "reboot",
+            "mission_ms": mission_ms,
+            "wall": wall(wall_ms),
+            "reboots": reboots,
+            "recommanded": pending,
+        });
+        self.line(&line)
+    }
+
+    fn line(&mut self, v: &Value) -> std::io::Result<()> {
+        let mut text = serde_json::to_string(v).map_err(std::io::Error::other)?;
+        text.push('\n');
+        // One write per line, then flush: a kill leaves whole lines only.
+        self.file.write_all(text.as_bytes())?;
+        self.file.flush()
+    }
+}
+
+fn wall(ms: i64) -> String {
+    chrono::DateTime::from_timestamp_millis(ms)
+        .unwrap_or_default()
+        .to_rfc3339_opts(chrono::SecondsFormat::Millis, true)
+}
+
+fn element(g: &ProcessGraph, n: NodeId) -> Value {
+    let node = g.node(n);
+    json!({ "id": node.id, "name": node.name, "type": node.kind.element_name() })
+}
+
+/// The JSON object of one record entry.
+pub fn to_json(g: &ProcessGraph, seq: u64, wall_ms: i64, r: &Record) -> Value {
+    let mut o = Map::new();
+    o.insert("v".into(), json!(RECORD_VERSION));
+    o.insert("seq".into(), json!(seq));
+    o.insert("mission_ms".into(), json!(r.at));
+    o.insert("wall".into(), json!(wall(wall_ms)));
+    o.insert("instance".into(), json!(r.instance.0));
+    let mut put = |k: &str, v: Value| {
+        o.insert(k.to_owned(), v);
+    };
+    let kind = match &r.entry {
+        Entry::InstanceStarted { process, vars } => {
+            put("process", json!(process));
+            put("vars", json!(vars));
+            "instance_started"
+        }
+        Entry::InstanceFinished {
+            outcome,
+            uncaught_escalations,
+        } => {
+            put("outcome", json!(outcome));
+            put("uncaught_escalations", json!(uncaught_escalations));
+            "instance_finished"
+        }
+        Entry::Entered { node, token } => {
+            put("element", element(g, *node));
+            put("token", json!(token.0));
+            "entered"
+        }
+        Entry::Left { node, token } => {
+            put("element", element(g, *node));
+            put("token", json!(token.0));
+            "left"
+        }
+        Entry::Withdrawn { node, token } => {
+            put("element", element(g, *node));
+            put("token", json!(token.0));
+            "withdrawn"
+        }
+        Entry::Took { flow } => {
+            put("flow", json!(g.flow(*flow).id));
+            "took"
+        }
+        Entry::Decided { node, flows, read } => {
+            put("element", element(g, *node));
+            put(
+                "flows",
+                json!(flows.iter().map(|f| &g.flow(*f).id).collect::<Vec<_>>()),
+            );
+            put("read", json!(read));
+            "decided"
+        }
+        Entry::Dispatched {
+            task,
+            node,
+            resource,
+            request,
+        } => {
+            put("task", json!(task.to_string()));
+            put("element", element(g, *node));
+            put("resource", json!(resource));
+            put("request", json!(request));
+            "dispatched"
+        }
+        Entry::Completed { task, output } => {
+            put("task", json!(task.to_string()));
+            put("output", json!(output));
+            "completed"
+        }
+        Entry::Failed {
+            task,
+            code,
+            message,
+        } => {
+            put("task", json!(task.to_string()));
+            put("code", json!(code));
+            put("message", json!(message));
+            "failed"
+        }
+        Entry::Cancelled { task } => {
+            put("task", json!(task.to_string()));
+            "cancelled"
+        }
+        Entry::Opened { task, node } => {
+            put("task", json!(task.to_string()));
+            put("element", element(g, *node));
+            "user_task_opened"
+        }
+        Entry::Answered {
+            task,
+            operator,
+            answer,
+        } => {
+            put("task", json!(task.to_string()));
+            put("operator", json!(operator));
+            put("answer", json!(answer));
+            "user_task_answered"
+        }
+        Entry::TimerStarted { timer, node, due } => {
+            put("timer", json!(timer.to_string()));
+            put("element", element(g, *node));
+            put("due_ms", json!(due));
+            "timer_started"
+        }
+        Entry::TimerFired { timer, node } => {
+            put("timer", json!(timer.to_string()));
+            put("element", element(g, *node));
+            "timer_fired"
+        }
+        Entry::Thrown { what, name, node } => {
+            put("what", json!(what));
+            put("name", json!(name));
+            if let Some(n) = node {
+                put("element", element(g, *n));
+            }
+            "thrown"
+        }
+        Entry::Caught { what, name, node } => {
+            put("what", json!(what));
+            put("name", json!(name));
+            put("element", element(g, *node));
+            "caught"
+        }
+        Entry::Incident { node, message } => {
+            put("element", element(g, *node));
+            put("message", json!(message));
+            "incident"
+        }
+        Entry::Data { key, value } => {
+            put("key", json!(key));
+            put("value", json!(value));
+            "data"
+        }
+    };
+    o.insert("kind".into(), json!(kind));
+    Value::Object(o)
+}
