@@ -306,10 +306,15 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
         }
     }
     let mut interrupted = false;
+    let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
+        .map_err(|e| RunError::Io(format!("cannot watch SIGTERM: {e}")))?;
     while !d.finished() {
+        // SIGINT or SIGTERM: stop between steps; everything committed stays, `trace resume`
+        // continues.
         let msg = tokio::select! {
             m = rx.recv() => m,
             _ = tokio::signal::ctrl_c() => { interrupted = true; None }
+            _ = term.recv() => { interrupted = true; None }
         };
         let Some(msg) = msg else { break };
         match msg {

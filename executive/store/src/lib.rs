@@ -32,6 +32,9 @@ use serde::{Deserialize, Serialize};
 /// The store format written by this version; a store of another format is refused.
 pub const FORMAT: &str = "trace-store/1";
 
+/// Snapshots kept; steps up to the oldest kept one are pruned when a new one is written.
+pub const KEEP_SNAPSHOTS: usize = 2;
+
 /// One committed step: the input and the actions it produced, in order.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Step {

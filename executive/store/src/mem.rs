@@ -69,6 +69,15 @@ impl Store for MemStore {
 
     fn snapshot(&mut self, seq: u64, state: &State) -> Result<(), StoreError> {
         self.written.snapshots.insert(seq, state.clone());
+        while self.written.snapshots.len() > crate::KEEP_SNAPSHOTS {
+            self.written.snapshots.pop_first();
+        }
+        // Steps up to the oldest kept snapshot are no longer needed (see the sled store).
+        if self.written.snapshots.len() == crate::KEEP_SNAPSHOTS
+            && let Some((&oldest, _)) = self.written.snapshots.first_key_value()
+        {
+            self.written.steps.retain(|s, _| *s > oldest);
+        }
         self.flush()
     }
 

@@ -8,10 +8,7 @@ use std::path::Path;
 use executive_engine::{Action, Input, State};
 use sled::Transactional;
 
-use crate::{FORMAT, Recovered, Step, Store, StoreError};
-
-/// Snapshots kept; older ones are removed when a new one is written.
-const KEEP_SNAPSHOTS: usize = 2;
+use crate::{FORMAT, KEEP_SNAPSHOTS, Recovered, Step, Store, StoreError};
 
 /// A store in a directory on disk.
 pub struct SledStore {
@@ -196,6 +193,37 @@ impl Store for SledStore {
             .map_err(io)?;
         for old in keys.iter().take(keys.len().saturating_sub(KEEP_SNAPSHOTS)) {
             self.snapshots.remove(old).map_err(io)?;
+        }
+        // Steps up to the oldest kept snapshot are no longer needed to recover: pruning them
+        // keeps the store, and so the time to open it, independent of the mission's length.
+        // (The execution record is the mission's history.)
+        if let Some(oldest) = keys
+            .len()
+            .checked_sub(KEEP_SNAPSHOTS)
+            .and_then(|i| keys.get(i))
+        {
+            let upto = seq_of("snapshots", oldest)?;
+            for tree in [&self.journal, &self.outbox] {
+                let old: Vec<sled::IVec> = tree
+                    .range(..=seq_key(upto))
+                    .keys()
+                    .collect::<Result<_, _>>()
+                    .map_err(io)?;
+                for k in old {
+                    tree.remove(k).map_err(io)?;
+                }
+            }
+            let mut end = seq_key(upto).to_vec();
+            end.extend_from_slice(&u32::MAX.to_be_bytes());
+            let old: Vec<sled::IVec> = self
+                .done
+                .range(..=end)
+                .keys()
+                .collect::<Result<_, _>>()
+                .map_err(io)?;
+            for k in old {
+                self.done.remove(k).map_err(io)?;
+            }
         }
         self.db.flush().map_err(io)?;
         Ok(())
