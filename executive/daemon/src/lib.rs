@@ -13,6 +13,7 @@
 //!   thread is enough, since the engine step is microseconds and everything else waits.
 //! - `chrono` for wall-clock stamps in the execution record.
 
+pub mod config;
 pub mod conformance;
 pub mod driver;
 pub mod record;

@@ -43,6 +43,10 @@ enum Command {
 
 #[derive(clap::Args)]
 struct RunArgs {
+    /// Configuration file (TOML; see deploy/executive.toml). Flags override it, and it
+    /// overrides the built-in defaults; `TRACE_*` environment variables sit in between.
+    #[arg(long)]
+    config: Option<PathBuf>,
     /// The store directory (journal, snapshots, outbox); default `<mission>.store`.
     #[arg(long)]
     store: Option<PathBuf>,
@@ -53,12 +57,12 @@ struct RunArgs {
     /// at once.
     #[arg(long)]
     script: Option<PathBuf>,
-    /// Mission time runs this many times faster than wall time.
-    #[arg(long, default_value_t = 1.0)]
-    speed: f64,
-    /// Write an engine-state snapshot every this many steps.
-    #[arg(long, default_value_t = 1000)]
-    snapshot_every: u64,
+    /// Mission time runs this many times faster than wall time (default 1).
+    #[arg(long)]
+    speed: Option<f64>,
+    /// Write an engine-state snapshot every this many steps (default 1000).
+    #[arg(long)]
+    snapshot_every: Option<u64>,
 }
 
 #[derive(Subcommand)]
@@ -77,14 +81,25 @@ enum Corpus {
     },
 }
 
+fn logging(filter: &str, json: bool) {
+    // RUST_LOG wins over the configured filter, as users expect of Rust tools.
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(filter));
+    let builder = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr);
+    if json {
+        builder.json().init();
+    } else {
+        builder.init();
+    }
+}
+
 fn main() -> anyhow::Result<ExitCode> {
-    tracing_subscriber::fmt()
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "warn".into()),
-        )
-        .with_writer(std::io::stderr)
-        .init();
     let cli = Cli::parse();
+    if !matches!(cli.command, Command::Run { .. } | Command::Resume { .. }) {
+        logging("warn", false);
+    }
     match cli.command {
         Command::Validate { files, json } => {
             let stdout = std::io::stdout();
@@ -115,18 +130,34 @@ fn verdict(totals: executive::conformance::Totals) -> ExitCode {
 }
 
 fn drive(mission: Option<PathBuf>, args: RunArgs) -> anyhow::Result<ExitCode> {
-    let store = match (&args.store, &mission) {
-        (Some(s), _) => s.clone(),
+    use executive::config::Settings;
+    let mut settings = Settings::default();
+    if let Some(path) = &args.config {
+        settings = settings.with_file(path)?;
+    }
+    settings = settings.with_env(&|k| std::env::var(k).ok())?;
+    logging(&settings.log_filter, settings.log_json);
+    let store = match (args.store.or(settings.store), &mission) {
+        (Some(s), _) => s,
         (None, Some(m)) => executive::driver::default_store(m),
-        (None, None) => anyhow::bail!("trace resume needs --store DIR"),
+        (None, None) => {
+            anyhow::bail!("trace resume needs --store DIR (or [store] dir, or TRACE_STORE)")
+        }
     };
+    let speed = args.speed.unwrap_or(settings.speed);
+    anyhow::ensure!(
+        speed.is_finite() && speed > 0.0,
+        "--speed {speed} must be a positive number"
+    );
+    let snapshot_every = args.snapshot_every.unwrap_or(settings.snapshot_every);
+    anyhow::ensure!(snapshot_every > 0, "--snapshot-every must be at least 1");
     let opts = executive::driver::RunOptions {
         model: mission,
         store,
-        record: args.record,
-        script: args.script,
-        speed: args.speed,
-        snapshot_every: args.snapshot_every,
+        record: args.record.or(settings.record),
+        script: args.script.or(settings.script),
+        speed,
+        snapshot_every,
     };
     let summary = executive::driver::run(&opts)?;
     for (instance, outcome) in &summary.outcomes {

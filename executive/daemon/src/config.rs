@@ -1,0 +1,246 @@
+//! The executive's configuration: built-in defaults, then a TOML file, then `TRACE_*`
+//! environment variables, then command-line flags — each later source overriding the earlier.
+//! Unknown keys and bad values are refused at start, naming the key and where it came from.
+
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+
+/// The configuration file's shape (`deploy/executive.toml`). Every key is optional.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct File {
+    /// `[store]`
+    #[serde(default)]
+    pub store: StoreSection,
+    /// `[record]`
+    #[serde(default)]
+    pub record: RecordSection,
+    /// `[clock]`
+    #[serde(default)]
+    pub clock: ClockSection,
+    /// `[connector]`
+    #[serde(default)]
+    pub connector: ConnectorSection,
+    /// `[log]`
+    #[serde(default)]
+    pub log: LogSection,
+}
+
+/// `[store]`: where and how often the executive persists.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StoreSection {
+    /// Store directory.
+    pub dir: Option<PathBuf>,
+    /// Steps between snapshots.
+    pub snapshot_every: Option<u64>,
+}
+
+/// `[record]`: the execution record.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RecordSection {
+    /// Record file.
+    pub path: Option<PathBuf>,
+}
+
+/// `[clock]`: mission time.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ClockSection {
+    /// Mission time runs this many times faster than wall time.
+    pub speed: Option<f64>,
+}
+
+/// `[connector]`: the in-process scripted connector.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ConnectorSection {
+    /// Script file.
+    pub script: Option<PathBuf>,
+}
+
+/// `[log]`: logging.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LogSection {
+    /// An env-filter directive, e.g. `info,executive=debug`.
+    pub filter: Option<String>,
+    /// `text` or `json`.
+    pub format: Option<String>,
+}
+
+/// The resolved settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Settings {
+    /// Store directory (`None`: beside the mission).
+    pub store: Option<PathBuf>,
+    /// Steps between snapshots.
+    pub snapshot_every: u64,
+    /// Record file (`None`: in the store).
+    pub record: Option<PathBuf>,
+    /// Clock speed.
+    pub speed: f64,
+    /// Connector script.
+    pub script: Option<PathBuf>,
+    /// Log filter.
+    pub log_filter: String,
+    /// Log lines as JSON.
+    pub log_json: bool,
+}
+
+impl Default for Settings {
+    fn default() -> Settings {
+        Settings {
+            store: None,
+            snapshot_every: 1000,
+            record: None,
+            speed: 1.0,
+            script: None,
+            log_filter: "warn".to_owned(),
+            log_json: false,
+        }
+    }
+}
+
+/// A refused configuration.
+#[derive(Debug, thiserror::Error)]
+#[error("configuration: {0}")]
+pub struct ConfigError(pub String);
+
+impl Settings {
+    /// Applies a configuration file.
+    pub fn with_file(mut self, path: &Path) -> Result<Settings, ConfigError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| ConfigError(format!("{}: {e}", path.display())))?;
+        let f: File =
+            toml::from_str(&text).map_err(|e| ConfigError(format!("{}: {e}", path.display())))?;
+        let from = path.display().to_string();
+        self.store = f.store.dir.or(self.store);
+        if let Some(n) = f.store.snapshot_every {
+            self.snapshot_every = positive_int("store.snapshot_every", n, &from)?;
+        }
+        self.record = f.record.path.or(self.record);
+        if let Some(s) = f.clock.speed {
+            self.speed = positive("clock.speed", s, &from)?;
+        }
+        self.script = f.connector.script.or(self.script);
+        self.log_filter = f.log.filter.unwrap_or(self.log_filter);
+        if let Some(fmt) = f.log.format {
+            self.log_json = format_is_json(&fmt, &from)?;
+        }
+        Ok(self)
+    }
+
+    /// Applies `TRACE_*` environment variables read through `get`.
+    pub fn with_env(
+        mut self,
+        get: &dyn Fn(&str) -> Option<String>,
+    ) -> Result<Settings, ConfigError> {
+        let parse = |key: &str, v: &str| -> Result<f64, ConfigError> {
+            v.trim()
+                .parse::<f64>()
+                .map_err(|_| ConfigError(format!("{key}=`{v}` (environment) is not a number")))
+        };
+        if let Some(v) = get("TRACE_STORE") {
+            self.store = Some(PathBuf::from(v));
+        }
+        if let Some(v) = get("TRACE_SNAPSHOT_EVERY") {
+            let n = v.trim().parse::<u64>().map_err(|_| {
+                ConfigError(format!(
+                    "TRACE_SNAPSHOT_EVERY=`{v}` (environment) is not a whole number"
+                ))
+            })?;
+            self.snapshot_every = positive_int("TRACE_SNAPSHOT_EVERY", n, "environment")?;
+        }
+        if let Some(v) = get("TRACE_RECORD") {
+            self.record = Some(PathBuf::from(v));
+        }
+        if let Some(v) = get("TRACE_SPEED") {
+            self.speed = positive("TRACE_SPEED", parse("TRACE_SPEED", &v)?, "environment")?;
+        }
+        if let Some(v) = get("TRACE_SCRIPT") {
+            self.script = Some(PathBuf::from(v));
+        }
+        if let Some(v) = get("TRACE_LOG") {
+            self.log_filter = v;
+        }
+        if let Some(v) = get("TRACE_LOG_FORMAT") {
+            self.log_json = format_is_json(&v, "environment")?;
+        }
+        Ok(self)
+    }
+}
+
+fn positive(key: &str, v: f64, from: &str) -> Result<f64, ConfigError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(ConfigError(format!(
+            "{key} = {v} ({from}) must be a positive number"
+        )))
+    }
+}
+
+fn positive_int(key: &str, v: u64, from: &str) -> Result<u64, ConfigError> {
+    if v > 0 {
+        Ok(v)
+    } else {
+        Err(ConfigError(format!(
+            "{key} = 0 ({from}) must be at least 1"
+        )))
+    }
+}
+
+fn format_is_json(v: &str, from: &str) -> Result<bool, ConfigError> {
+    match v.trim() {
+        "json" => Ok(true),
+        "text" => Ok(false),
+        other => Err(ConfigError(format!(
+            "log format `{other}` ({from}) must be `text` or `json`"
+        ))),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn file(text: &str) -> PathBuf {
+        static N: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+        let n = N.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let p = std::env::temp_dir().join(format!("trace-config-{}-{n}.toml", std::process::id()));
+        std::fs::write(&p, text).expect("write");
+        p
+    }
+
+    #[test]
+    fn later_sources_override_earlier_ones() {
+        let p = file("[clock]\nspeed = 20.0\n[store]\nsnapshot_every = 50\n");
+        let s = Settings::default().with_file(&p).expect("valid");
+        assert_eq!((s.speed, s.snapshot_every), (20.0, 50));
+        let env = |k: &str| (k == "TRACE_SPEED").then(|| "60".to_owned());
+        let s = s.with_env(&env).expect("valid");
+        assert_eq!((s.speed, s.snapshot_every), (60.0, 50));
+    }
+
+    #[test]
+    fn unknown_keys_and_bad_values_are_refused_by_name() {
+        let e = Settings::default()
+            .with_file(&file("[clock]\nspede = 2.0\n"))
+            .expect_err("refused");
+        assert!(e.to_string().contains("spede"), "{e}");
+        let e = Settings::default()
+            .with_file(&file("[clock]\nspeed = -1.0\n"))
+            .expect_err("refused");
+        assert!(e.to_string().contains("clock.speed"), "{e}");
+        let e = Settings::default()
+            .with_file(&file("[log]\nformat = \"xml\"\n"))
+            .expect_err("refused");
+        assert!(e.to_string().contains("xml"), "{e}");
+        let env = |k: &str| (k == "TRACE_SPEED").then(|| "fast".to_owned());
+        let e = Settings::default().with_env(&env).expect_err("refused");
+        assert!(e.to_string().contains("TRACE_SPEED"), "{e}");
+    }
+}
