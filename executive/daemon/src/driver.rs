@@ -317,37 +317,15 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
             _ = term.recv() => { interrupted = true; None }
         };
         let Some(msg) = msg else { break };
-        match msg {
-            Msg::Event(e) => d.feed(e)?,
-            Msg::Finished {
-                task,
-                resource,
-                user,
-                outcome,
-            } => {
-                d.tasks.remove(&task);
-                d.connector
-                    .apply(task, &resource)
-                    .map_err(|e| RunError::Io(e.to_string()))?;
-                let event = match (outcome, user) {
-                    (script::Outcome::Complete { outputs, .. }, false) => Event::TaskCompleted {
-                        task,
-                        output: outputs,
-                    },
-                    (script::Outcome::Complete { outputs, .. }, true) => Event::UserTaskAnswered {
-                        task,
-                        answer: outputs,
-                        operator: "script".to_owned(),
-                    },
-                    (script::Outcome::Fail { code, .. }, _) => Event::TaskFailed {
-                        task,
-                        message: format!("{resource} failed with {code}"),
-                        code,
-                    },
-                };
-                d.feed(event)?;
-            }
+        // Group commit: everything that has arrived is stepped, committed with one flush,
+        // then acted on.
+        let mut events = vec![d.event_of(msg)?];
+        while events.len() < 256
+            && let Ok(more) = rx.try_recv()
+        {
+            events.push(d.event_of(more)?);
         }
+        d.feed_all(events)?;
     }
     d.store.flush()?;
     let outcomes = d
@@ -372,26 +350,74 @@ impl Driver {
         !i.is_empty() && i.values().all(|i| i.outcome.is_some())
     }
 
+    /// The input a message stands for (a finished command applies its effect first, once).
+    fn event_of(&mut self, msg: Msg) -> Result<Event, RunError> {
+        Ok(match msg {
+            Msg::Event(e) => e,
+            Msg::Finished {
+                task,
+                resource,
+                user,
+                outcome,
+            } => {
+                self.tasks.remove(&task);
+                self.connector
+                    .apply(task, &resource)
+                    .map_err(|e| RunError::Io(e.to_string()))?;
+                match (outcome, user) {
+                    (script::Outcome::Complete { outputs, .. }, false) => Event::TaskCompleted {
+                        task,
+                        output: outputs,
+                    },
+                    (script::Outcome::Complete { outputs, .. }, true) => Event::UserTaskAnswered {
+                        task,
+                        answer: outputs,
+                        operator: "script".to_owned(),
+                    },
+                    (script::Outcome::Fail { code, .. }, _) => Event::TaskFailed {
+                        task,
+                        message: format!("{resource} failed with {code}"),
+                        code,
+                    },
+                }
+            }
+        })
+    }
+
     /// One input: step, commit, then act.
     fn feed(&mut self, event: Event) -> Result<(), RunError> {
-        let input = Input {
-            seq: self.seq + 1,
-            at: self.clock.now(),
-            event,
-        };
-        let actions = match self.engine.step(input.clone()) {
-            Ok(a) => a,
-            Err(rejected) => {
-                tracing::warn!(%rejected, "input refused");
-                return Ok(());
+        self.feed_all(vec![event])
+    }
+
+    /// Inputs stepped in order, committed together (one flush), then acted on.
+    fn feed_all(&mut self, events: Vec<Event>) -> Result<(), RunError> {
+        let mut steps = Vec::with_capacity(events.len());
+        for event in events {
+            let input = Input {
+                seq: self.seq + 1,
+                at: self.clock.now(),
+                event,
+            };
+            match self.engine.step(input.clone()) {
+                Ok(actions) => {
+                    self.seq = input.seq;
+                    steps.push((input, actions));
+                }
+                Err(rejected) => tracing::warn!(%rejected, "input refused"),
             }
-        };
-        self.seq = input.seq;
-        self.store.commit(&input, &actions)?;
-        for (i, a) in actions.into_iter().enumerate() {
-            self.perform(input.seq, i, a)?;
         }
-        if self.seq.is_multiple_of(self.snapshot_every) {
+        if steps.is_empty() {
+            return Ok(());
+        }
+        self.store.commit_batch(&steps)?;
+        let mut snapshot = false;
+        for (input, actions) in steps {
+            snapshot |= input.seq.is_multiple_of(self.snapshot_every);
+            for (i, a) in actions.into_iter().enumerate() {
+                self.perform(input.seq, i, a)?;
+            }
+        }
+        if snapshot {
             self.store.snapshot(self.seq, self.engine.state())?;
         }
         Ok(())

@@ -126,7 +126,12 @@ pub enum StoreError {
 /// The store contract, shared by [`SledStore`] and [`MemStore`].
 pub trait Store {
     /// Commits one step atomically and durably. Sequence numbers must increase.
-    fn commit(&mut self, input: &Input, actions: &[Action]) -> Result<(), StoreError>;
+    fn commit(&mut self, input: &Input, actions: &[Action]) -> Result<(), StoreError> {
+        self.commit_batch(&[(input.clone(), actions.to_vec())])
+    }
+    /// Commits several steps as one atomic batch with one flush (group commit): the way to
+    /// keep up with many instances whose results arrive together.
+    fn commit_batch(&mut self, steps: &[(Input, Vec<Action>)]) -> Result<(), StoreError>;
     /// Marks action `index` of step `seq` performed (made durable with the next commit or
     /// flush: losing the mark only repeats an idempotent action).
     fn done(&mut self, seq: u64, index: u32) -> Result<(), StoreError>;

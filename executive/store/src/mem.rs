@@ -37,22 +37,27 @@ impl MemStore {
 }
 
 impl Store for MemStore {
-    fn commit(&mut self, input: &Input, actions: &[Action]) -> Result<(), StoreError> {
-        let last = self.written.steps.keys().next_back().copied().unwrap_or(0);
-        if input.seq <= last {
-            return Err(StoreError::OutOfOrder {
-                seq: input.seq,
-                last,
-            });
+    fn commit_batch(&mut self, steps: &[(Input, Vec<Action>)]) -> Result<(), StoreError> {
+        let mut last = self.written.steps.keys().next_back().copied().unwrap_or(0);
+        for (input, _) in steps {
+            if input.seq <= last {
+                return Err(StoreError::OutOfOrder {
+                    seq: input.seq,
+                    last,
+                });
+            }
+            last = input.seq;
         }
-        self.written.steps.insert(
-            input.seq,
-            Step {
-                input: input.clone(),
-                actions: actions.to_vec(),
-                done: vec![false; actions.len()],
-            },
-        );
+        for (input, actions) in steps {
+            self.written.steps.insert(
+                input.seq,
+                Step {
+                    input: input.clone(),
+                    actions: actions.clone(),
+                    done: vec![false; actions.len()],
+                },
+            );
+        }
         self.flush()
     }
 

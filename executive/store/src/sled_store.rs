@@ -145,21 +145,29 @@ impl SledStore {
 }
 
 impl Store for SledStore {
-    fn commit(&mut self, input: &Input, actions: &[Action]) -> Result<(), StoreError> {
-        let last = self.last_seq()?;
-        if input.seq <= last {
-            return Err(StoreError::OutOfOrder {
-                seq: input.seq,
-                last,
-            });
+    fn commit_batch(&mut self, steps: &[(Input, Vec<Action>)]) -> Result<(), StoreError> {
+        let mut last = self.last_seq()?;
+        let mut rows = Vec::with_capacity(steps.len());
+        for (input, actions) in steps {
+            if input.seq <= last {
+                return Err(StoreError::OutOfOrder {
+                    seq: input.seq,
+                    last,
+                });
+            }
+            last = input.seq;
+            rows.push((
+                seq_key(input.seq),
+                serde_json::to_vec(input).map_err(io)?,
+                serde_json::to_vec(actions).map_err(io)?,
+            ));
         }
-        let key = seq_key(input.seq);
-        let input_bytes = serde_json::to_vec(input).map_err(io)?;
-        let action_bytes = serde_json::to_vec(actions).map_err(io)?;
         (&self.journal, &self.outbox)
             .transaction(|(j, o)| {
-                j.insert(&key, input_bytes.as_slice())?;
-                o.insert(&key, action_bytes.as_slice())?;
+                for (key, input, actions) in &rows {
+                    j.insert(key, input.as_slice())?;
+                    o.insert(key, actions.as_slice())?;
+                }
                 Ok::<(), sled::transaction::ConflictableTransactionError<()>>(())
             })
             .map_err(|e| io(format!("{e:?}")))?;
