@@ -115,21 +115,36 @@ fn wall_ms() -> Millis {
         .map_or(0, |d| d.as_millis() as Millis)
 }
 
-/// Mission time: anchored at the mission's first start, running at `speed` (downtime counts).
+/// The mission clock timers run against: the wall clock (possibly scaled), or, with the
+/// connectors, a clock a system supplies (the paper's "alternate clock").
+pub trait MissionClock {
+    /// Mission time now.
+    fn now(&self) -> Millis;
+    /// How long to wait on the wall clock until mission time `due`.
+    fn wall_delay(&self, due: Millis) -> Duration;
+    /// Wall time per unit of mission time (to wait out activity durations).
+    fn speed(&self) -> f64;
+}
+
+/// The wall clock anchored at the mission's first start, running `speed` times faster;
+/// downtime counts as mission time (the lander's clock does not stop when the executive does).
 #[derive(Clone, Copy, Debug)]
-struct Clock {
+pub struct ScaledWallClock {
     wall0: Millis,
     mission0: Millis,
     speed: f64,
 }
 
-impl Clock {
+impl MissionClock for ScaledWallClock {
     fn now(&self) -> Millis {
         self.mission0 + ((wall_ms() - self.wall0) as f64 * self.speed) as Millis
     }
     fn wall_delay(&self, due: Millis) -> Duration {
         let left = (due.saturating_sub(self.now())).max(0) as f64 / self.speed;
         Duration::from_millis(left as u64)
+    }
+    fn speed(&self) -> f64 {
+        self.speed
     }
 }
 
@@ -149,7 +164,7 @@ struct Driver {
     store: SledStore,
     record: RecordWriter,
     connector: ScriptConnector,
-    clock: Clock,
+    clock: Box<dyn MissionClock>,
     seq: u64,
     tx: mpsc::UnboundedSender<Msg>,
     timers: BTreeMap<TimerKey, JoinHandle<()>>,
@@ -199,7 +214,7 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
     let resumed = rec.snapshot.is_some() || !rec.steps.is_empty();
     let clock = match meta(&rec, "clock").and_then(|c| {
         let mut p = c.split(',');
-        Some(Clock {
+        Some(ScaledWallClock {
             wall0: p.next()?.parse().ok()?,
             mission0: p.next()?.parse().ok()?,
             speed: p.next()?.parse().ok()?,
@@ -208,7 +223,7 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
         Some(c) => c,
         None => {
             let now = wall_ms();
-            let c = Clock {
+            let c = ScaledWallClock {
                 wall0: now,
                 mission0: now,
                 speed: opts.speed.max(1e-6),
@@ -260,7 +275,7 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
         store,
         record,
         connector,
-        clock,
+        clock: Box::new(clock),
         seq,
         tx,
         timers: BTreeMap::new(),
@@ -485,7 +500,7 @@ impl Driver {
             script::Outcome::Complete { duration_ms, .. }
             | script::Outcome::Fail { duration_ms, .. } => *duration_ms,
         };
-        let delay = Duration::from_millis((duration.max(0) as f64 / self.clock.speed) as u64);
+        let delay = Duration::from_millis((duration.max(0) as f64 / self.clock.speed()) as u64);
         let tx = self.tx.clone();
         let h = tokio::spawn(async move {
             tokio::time::sleep(delay).await;
