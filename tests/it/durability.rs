@@ -124,7 +124,7 @@ fn killed_fifty_times_the_mission_ends_as_if_never_interrupted() {
             if lines(&record) >= target {
                 break None;
             }
-            std::thread::yield_now();
+            std::thread::sleep(std::time::Duration::from_millis(1)); // poll interval, not synchronisation
         };
         if exited.is_some() {
             break finish(child);
@@ -180,7 +180,7 @@ fn a_timer_due_during_downtime_fires_once_on_resume() {
             child.try_wait().expect("wait").is_none(),
             "ended before the timer"
         );
-        std::thread::yield_now();
+        std::thread::sleep(std::time::Duration::from_millis(1)); // poll interval, not synchronisation
     }
     child.kill().expect("SIGKILL");
     child.wait().expect("reaped");
