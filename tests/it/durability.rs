@@ -65,6 +65,20 @@ fn start(dir: &Path, resume: bool) -> Child {
         .expect("trace starts")
 }
 
+/// Polls the execution record until `ready` holds for its text (true) or the process exits
+/// (false). The record line is the event; the millisecond between polls only spares the CPU.
+fn until_record(child: &mut Child, record: &Path, ready: impl Fn(&str) -> bool) -> bool {
+    loop {
+        if child.try_wait().expect("wait").is_some() {
+            return false;
+        }
+        if ready(&std::fs::read_to_string(record).unwrap_or_default()) {
+            return true;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+}
+
 fn lines(path: &Path) -> usize {
     std::fs::read_to_string(path).map_or(0, |t| t.lines().count())
 }
@@ -117,16 +131,8 @@ fn killed_fifty_times_the_mission_ends_as_if_never_interrupted() {
             .wrapping_mul(6_364_136_223_846_793_005)
             .wrapping_add(1_442_695_040_888_963_407);
         let target = lines(&record) + 1 + (seed >> 33) as usize % 12;
-        let exited = loop {
-            if let Some(status) = child.try_wait().expect("wait") {
-                break Some(status);
-            }
-            if lines(&record) >= target {
-                break None;
-            }
-            std::thread::sleep(std::time::Duration::from_millis(1)); // poll interval, not synchronisation
-        };
-        if exited.is_some() {
+        let exited = !until_record(&mut child, &record, |text| text.lines().count() >= target);
+        if exited {
             break finish(child);
         }
         child.kill().expect("SIGKILL");
@@ -134,6 +140,7 @@ fn killed_fifty_times_the_mission_ends_as_if_never_interrupted() {
         kills += 1;
         child = start(&dir, true);
     };
+    println!("{kills} kills");
     assert!(kills >= 50, "only {kills} kills before the mission ended");
     assert!(stdout.contains("instance 1: Completed"), "{stdout}");
     let (got, _) = effects(&dir);
@@ -170,21 +177,30 @@ fn a_timer_due_during_downtime_fires_once_on_resume() {
     let dir = workdir("timer");
     let record = dir.join("store/record.jsonl");
     let mut child = start(&dir, false);
-    // Wait until the 1 s timer is armed, then stay down for longer than it.
-    loop {
-        let text = std::fs::read_to_string(&record).unwrap_or_default();
-        if text.contains("\"timer_started\"") {
-            break;
-        }
-        assert!(
-            child.try_wait().expect("wait").is_none(),
-            "ended before the timer"
-        );
-        std::thread::sleep(std::time::Duration::from_millis(1)); // poll interval, not synchronisation
-    }
+    // Wait until the 1 s timer is armed, then stay down until its deadline has passed.
+    assert!(
+        until_record(&mut child, &record, |text| text
+            .contains("\"timer_started\"")),
+        "ended before the timer"
+    );
     child.kill().expect("SIGKILL");
     child.wait().expect("reaped");
-    std::thread::sleep(std::time::Duration::from_millis(1200));
+    let text = std::fs::read_to_string(&record).expect("record");
+    let due = text
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .find(|v| v["kind"] == "timer_started")
+        .and_then(|v| v["due_ms"].as_i64())
+        .expect("the timer's deadline is recorded");
+    // The downtime itself is what this test is about: it must outlast the deadline (mission
+    // time is wall time at speed 1), so the waiting here is the event, not a guess.
+    let now = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .expect("clock")
+        .as_millis() as i64;
+    std::thread::sleep(std::time::Duration::from_millis(
+        (due - now).max(0) as u64 + 100,
+    ));
     let stdout = finish(start(&dir, true));
     assert!(stdout.contains("instance 1: Completed"), "{stdout}");
     let text = std::fs::read_to_string(&record).expect("record");

@@ -148,7 +148,7 @@ impl Engine {
                         });
                     }
                 }
-                unsupported(g, p)
+                Ok(())
             }
             Event::TaskCompleted { task, .. } | Event::TaskFailed { task, .. } => {
                 match s.tokens.get(&task.token).map(|t| &t.at) {
@@ -170,9 +170,7 @@ impl Engine {
                 Some(On::Timer { key, .. }) if key == timer => Ok(()),
                 _ => Err(Rejected::UnknownTimer(*timer)),
             },
-            Event::MessageReceived {
-                name, correlation, ..
-            } => {
+            Event::MessageReceived { name, .. } => {
                 let waiting = s
                     .waits
                     .values()
@@ -192,7 +190,6 @@ impl Engine {
                             }
                         })
                 });
-                let _ = correlation;
                 if waiting || starts {
                     Ok(())
                 } else {
@@ -210,12 +207,6 @@ impl Engine {
             Event::SignalReceived { .. } | Event::DataChanged { .. } => Ok(()),
         }
     }
-}
-
-/// Elements this engine refuses to run, named (never silently dropped).
-fn unsupported(g: &ProcessGraph, p: executive_model::ProcessId) -> Result<(), Rejected> {
-    let _ = (g, p);
-    Ok(())
 }
 
 /// A user-task answer must give every declared form field, with its declared type.

@@ -1147,7 +1147,7 @@ impl Run<'_> {
         {
             let handler = self.g.node(c.node).compensation_handler;
             if !matches!(self.g.node(c.node).kind, NodeKind::SubProcess(_)) {
-                out.extend(handler.map(|h| Handler::Activity(h, c.vars.clone())));
+                out.extend(handler.map(Handler::Activity));
                 continue;
             }
             // A sub-process: its inner compensation first (its compensation event
@@ -1156,7 +1156,7 @@ impl Run<'_> {
                 Some(start) => out.push(Handler::EventSub(start, c.inner.clone())),
                 None => out.extend(self.handlers(&c.inner, None)),
             }
-            out.extend(handler.map(|h| Handler::Activity(h, c.vars.clone())));
+            out.extend(handler.map(Handler::Activity));
             out.push(Handler::Done(c.node));
         }
         out
@@ -1234,7 +1234,7 @@ impl Run<'_> {
             rest: handlers,
         };
         let h = match first {
-            Handler::Activity(node, _vars) => self.spawn(scope, node, None),
+            Handler::Activity(node) => self.spawn(scope, node, None),
             Handler::Done(_) => return,
             Handler::EventSub(start, inner) => {
                 let Scope::SubProcess(esp) = self.g.node(start).scope else {

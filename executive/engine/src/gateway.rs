@@ -166,7 +166,7 @@ impl Run<'_> {
         }
         for o in picked {
             if o != t {
-                self.consume(o, false);
+                self.consume(o);
             }
         }
         self.unpark(t);
@@ -191,7 +191,7 @@ impl Run<'_> {
             if self.s.fired_complex.contains(&(scope, node)) {
                 // The rest of a wave that already activated the gateway is absorbed.
                 for o in waiting {
-                    self.consume(o, false);
+                    self.consume(o);
                 }
                 if !self.can_arrive(scope, node, &[]) {
                     self.s.fired_complex.remove(&(scope, node));
@@ -239,7 +239,7 @@ impl Run<'_> {
                 && (gw.kind == GatewayKind::Complex
                     || flows.insert(self.s.tokens[&o].via.unwrap_or(FlowId(u32::MAX))))
             {
-                self.consume(o, false);
+                self.consume(o);
             }
         }
         self.unpark(t);

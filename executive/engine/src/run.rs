@@ -241,7 +241,7 @@ impl Run<'_> {
             return false;
         }
         for o in waiting.into_iter().take(need - 1) {
-            self.consume(o, false);
+            self.consume(o);
         }
         self.unpark(t);
         if let Some(tok) = self.s.tokens.get_mut(&t) {
@@ -258,9 +258,9 @@ impl Run<'_> {
         let node = g.node(node_id);
         match &node.kind {
             NodeKind::Task(task) => self.start_task(t, task),
-            NodeKind::SubProcess(sp) => {
+            NodeKind::SubProcess(_) => {
                 let child = self.open_scope(t, ScopeKind::SubProcess(node_id), Vars::new());
-                self.start_scope(child, node_id, &sp.kind);
+                self.start_scope(child, node_id);
             }
             NodeKind::CallActivity(call) => match &call.called {
                 Some(executive_model::Called::Process(p)) => {
@@ -551,21 +551,18 @@ impl Run<'_> {
         let (node, scope, body) = (tok.node, tok.scope, tok.body);
         if body {
             // One body of a loop: its scope ends, and the loop decides what follows.
-            self.consume(t, true);
+            self.consume(t);
             return;
         }
         // (A sub-process registers itself, with its inner activities, when its scope ends.)
         if g.node(node).compensation_handler.is_some()
             && !matches!(g.node(node).kind, NodeKind::SubProcess(_))
+            && let Some(sc) = self.s.scopes.get_mut(&scope)
         {
-            let vars = self.visible_vars(scope);
-            if let Some(sc) = self.s.scopes.get_mut(&scope) {
-                sc.compensable.push(crate::state::Compensable {
-                    node,
-                    vars,
-                    inner: Vec::new(),
-                });
-            }
+            sc.compensable.push(crate::state::Compensable {
+                node,
+                inner: Vec::new(),
+            });
         }
         self.drop_waits(t);
         self.leave(t);
@@ -607,7 +604,7 @@ impl Run<'_> {
         let tok = &self.s.tokens[&t];
         let (scope, instance) = (tok.scope, tok.instance);
         if flows.is_empty() {
-            self.consume(t, true);
+            self.consume(t);
             return;
         }
         let mut first = true;
@@ -710,10 +707,8 @@ impl Run<'_> {
         }
     }
 
-    /// Removes a token that has finished; its scope may complete. `done` false: merged away at
-    /// a join (no record of leaving).
-    pub(crate) fn consume(&mut self, t: TokenId, done: bool) {
-        let _ = done;
+    /// Removes a token that has finished (or was merged at a join); its scope may complete.
+    pub(crate) fn consume(&mut self, t: TokenId) {
         self.drop_waits(t);
         self.unpark(t);
         let Some(tok) = self.s.tokens.remove(&t) else {

@@ -106,8 +106,7 @@ impl Run<'_> {
     }
 
     /// Starts a sub-process scope.
-    pub(crate) fn start_scope(&mut self, scope: ScopeId, node: NodeId, kind: &SubProcessKind) {
-        let _ = kind;
+    pub(crate) fn start_scope(&mut self, scope: ScopeId, node: NodeId) {
         self.subscribe_event_subprocesses(scope, Scope::SubProcess(node));
         let starts = self.start_nodes(Scope::SubProcess(node));
         self.start_at(scope, &starts);
@@ -183,7 +182,7 @@ impl Run<'_> {
                             },
                         );
                     }
-                    self.consume(owner, true);
+                    self.consume(owner);
                 } else {
                     // Its completed activities stay compensable, through the sub-process.
                     let keep = !sc.compensable.is_empty()
@@ -191,11 +190,9 @@ impl Run<'_> {
                         || self.g.node(n).compensation_handler.is_some();
                     if keep {
                         let parent = self.s.tokens[&owner].scope;
-                        let vars = self.visible_vars(parent);
                         if let Some(p) = self.s.scopes.get_mut(&parent) {
                             p.compensable.push(crate::state::Compensable {
                                 node: n,
-                                vars,
                                 inner: sc.compensable,
                             });
                         }
@@ -203,7 +200,6 @@ impl Run<'_> {
                     self.complete_activity(owner);
                 }
             }
-            ScopeKind::GlobalTask(_) => self.complete_activity(owner),
         }
     }
 

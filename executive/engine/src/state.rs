@@ -84,8 +84,6 @@ pub enum ScopeKind {
     SubProcess(NodeId),
     /// One execution of the body of a looping or multi-instance activity.
     Body(NodeId),
-    /// A global task called by a call activity.
-    GlobalTask(NodeId),
 }
 
 /// A token: a position in a scope.
@@ -119,8 +117,6 @@ pub struct Token {
 pub struct Compensable {
     /// The activity.
     pub node: NodeId,
-    /// Its variables when it completed.
-    pub vars: Vars,
     /// A completed sub-process: its own completed activities, oldest first.
     pub inner: Vec<Compensable>,
 }
@@ -129,7 +125,7 @@ pub struct Compensable {
 #[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum Handler {
     /// The activity associated with a compensation boundary event.
-    Activity(NodeId, Vars),
+    Activity(NodeId),
     /// A compensation event sub-process (its start event) of a completed sub-process, with
     /// that sub-process's completed activities.
     EventSub(NodeId, Vec<Compensable>),

@@ -14,8 +14,24 @@ use crate::graph::*;
 use crate::timer::{TimerKind, parse_timer};
 use crate::xml::{Document, Element, Ns};
 
-/// BPMN flow-node element names.
-const FLOW_NODES: &[&str] = &[
+/// BPMN activity element names.
+pub(crate) const ACTIVITIES: &[&str] = &[
+    "task",
+    "serviceTask",
+    "userTask",
+    "scriptTask",
+    "sendTask",
+    "receiveTask",
+    "manualTask",
+    "businessRuleTask",
+    "subProcess",
+    "transaction",
+    "adHocSubProcess",
+    "callActivity",
+];
+
+/// BPMN flow-node element names (events, gateways and the activities).
+pub(crate) const FLOW_NODES: &[&str] = &[
     "startEvent",
     "endEvent",
     "intermediateCatchEvent",
@@ -883,20 +899,7 @@ impl<'d> Builder<'d, '_> {
                 let attached_to = match attached.and_then(|a| self.node_ref(el.offset, a)) {
                     // Judged by the element name: the activity may come later in the document,
                     // so its details may not be read yet.
-                    Some(a)
-                        if {
-                            let n = self.node_src[a.index()].el.name.as_str();
-                            n.ends_with("Task")
-                                || n == "task"
-                                || matches!(
-                                    n,
-                                    "subProcess"
-                                        | "transaction"
-                                        | "adHocSubProcess"
-                                        | "callActivity"
-                                )
-                        } =>
-                    {
+                    Some(a) if ACTIVITIES.contains(&self.node_src[a.index()].el.name.as_str()) => {
                         if self.g.node(a).scope != self.g.node(nid).scope {
                             self.sink.error("cross-scope-boundary", el.offset, Some(&owner), "boundary event is attached to an activity of another process or sub-process level".to_owned());
                         }

@@ -10,6 +10,7 @@
 use std::collections::{BTreeSet, HashMap};
 
 use crate::build::local_ref;
+use crate::build::{ACTIVITIES, FLOW_NODES};
 use crate::diagnostic::Sink;
 use crate::xml::{Element, Ns};
 
@@ -22,44 +23,6 @@ const ITEM_AWARE: &[&str] = &[
     "dataStoreReference",
     "dataInput",
     "dataOutput",
-];
-const FLOW_NODES: &[&str] = &[
-    "startEvent",
-    "endEvent",
-    "intermediateCatchEvent",
-    "intermediateThrowEvent",
-    "boundaryEvent",
-    "exclusiveGateway",
-    "inclusiveGateway",
-    "parallelGateway",
-    "eventBasedGateway",
-    "complexGateway",
-    "task",
-    "serviceTask",
-    "userTask",
-    "scriptTask",
-    "sendTask",
-    "receiveTask",
-    "manualTask",
-    "businessRuleTask",
-    "subProcess",
-    "transaction",
-    "adHocSubProcess",
-    "callActivity",
-];
-const ACTIVITIES: &[&str] = &[
-    "task",
-    "serviceTask",
-    "userTask",
-    "scriptTask",
-    "sendTask",
-    "receiveTask",
-    "manualTask",
-    "businessRuleTask",
-    "subProcess",
-    "transaction",
-    "adHocSubProcess",
-    "callActivity",
 ];
 
 /// Every unqualified attribute the BPMN 2.0 schema defines, on any element.

@@ -202,18 +202,14 @@ fn run_case(g: &Arc<ProcessGraph>, test: &Test, case: &Case, number: usize) -> V
         .find(|(_, p)| *p == test.name)
         .map(|(i, _)| *i);
     let end = EPOCH + case.delay_ms;
-    while let Some((&(at, order), _)) = h.later.iter().next() {
-        if at > end {
+    while h
+        .later
+        .first_key_value()
+        .is_some_and(|(&(at, _), _)| at <= end)
+    {
+        let Some(((at, _), due)) = h.later.pop_first() else {
             break;
-        }
-        let due = h.later.remove(&(at, order)).unwrap_or(Due::Finish(
-            TaskKey {
-                instance: InstanceId(0),
-                token: executive_engine::TokenId(0),
-                attempt: 0,
-            },
-            Vars::new(),
-        ));
+        };
         h.now = h.now.max(at);
         match due {
             Due::Timer(timer) => h.inputs.push_back(Event::TimerFired { timer }),
