@@ -1,10 +1,13 @@
 //! Integration tier `it`: the loader and the engine against external corpora, the shipped
-//! missions, hostile input and the `trace` command, all in one test binary.
+//! missions, hostile input, the Zenoh activity protocol and the `trace` command, all in one
+//! test binary.
 
 mod cli;
 mod conformance;
+mod connectors;
 mod durability;
 mod engine;
 mod hostile;
 mod missions;
+mod protocol;
 mod tidy;

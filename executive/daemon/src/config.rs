@@ -53,12 +53,14 @@ pub struct ClockSection {
     pub speed: Option<f64>,
 }
 
-/// `[connector]`: the in-process scripted connector.
+/// `[connector]`: the connectors.
 #[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ConnectorSection {
-    /// Script file.
+    /// The scripted connector's script file.
     pub script: Option<PathBuf>,
+    /// The connector configuration (`deploy/connectors.toml`).
+    pub config: Option<PathBuf>,
 }
 
 /// `[log]`: logging.
@@ -84,6 +86,8 @@ pub struct Settings {
     pub speed: f64,
     /// Connector script.
     pub script: Option<PathBuf>,
+    /// Connector configuration.
+    pub connectors: Option<PathBuf>,
     /// Log filter.
     pub log_filter: String,
     /// Log lines as JSON.
@@ -98,6 +102,7 @@ impl Default for Settings {
             record: None,
             speed: 1.0,
             script: None,
+            connectors: None,
             log_filter: "warn".to_owned(),
             log_json: false,
         }
@@ -126,6 +131,7 @@ impl Settings {
             self.speed = positive("clock.speed", s, &from)?;
         }
         self.script = f.connector.script.or(self.script);
+        self.connectors = f.connector.config.or(self.connectors);
         self.log_filter = f.log.filter.unwrap_or(self.log_filter);
         if let Some(fmt) = f.log.format {
             self.log_json = format_is_json(&fmt, &from)?;
@@ -162,6 +168,9 @@ impl Settings {
         }
         if let Some(v) = get("TRACE_SCRIPT") {
             self.script = Some(PathBuf::from(v));
+        }
+        if let Some(v) = get("TRACE_CONNECTORS") {
+            self.connectors = Some(PathBuf::from(v));
         }
         if let Some(v) = get("TRACE_LOG") {
             self.log_filter = v;

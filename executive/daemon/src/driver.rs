@@ -2,19 +2,23 @@
 //! input at a time, commits each step to the store, then performs its actions — and on start
 //! resumes whatever the store holds.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
 
-use executive_engine::{Action, Engine, Event, Input, Millis, Outcome, TaskKey, TimerKey};
+use connector_api::{Command, Report};
+use connector_zenoh::ZenohArgs;
+use executive_engine::{
+    Action, Engine, Event, Input, Millis, Outcome, TaskKey, TimerKey, Value, Vars,
+};
 use executive_model::ProcessGraph;
 use executive_store::{SledStore, Store, StoreError};
 use tokio::sync::mpsc;
 use tokio::task::JoinHandle;
 
+use crate::connectors::{Connectors, Setup, SetupError};
 use crate::record::RecordWriter;
-use crate::script::{self, Script, ScriptConnector};
 
 /// How to run a mission.
 #[derive(Clone, Debug)]
@@ -27,6 +31,13 @@ pub struct RunOptions {
     pub record: Option<PathBuf>,
     /// The scripted connector's script (JSON); without one every activity completes at once.
     pub script: Option<PathBuf>,
+    /// The connector configuration (TOML); without one a scripted connector serves every
+    /// resource.
+    pub connectors: Option<PathBuf>,
+    /// Zenoh flags (for Zenoh connectors).
+    pub zenoh: ZenohArgs,
+    /// How long to wait for each system's catalogue before refusing to start.
+    pub catalogue_wait: Duration,
     /// Mission time runs this many times faster than wall time.
     pub speed: f64,
     /// A snapshot is written every this many steps.
@@ -83,20 +94,19 @@ pub enum RunError {
     /// The store failed.
     #[error(transparent)]
     Store(#[from] StoreError),
+    /// The connectors could not be set up, or the mission does not match the systems.
+    #[error(transparent)]
+    Setup(#[from] SetupError),
     /// A file could not be read or written.
     #[error("{0}")]
     Io(String),
 }
 
-/// Messages into the loop.
-enum Msg {
-    Event(Event),
-    Finished {
-        task: TaskKey,
-        resource: String,
-        user: bool,
-        outcome: script::Outcome,
-    },
+/// A command in flight on a connector.
+struct Flight {
+    connector: usize,
+    goal_id: String,
+    user: bool,
 }
 
 /// FNV-1a: a stable digest of the model bytes, to recognise the mission a store belongs to.
@@ -150,7 +160,9 @@ impl MissionClock for ScaledWallClock {
 
 /// Runs (or resumes) a mission to its end; blocks. Uses a single-threaded tokio runtime.
 pub fn run(opts: &RunOptions) -> Result<Summary, RunError> {
-    let rt = tokio::runtime::Builder::new_current_thread()
+    // Zenoh refuses tokio's current-thread scheduler; one worker keeps the driver sequential.
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
         .enable_time()
         .enable_io()
         .build()
@@ -163,12 +175,14 @@ struct Driver {
     engine: Engine,
     store: SledStore,
     record: RecordWriter,
-    connector: ScriptConnector,
+    connectors: Connectors,
+    mission: String,
     clock: Box<dyn MissionClock>,
     seq: u64,
-    tx: mpsc::UnboundedSender<Msg>,
+    tx: mpsc::UnboundedSender<Event>,
     timers: BTreeMap<TimerKey, JoinHandle<()>>,
-    tasks: BTreeMap<TaskKey, JoinHandle<()>>,
+    flights: BTreeMap<TaskKey, Flight>,
+    goals: HashMap<String, TaskKey>,
     snapshot_every: u64,
 }
 
@@ -212,6 +226,31 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
         });
     }
     let resumed = rec.snapshot.is_some() || !rec.steps.is_empty();
+    // The mission id prefixes every goal id; minted once, kept in the store.
+    let mission = meta(&rec, "mission").unwrap_or_else(|| mint_mission(&model));
+
+    // Connectors first: a mission that does not match its systems never starts.
+    let (reports_tx, mut reports) = mpsc::unbounded_channel();
+    let effects = opts.store.join("effects.jsonl");
+    let mut connectors = Connectors::open(
+        &Setup {
+            config: opts.connectors.as_deref(),
+            script: opts.script.as_deref(),
+            effects: &effects,
+            speed: opts.speed.max(1e-6),
+            zenoh: &opts.zenoh,
+            client: format!("exec-{mission}"),
+            catalogue_wait: opts.catalogue_wait,
+        },
+        reports_tx,
+    )
+    .await?;
+    if let Err(e) = connectors.check(&graph).await {
+        connectors.close().await;
+        return Err(e.into());
+    }
+    store.set_meta("mission", &mission)?;
+
     let clock = match meta(&rec, "clock").and_then(|c| {
         let mut p = c.split(',');
         Some(ScaledWallClock {
@@ -257,29 +296,20 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
         .unwrap_or_else(|| opts.store.join("record.jsonl"));
     let record = RecordWriter::open(&record_path, Arc::clone(&graph))
         .map_err(|e| RunError::Io(format!("{}: {e}", record_path.display())))?;
-    let script = match &opts.script {
-        Some(p) => {
-            let text = std::fs::read_to_string(p)
-                .map_err(|e| RunError::Io(format!("{}: {e}", p.display())))?;
-            serde_json::from_str::<Script>(&text)
-                .map_err(|e| RunError::Io(format!("{}: {e}", p.display())))?
-        }
-        None => Script::default(),
-    };
-    let connector = ScriptConnector::new(script, &opts.store.join("effects.jsonl"))
-        .map_err(|e| RunError::Io(e.to_string()))?;
     let (tx, mut rx) = mpsc::unbounded_channel();
     let mut d = Driver {
         g: graph,
         engine,
         store,
         record,
-        connector,
+        connectors,
+        mission,
         clock: Box::new(clock),
         seq,
         tx,
         timers: BTreeMap::new(),
-        tasks: BTreeMap::new(),
+        flights: BTreeMap::new(),
+        goals: HashMap::new(),
         snapshot_every: opts.snapshot_every.max(1),
     };
     let mut reboots: u64 = meta(&rec, "reboots")
@@ -294,30 +324,44 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
             .map_err(|e| RunError::Io(e.to_string()))?;
         tracing::info!(reboots, recommanded = in_flight.len(), "resumed");
         // Actions committed but not performed, except commands: those come from the state.
+        // A command committed but never performed is sent; one performed before the crash is
+        // reconciled with its system (still running, finished, or lost).
+        let mut unsent = BTreeSet::new();
         for step in &rec.steps {
             for (i, a) in step.actions.iter().enumerate() {
-                let commands = matches!(
-                    a,
-                    Action::DispatchTask { .. }
-                        | Action::OpenUserTask { .. }
-                        | Action::StartTimer { .. }
-                );
-                if !step.done.get(i).copied().unwrap_or(false) && !commands {
-                    d.perform(step.input.seq, i, a.clone())?;
+                if step.done.get(i).copied().unwrap_or(false) {
+                    continue;
+                }
+                match a {
+                    Action::DispatchTask { task, .. } | Action::OpenUserTask { task, .. } => {
+                        unsent.insert(*task);
+                    }
+                    Action::StartTimer { .. } => {}
+                    _ => d.perform(step.input.seq, i, a.clone())?,
                 }
             }
         }
         for a in in_flight {
-            d.perform(d.seq, usize::MAX, a)?;
+            let sent = match &a {
+                Action::DispatchTask { task, .. } | Action::OpenUserTask { task, .. } => {
+                    !unsent.contains(task)
+                }
+                _ => false,
+            };
+            if sent {
+                d.reconcile(a);
+            } else {
+                d.perform(d.seq, usize::MAX, a)?;
+            }
         }
     } else {
         for p in d.g.primary_processes() {
             let process = d.g.process(p).id.clone();
-            d.feed(Event::InstanceStarted {
+            d.feed_all(vec![Event::InstanceStarted {
                 process,
                 vars: Default::default(),
                 start: None,
-            })?;
+            }])?;
         }
     }
     let mut interrupted = false;
@@ -326,23 +370,28 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
     while !d.finished() {
         // SIGINT or SIGTERM: stop between steps; everything committed stays, `trace resume`
         // continues.
-        let msg = tokio::select! {
+        let first = tokio::select! {
             m = rx.recv() => m,
-            _ = tokio::signal::ctrl_c() => { interrupted = true; None }
-            _ = term.recv() => { interrupted = true; None }
+            r = reports.recv() => r.and_then(|r| d.event_of(r)),
+            _ = tokio::signal::ctrl_c() => { interrupted = true; break }
+            _ = term.recv() => { interrupted = true; break }
         };
-        let Some(msg) = msg else { break };
         // Group commit: everything that has arrived is stepped, committed with one flush,
         // then acted on.
-        let mut events = vec![d.event_of(msg)?];
-        while events.len() < 256
-            && let Ok(more) = rx.try_recv()
-        {
-            events.push(d.event_of(more)?);
+        let mut events: Vec<Event> = first.into_iter().collect();
+        while events.len() < 256 {
+            if let Ok(more) = rx.try_recv() {
+                events.push(more);
+            } else if let Ok(r) = reports.try_recv() {
+                events.extend(d.event_of(r));
+            } else {
+                break;
+            }
         }
         d.feed_all(events)?;
     }
     d.store.flush()?;
+    d.connectors.close().await;
     let outcomes = d
         .engine
         .state()
@@ -365,43 +414,90 @@ impl Driver {
         !i.is_empty() && i.values().all(|i| i.outcome.is_some())
     }
 
-    /// The input a message stands for (a finished command applies its effect first, once).
-    fn event_of(&mut self, msg: Msg) -> Result<Event, RunError> {
-        Ok(match msg {
-            Msg::Event(e) => e,
-            Msg::Finished {
-                task,
-                resource,
-                user,
-                outcome,
-            } => {
-                self.tasks.remove(&task);
-                self.connector
-                    .apply(task, &resource)
-                    .map_err(|e| RunError::Io(e.to_string()))?;
-                match (outcome, user) {
-                    (script::Outcome::Complete { outputs, .. }, false) => Event::TaskCompleted {
-                        task,
-                        output: outputs,
-                    },
-                    (script::Outcome::Complete { outputs, .. }, true) => Event::UserTaskAnswered {
-                        task,
-                        answer: outputs,
-                        operator: "script".to_owned(),
-                    },
-                    (script::Outcome::Fail { code, .. }, _) => Event::TaskFailed {
-                        task,
-                        message: format!("{resource} failed with {code}"),
-                        code,
-                    },
+    /// The input a connector report stands for, if any. Reports of goals no longer in flight
+    /// (a result after an abort, a duplicate) are dropped.
+    fn event_of(&mut self, report: Report) -> Option<Event> {
+        let task_of = |goals: &HashMap<String, TaskKey>, id: &str| goals.get(id).copied();
+        match report {
+            Report::Data { key, value } => match serde_json::from_value::<Value>(value) {
+                Ok(value) => Some(Event::DataChanged { key, value }),
+                Err(e) => {
+                    tracing::warn!(key, error = %e, "system data ignored");
+                    None
                 }
+            },
+            Report::Clock { mission_ms, speed } => {
+                tracing::debug!(mission_ms, speed, "system clock");
+                None
             }
-        })
+            Report::Accepted { goal_id } => {
+                let task = task_of(&self.goals, &goal_id)?;
+                self.note("accepted", task, &goal_id, serde_json::json!({}));
+                None
+            }
+            Report::Feedback {
+                goal_id,
+                progress_pct,
+                fields,
+            } => {
+                let task = task_of(&self.goals, &goal_id)?;
+                let body = serde_json::json!({ "progress_pct": progress_pct, "fields": fields });
+                self.note("feedback", task, &goal_id, body);
+                None
+            }
+            Report::Canceled { goal_id } => {
+                tracing::debug!(goal_id, "goal cancelled");
+                None
+            }
+            Report::Done { goal_id, outputs } => {
+                let task = self.goals.remove(&goal_id)?;
+                let flight = self.flights.remove(&task)?;
+                let vars: Vars = outputs
+                    .into_iter()
+                    .filter_map(|(k, v)| Some((k, serde_json::from_value(v).ok()?)))
+                    .collect();
+                Some(if flight.user {
+                    let operator = match vars.get("operator") {
+                        Some(Value::String(s)) => s.clone(),
+                        _ => self.connectors.list[flight.connector].name().to_owned(),
+                    };
+                    Event::UserTaskAnswered {
+                        task,
+                        answer: vars,
+                        operator,
+                    }
+                } else {
+                    Event::TaskCompleted { task, output: vars }
+                })
+            }
+            Report::Failed {
+                goal_id,
+                code,
+                message,
+            } => {
+                let task = self.goals.remove(&goal_id)?;
+                self.flights.remove(&task);
+                Some(Event::TaskFailed {
+                    task,
+                    code,
+                    message,
+                })
+            }
+        }
     }
 
-    /// One input: step, commit, then act.
-    fn feed(&mut self, event: Event) -> Result<(), RunError> {
-        self.feed_all(vec![event])
+    /// A line of the execution record about a goal, written by the executive (not a step).
+    fn note(&mut self, kind: &str, task: TaskKey, goal_id: &str, body: serde_json::Value) {
+        if let Err(e) = self.record.activity(
+            kind,
+            &task.to_string(),
+            goal_id,
+            self.clock.now(),
+            wall_ms(),
+            body,
+        ) {
+            tracing::warn!(error = %e, "record line not written");
+        }
     }
 
     /// Inputs stepped in order, committed together (one flush), then acted on.
@@ -441,20 +537,24 @@ impl Driver {
     /// Performs one action; `index` `usize::MAX` for re-commands (nothing to mark done).
     fn perform(&mut self, seq: u64, index: usize, a: Action) -> Result<(), RunError> {
         match a {
-            Action::DispatchTask { task, resource, .. } => self.command(task, resource, false),
-            Action::OpenUserTask { task, node, .. } => {
-                let resource = match &self.g.node(node).kind {
-                    executive_model::NodeKind::Task(t) => {
-                        t.binding.as_ref().and_then(|b| b.resource.clone())
-                    }
-                    _ => None,
-                }
-                .unwrap_or_else(|| self.g.node(node).id.clone());
-                self.command(task, resource, true);
+            Action::DispatchTask {
+                task,
+                resource,
+                request,
+                ..
+            } => self.command(task, &resource, request, false, false),
+            Action::OpenUserTask {
+                task,
+                node,
+                context,
+            } => {
+                let resource = self.user_resource(node);
+                self.command(task, &resource, context, true, false);
             }
             Action::CancelTask { task } | Action::CloseUserTask { task } => {
-                if let Some(h) = self.tasks.remove(&task) {
-                    h.abort();
+                if let Some(f) = self.flights.remove(&task) {
+                    self.goals.remove(&f.goal_id);
+                    self.connectors.list[f.connector].abort(&f.goal_id);
                 }
             }
             Action::StartTimer { timer, at } => {
@@ -462,7 +562,7 @@ impl Driver {
                 let tx = self.tx.clone();
                 let h = tokio::spawn(async move {
                     tokio::time::sleep(delay).await;
-                    let _ = tx.send(Msg::Event(Event::TimerFired { timer }));
+                    let _ = tx.send(Event::TimerFired { timer });
                 });
                 if let Some(old) = self.timers.insert(timer, h) {
                     old.abort();
@@ -477,9 +577,15 @@ impl Driver {
                 .record
                 .write(seq, index, wall_ms(), &r)
                 .map_err(|e| RunError::Io(e.to_string()))?,
-            Action::SendMessage { name, .. } => {
-                tracing::info!(%name, "message sent out of the mission")
-            }
+            Action::SendMessage { name, payload } => match self.connectors.config.route(&name) {
+                Some(route) => {
+                    let payload = serde_json::to_value(&payload).unwrap_or_default();
+                    self.connectors.list[route.connector].notify(&route.action, payload);
+                }
+                None => {
+                    tracing::info!(%name, "message sent out of the mission (no connector routes it)")
+                }
+            },
             Action::InstanceFinished { instance, outcome } => {
                 tracing::info!(instance = instance.0, ?outcome, "instance finished");
             }
@@ -490,29 +596,110 @@ impl Driver {
         Ok(())
     }
 
-    /// Hands a command to the scripted connector (idempotent by key).
-    fn command(&mut self, task: TaskKey, resource: String, user: bool) {
-        if self.tasks.contains_key(&task) {
-            return;
+    /// The resource a user task is routed by: its binding's, else its element id.
+    fn user_resource(&self, node: executive_model::NodeId) -> String {
+        match &self.g.node(node).kind {
+            executive_model::NodeKind::Task(t) => {
+                t.binding.as_ref().and_then(|b| b.resource.clone())
+            }
+            _ => None,
         }
-        let outcome = self.connector.plan(task, &resource);
-        let duration = match &outcome {
-            script::Outcome::Complete { duration_ms, .. }
-            | script::Outcome::Fail { duration_ms, .. } => *duration_ms,
-        };
-        let delay = Duration::from_millis((duration.max(0) as f64 / self.clock.speed()) as u64);
-        let tx = self.tx.clone();
-        let h = tokio::spawn(async move {
-            tokio::time::sleep(delay).await;
-            let _ = tx.send(Msg::Finished {
+        .unwrap_or_else(|| self.g.node(node).id.clone())
+    }
+
+    /// After a restart: asks the system about a command performed before the crash.
+    fn reconcile(&mut self, a: Action) {
+        match a {
+            Action::DispatchTask {
                 task,
                 resource,
-                user,
-                outcome,
-            });
-        });
-        self.tasks.insert(task, h);
+                request,
+                ..
+            } => self.command(task, &resource, request, false, true),
+            Action::OpenUserTask {
+                task,
+                node,
+                context,
+            } => {
+                let resource = self.user_resource(node);
+                self.command(task, &resource, context, true, true);
+            }
+            _ => {}
+        }
     }
+
+    /// Hands a command to the connector its resource routes to (idempotent by key). A
+    /// resource no connector serves fails the task with `NO_CONNECTOR`.
+    fn command(
+        &mut self,
+        task: TaskKey,
+        resource: &str,
+        fields: Vars,
+        user: bool,
+        reconcile: bool,
+    ) {
+        if self.flights.contains_key(&task) {
+            return;
+        }
+        let goal_id = format!(
+            "{}.{}.{}.{}",
+            self.mission, task.instance.0, task.token.0, task.attempt
+        );
+        let Some(route) = self.connectors.config.route(resource) else {
+            let _ = self.tx.send(Event::TaskFailed {
+                task,
+                code: connector_api::wire::codes::NO_CONNECTOR.to_owned(),
+                message: format!("no connector serves resource `{resource}`"),
+            });
+            return;
+        };
+        let fields = match serde_json::to_value(&fields) {
+            Ok(serde_json::Value::Object(m)) => m,
+            _ => Default::default(),
+        };
+        let command = Command {
+            goal_id: goal_id.clone(),
+            action: route.action,
+            fields,
+        };
+        self.goals.insert(goal_id.clone(), task);
+        self.flights.insert(
+            task,
+            Flight {
+                connector: route.connector,
+                goal_id,
+                user,
+            },
+        );
+        let c = &mut self.connectors.list[route.connector];
+        if reconcile {
+            c.reconcile(command);
+        } else {
+            c.execute(command);
+        }
+    }
+}
+
+/// A mission id: the model's file stem (key-safe) and the first start's wall time.
+fn mint_mission(model: &Path) -> String {
+    let stem: String = model
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default()
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    format!(
+        "{}-{:x}",
+        if stem.is_empty() { "mission" } else { &stem },
+        wall_ms()
+    )
 }
 
 /// The store directory's default for a mission file: `<mission>.store` beside it.

@@ -15,6 +15,7 @@
 
 pub mod config;
 pub mod conformance;
+pub mod connectors;
 pub mod driver;
 pub mod record;
 pub mod script;

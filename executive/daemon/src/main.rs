@@ -63,6 +63,15 @@ struct RunArgs {
     /// Write an engine-state snapshot every this many steps (default 1000).
     #[arg(long)]
     snapshot_every: Option<u64>,
+    /// Connector configuration (TOML; see deploy/connectors.toml): which connectors to load
+    /// and which resources each serves. Without one, a scripted connector serves everything.
+    #[arg(long)]
+    connectors: Option<PathBuf>,
+    /// Seconds to wait for each system's catalogue before refusing to start.
+    #[arg(long, default_value_t = 10.0)]
+    catalogue_wait: f64,
+    #[command(flatten)]
+    zenoh: connector_zenoh::ZenohArgs,
 }
 
 #[derive(Subcommand)]
@@ -149,6 +158,11 @@ fn drive(mission: Option<PathBuf>, args: RunArgs) -> anyhow::Result<ExitCode> {
         speed.is_finite() && speed > 0.0,
         "--speed {speed} must be a positive number"
     );
+    anyhow::ensure!(
+        args.catalogue_wait.is_finite() && args.catalogue_wait >= 0.0,
+        "--catalogue-wait {} must be a number of seconds",
+        args.catalogue_wait
+    );
     let snapshot_every = args.snapshot_every.unwrap_or(settings.snapshot_every);
     anyhow::ensure!(snapshot_every > 0, "--snapshot-every must be at least 1");
     let opts = executive::driver::RunOptions {
@@ -156,6 +170,9 @@ fn drive(mission: Option<PathBuf>, args: RunArgs) -> anyhow::Result<ExitCode> {
         store,
         record: args.record.or(settings.record),
         script: args.script.or(settings.script),
+        connectors: args.connectors.or(settings.connectors),
+        zenoh: args.zenoh,
+        catalogue_wait: std::time::Duration::from_secs_f64(args.catalogue_wait.min(3600.0)),
         speed,
         snapshot_every,
     };

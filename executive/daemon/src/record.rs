@@ -60,6 +60,31 @@ impl RecordWriter {
         self.line(&line)
     }
 
+    /// Writes a line about a goal that is not an engine step (`accepted`, `feedback`): the
+    /// task key, the goal id, times, and `body`'s fields.
+    pub fn activity(
+        &mut self,
+        kind: &str,
+        task: &str,
+        goal_id: &str,
+        mission_ms: i64,
+        wall_ms: i64,
+        body: Value,
+    ) -> std::io::Result<()> {
+        let mut line = json!({
+            "v": RECORD_VERSION,
+            "kind": kind,
+            "mission_ms": mission_ms,
+            "wall": wall(wall_ms),
+            "task": task,
+            "goal": goal_id,
+        });
+        if let (Some(o), Value::Object(b)) = (line.as_object_mut(), body) {
+            o.extend(b);
+        }
+        self.line(&line)
+    }
+
     fn line(&mut self, v: &Value) -> std::io::Result<()> {
         let mut text = serde_json::to_string(v).map_err(std::io::Error::other)?;
         text.push('\n');

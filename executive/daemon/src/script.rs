@@ -1,29 +1,33 @@
 //! The scripted connector: an in-process stand-in for real systems (tests, dry runs). Each
-//! resource answers after a set mission-time duration with set outputs, or fails with a code
-//! on chosen attempts. It deduplicates by task key and logs every effect it applies to a file,
+//! action answers after a set mission-time duration with set outputs, or fails with a code
+//! on chosen attempts. It deduplicates by goal id and logs every effect it applies to a file,
 //! so a task re-commanded after a restart is never applied twice.
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::io::{BufRead, Write};
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
 
-use executive_engine::{TaskKey, Vars};
+use connector_api::contract::BoxFuture;
+use connector_api::{Catalogue, Command, Connector, ConnectorError, Fields, Report, Reports};
 use serde::Deserialize;
+use tokio::task::JoinHandle;
 
-/// The script: rules by resource name (exact, else the longest matching prefix, else
+/// The script: rules by action name (exact, else the longest matching prefix, else
 /// `default`).
 #[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Script {
-    /// The rule for resources no other rule names.
+    /// The rule for actions no other rule names.
     #[serde(default)]
     pub default: Rule,
-    /// Rules by resource name or prefix (`excavation.` matches `excavation.excavate`).
+    /// Rules by action name or prefix (`excavation.` matches `excavation.excavate`).
     #[serde(default)]
     pub resources: BTreeMap<String, Rule>,
 }
 
-/// How one resource behaves.
+/// How one action behaves.
 #[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Rule {
@@ -32,7 +36,7 @@ pub struct Rule {
     pub duration_ms: i64,
     /// The result's fields (user tasks: the answer).
     #[serde(default)]
-    pub outputs: Vars,
+    pub outputs: Fields,
     /// Fail with this error code on the attempts listed in `fail_attempts` (all if empty).
     #[serde(default)]
     pub fail: Option<String>,
@@ -41,35 +45,26 @@ pub struct Rule {
     pub fail_attempts: Vec<u32>,
 }
 
-/// What the connector decided for one command.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Outcome {
-    /// Complete with these outputs after `duration_ms` of mission time.
-    Complete {
-        /// Mission time it takes.
-        duration_ms: i64,
-        /// Result fields.
-        outputs: Vars,
-    },
-    /// Fail with this code after `duration_ms`.
-    Fail {
-        /// Mission time it takes.
-        duration_ms: i64,
-        /// Error code.
-        code: String,
-    },
-}
-
-/// The connector state: the script and the effects already applied.
+/// The connector: the script, the effects already applied, the activities running.
 pub struct ScriptConnector {
+    name: String,
     script: Script,
     effects: PathBuf,
-    applied: BTreeSet<String>,
+    applied: Arc<Mutex<BTreeSet<String>>>,
+    speed: f64,
+    reports: Reports,
+    running: HashMap<String, JoinHandle<()>>,
 }
 
 impl ScriptConnector {
     /// Loads the effects log (created if missing) beside the store.
-    pub fn new(script: Script, effects: &Path) -> std::io::Result<ScriptConnector> {
+    pub fn new(
+        name: &str,
+        script: Script,
+        effects: &Path,
+        speed: f64,
+        reports: Reports,
+    ) -> std::io::Result<ScriptConnector> {
         let mut applied = BTreeSet::new();
         if let Ok(f) = std::fs::File::open(effects) {
             for line in std::io::BufReader::new(f).lines() {
@@ -83,57 +78,131 @@ impl ScriptConnector {
             }
         }
         Ok(ScriptConnector {
+            name: name.to_owned(),
             script,
             effects: effects.to_path_buf(),
-            applied,
+            applied: Arc::new(Mutex::new(applied)),
+            speed,
+            reports,
+            running: HashMap::new(),
         })
     }
 
-    fn rule(&self, resource: &str) -> &Rule {
-        if let Some(r) = self.script.resources.get(resource) {
+    fn rule(&self, action: &str) -> &Rule {
+        if let Some(r) = self.script.resources.get(action) {
             return r;
         }
         self.script
             .resources
             .iter()
-            .filter(|(k, _)| resource.starts_with(k.as_str()))
+            .filter(|(k, _)| action.starts_with(k.as_str()))
             .max_by_key(|(k, _)| k.len())
             .map_or(&self.script.default, |(_, r)| r)
     }
+}
 
-    /// What a command will do.
-    pub fn plan(&self, task: TaskKey, resource: &str) -> Outcome {
-        let rule = self.rule(resource);
-        match &rule.fail {
-            Some(code)
-                if rule.fail_attempts.is_empty() || rule.fail_attempts.contains(&task.attempt) =>
-            {
-                Outcome::Fail {
-                    duration_ms: rule.duration_ms,
-                    code: code.clone(),
-                }
+/// Applies the effect of a finished goal once: true the first time for this goal id.
+fn apply(
+    applied: &Mutex<BTreeSet<String>>,
+    effects: &Path,
+    goal_id: &str,
+    action: &str,
+) -> std::io::Result<bool> {
+    let mut applied = applied.lock().unwrap_or_else(|p| p.into_inner());
+    if applied.contains(goal_id) {
+        return Ok(false);
+    }
+    let mut f = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(effects)?;
+    let line = serde_json::json!({ "task": goal_id, "resource": action });
+    f.write_all(format!("{line}\n").as_bytes())?;
+    f.sync_data()?;
+    applied.insert(goal_id.to_owned());
+    Ok(true)
+}
+
+impl Connector for ScriptConnector {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn catalogue(&mut self) -> BoxFuture<'_, Result<Option<Catalogue>, ConnectorError>> {
+        Box::pin(async { Ok(None) })
+    }
+
+    fn execute(&mut self, command: Command) {
+        if self
+            .running
+            .get(&command.goal_id)
+            .is_some_and(|h| !h.is_finished())
+        {
+            return;
+        }
+        // The attempt is the goal id's last chunk (`<mission>.<instance>.<token>.<attempt>`).
+        let attempt: u32 = command
+            .goal_id
+            .rsplit('.')
+            .next()
+            .and_then(|a| a.parse().ok())
+            .unwrap_or(1);
+        let rule = self.rule(&command.action).clone();
+        let fails = rule
+            .fail
+            .clone()
+            .filter(|_| rule.fail_attempts.is_empty() || rule.fail_attempts.contains(&attempt));
+        let delay = Duration::from_millis((rule.duration_ms.max(0) as f64 / self.speed) as u64);
+        let (applied, effects, reports) = (
+            Arc::clone(&self.applied),
+            self.effects.clone(),
+            self.reports.clone(),
+        );
+        let goal_id = command.goal_id.clone();
+        let h = tokio::spawn(async move {
+            tokio::time::sleep(delay).await;
+            if let Err(e) = apply(&applied, &effects, &command.goal_id, &command.action) {
+                tracing::error!(error = %e, "effects log write failed");
+                return;
             }
-            _ => Outcome::Complete {
-                duration_ms: rule.duration_ms,
-                outputs: rule.outputs.clone(),
-            },
+            let report = match fails {
+                Some(code) => Report::Failed {
+                    message: format!("{} failed with {code}", command.action),
+                    goal_id: command.goal_id,
+                    code,
+                },
+                None => Report::Done {
+                    goal_id: command.goal_id,
+                    outputs: rule.outputs,
+                },
+            };
+            let _ = reports.send(report);
+        });
+        self.running.insert(goal_id, h);
+    }
+
+    fn reconcile(&mut self, command: Command) {
+        self.execute(command);
+    }
+
+    fn abort(&mut self, goal_id: &str) {
+        if let Some(h) = self.running.remove(goal_id) {
+            h.abort();
         }
     }
 
-    /// Applies the effect of a finished command once: true the first time for this key.
-    pub fn apply(&mut self, task: TaskKey, resource: &str) -> std::io::Result<bool> {
-        let key = task.to_string();
-        if self.applied.contains(&key) {
-            return Ok(false);
+    fn notify(&mut self, name: &str, _payload: serde_json::Value) {
+        tracing::info!(
+            connector = self.name,
+            name,
+            "notification (scripted: not delivered)"
+        );
+    }
+
+    fn close(&mut self) -> BoxFuture<'_, ()> {
+        for (_, h) in self.running.drain() {
+            h.abort();
         }
-        let mut f = std::fs::OpenOptions::new()
-            .create(true)
-            .append(true)
-            .open(&self.effects)?;
-        let line = serde_json::json!({ "task": key, "resource": resource });
-        f.write_all(format!("{line}\n").as_bytes())?;
-        f.sync_data()?;
-        self.applied.insert(key);
-        Ok(true)
+        Box::pin(async {})
     }
 }

@@ -1,0 +1,247 @@
+//! Load-time checks of a mission against the catalogues of the systems it will drive: every
+//! service task's action exists, every input path exists with a compatible type, every output
+//! reads a result field that exists, and every error code a boundary catches is declared. All
+//! problems are listed, never just the first.
+
+use std::fmt;
+
+use crate::catalogue::{Catalogue, Type, field_at};
+use crate::routes::ConnectorsConfig;
+use crate::wire::codes;
+
+/// What the mission asks of one task, independent of the model crate.
+#[derive(Clone, Debug, Default)]
+pub struct TaskUse {
+    /// The task element id.
+    pub task: String,
+    /// Its name, for messages.
+    pub name: String,
+    /// Its resource name.
+    pub resource: String,
+    /// Goal field paths it writes, with the type the model declares (if any).
+    pub inputs: Vec<(String, Option<Type>)>,
+    /// Result field paths its outputs read, with the declared type (if any).
+    pub outputs: Vec<(String, Option<Type>)>,
+    /// Error codes caught by error boundaries on it (`None`: a catch-all boundary).
+    pub caught: Vec<String>,
+}
+
+/// One mismatch between the mission and the systems.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Mismatch {
+    /// The task element id.
+    pub task: String,
+    /// What is wrong.
+    pub problem: String,
+}
+
+impl fmt::Display for Mismatch {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "task `{}`: {}", self.task, self.problem)
+    }
+}
+
+/// Checks every task against the catalogues (`catalogues[i]` belongs to connector `i`;
+/// `None` when that connector has no catalogue to check against, like the scripted one).
+pub fn check(
+    tasks: &[TaskUse],
+    config: &ConnectorsConfig,
+    catalogues: &[Option<Catalogue>],
+) -> Vec<Mismatch> {
+    let mut out = Vec::new();
+    for t in tasks {
+        let mut problem = |problem: String| {
+            out.push(Mismatch {
+                task: t.task.clone(),
+                problem,
+            })
+        };
+        let Some(route) = config.route(&t.resource) else {
+            problem(format!("no connector serves resource `{}`", t.resource));
+            continue;
+        };
+        let connector = &config.connectors[route.connector];
+        let Some(Some(cat)) = catalogues.get(route.connector) else {
+            continue;
+        };
+        let Some(spec) = cat.action(&route.action) else {
+            problem(format!(
+                "action `{}` (resource `{}`) is not served by `{}` (connector `{}`)",
+                route.action,
+                t.resource,
+                connector.server(),
+                connector.name
+            ));
+            continue;
+        };
+        for (path, declared) in &t.inputs {
+            match field_at(&spec.goal, path) {
+                None => problem(format!(
+                    "input `{path}` is not a goal field of `{}`",
+                    spec.name
+                )),
+                Some(want) => {
+                    if let Some(d) = declared
+                        && !want.accepts(d)
+                    {
+                        problem(format!(
+                            "input `{path}` is declared {d} but `{}` expects {want}",
+                            spec.name
+                        ));
+                    }
+                }
+            }
+        }
+        // Required goal fields (nested ones too) the task does not write.
+        if !t.inputs.is_empty() {
+            let mut required = Vec::new();
+            required_paths(&spec.goal, "", &mut required);
+            for name in required {
+                let written = t.inputs.iter().any(|(p, _)| {
+                    p == &name
+                        || name.starts_with(&format!("{p}."))
+                        || p.starts_with(&format!("{name}."))
+                });
+                if !written {
+                    problem(format!(
+                        "required goal field `{name}` of `{}` is not written by any input",
+                        spec.name
+                    ));
+                }
+            }
+        }
+        for (path, declared) in &t.outputs {
+            match field_at(&spec.result, path) {
+                None => problem(format!(
+                    "output reads `{path}`, which is not a result field of `{}`",
+                    spec.name
+                )),
+                Some(have) => {
+                    if let Some(d) = declared
+                        && !d.accepts(have)
+                    {
+                        problem(format!(
+                            "output `{path}` is declared {d} but `{}` returns {have}",
+                            spec.name
+                        ));
+                    }
+                }
+            }
+        }
+        for code in &t.caught {
+            if !spec.errors.contains_key(code) && !codes::ALL.contains(&code.as_str()) {
+                problem(format!(
+                    "an error boundary catches `{code}`, which `{}` does not declare (declared: {})",
+                    spec.name,
+                    if spec.errors.is_empty() {
+                        "none".to_owned()
+                    } else {
+                        spec.errors.keys().cloned().collect::<Vec<_>>().join(", ")
+                    }
+                ));
+            }
+        }
+    }
+    out
+}
+
+/// Every required leaf path of a message (objects are walked, optional fields skipped).
+fn required_paths(
+    fields: &std::collections::BTreeMap<String, Type>,
+    prefix: &str,
+    out: &mut Vec<String>,
+) {
+    for (name, ty) in fields {
+        let path = if prefix.is_empty() {
+            name.clone()
+        } else {
+            format!("{prefix}.{name}")
+        };
+        match ty {
+            Type::Optional(_) => {}
+            Type::Object(inner) => required_paths(inner, &path, out),
+            _ => out.push(path),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::catalogue::ActionSpec;
+    use crate::routes::{ConnectorConfig, Kind};
+
+    #[test]
+    fn every_problem_is_listed() {
+        let config = ConnectorsConfig {
+            connectors: vec![ConnectorConfig {
+                name: "lander".into(),
+                kind: Kind::Zenoh,
+                server: None,
+                resources: vec!["arm.*".into()],
+                actions: Default::default(),
+                data: vec![],
+                deadband: Default::default(),
+                grace_ms: 1,
+                clock: false,
+            }],
+        };
+        let cat = Catalogue {
+            server: "lander".into(),
+            actions: vec![
+                serde_json::from_value::<ActionSpec>(serde_json::json!({
+                    "name": "arm.move",
+                    "goal": {"target": {"x": "f64", "y": "f64"}, "speed": "f64?"},
+                    "result": {"reached": "bool"},
+                    "errors": {"ARM_FAULT": "joint fault"}
+                }))
+                .unwrap(),
+            ],
+        };
+        let tasks = vec![
+            TaskUse {
+                task: "Move".into(),
+                resource: "arm.move".into(),
+                inputs: vec![
+                    ("target.x".into(), Some(Type::Int)),
+                    ("target.z".into(), None),
+                    ("speed".into(), Some(Type::String)),
+                ],
+                outputs: vec![("reached".into(), Some(Type::Int)), ("pose".into(), None)],
+                caught: vec![
+                    "ARM_FAULT".into(),
+                    "TOOL_STUCK".into(),
+                    "CONNECTOR_LOST".into(),
+                ],
+                ..Default::default()
+            },
+            TaskUse {
+                task: "Dig".into(),
+                resource: "arm.dig".into(),
+                ..Default::default()
+            },
+            TaskUse {
+                task: "Pic".into(),
+                resource: "camera.pic".into(),
+                ..Default::default()
+            },
+        ];
+        let found: Vec<String> = check(&tasks, &config, &[Some(cat)])
+            .iter()
+            .map(ToString::to_string)
+            .collect();
+        assert_eq!(
+            found,
+            [
+                "task `Move`: input `target.z` is not a goal field of `arm.move`",
+                "task `Move`: input `speed` is declared string but `arm.move` expects f64?",
+                "task `Move`: required goal field `target.y` of `arm.move` is not written by any input",
+                "task `Move`: output `reached` is declared int but `arm.move` returns bool",
+                "task `Move`: output reads `pose`, which is not a result field of `arm.move`",
+                "task `Move`: an error boundary catches `TOOL_STUCK`, which `arm.move` does not declare (declared: ARM_FAULT)",
+                "task `Dig`: action `arm.dig` (resource `arm.dig`) is not served by `lander` (connector `lander`)",
+                "task `Pic`: no connector serves resource `camera.pic`",
+            ]
+        );
+    }
+}

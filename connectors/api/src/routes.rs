@@ -1,0 +1,185 @@
+//! The connector configuration (`deploy/connectors.toml`): which connectors the executive
+//! loads, and which resource names each one serves, mapped to action names — the paper's XML
+//! configuration of activities.
+
+use std::collections::BTreeMap;
+
+use serde::Deserialize;
+
+/// The whole configuration file.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ConnectorsConfig {
+    /// The connectors, in order.
+    #[serde(default, rename = "connector")]
+    pub connectors: Vec<ConnectorConfig>,
+}
+
+/// What kind of connector.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Kind {
+    /// A system in another process, over the Zenoh activity protocol.
+    Zenoh,
+    /// The in-process scripted connector (tests, dry runs).
+    Script,
+}
+
+/// One connector.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ConnectorConfig {
+    /// Its name in logs and the execution record.
+    pub name: String,
+    /// Its kind.
+    pub kind: Kind,
+    /// Zenoh: the server id whose actions it calls (`lander_sim`); defaults to `name`.
+    #[serde(default)]
+    pub server: Option<String>,
+    /// Resource names it serves: exact names, or prefixes ending in `*` (`arm.*`). The
+    /// longest match over all connectors wins.
+    #[serde(default)]
+    pub resources: Vec<String>,
+    /// Resource name → action name, where they differ (`functional.excavate_site` →
+    /// `excavation.excavate`); other resources call the action of the same name.
+    #[serde(default)]
+    pub actions: BTreeMap<String, String>,
+    /// Telemetry keys fed to the mission as system data (conditional events, gateway
+    /// conditions).
+    #[serde(default)]
+    pub data: Vec<String>,
+    /// Per data key: the smallest change of a number that is fed to the mission (others are
+    /// dropped, so telemetry cannot flood the journal).
+    #[serde(default)]
+    pub deadband: BTreeMap<String, f64>,
+    /// Zenoh: milliseconds a server may be gone while it runs a goal before the goal fails
+    /// with `CONNECTOR_LOST`.
+    #[serde(default = "default_grace")]
+    pub grace_ms: u64,
+    /// Zenoh: this connector's system supplies the mission clock.
+    #[serde(default)]
+    pub clock: bool,
+}
+
+fn default_grace() -> u64 {
+    3000
+}
+
+impl ConnectorConfig {
+    /// The Zenoh server id.
+    pub fn server(&self) -> &str {
+        self.server.as_deref().unwrap_or(&self.name)
+    }
+}
+
+/// Where one resource goes.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Route {
+    /// Index of the connector in the configuration.
+    pub connector: usize,
+    /// The action to call.
+    pub action: String,
+}
+
+impl ConnectorsConfig {
+    /// The connector and action for a resource: an explicit `actions` entry, else the longest
+    /// matching `resources` pattern (an exact name beats any prefix).
+    pub fn route(&self, resource: &str) -> Option<Route> {
+        let mut best: Option<(usize, usize)> = None; // (score, connector)
+        for (i, c) in self.connectors.iter().enumerate() {
+            if c.actions.contains_key(resource) {
+                return Some(Route {
+                    connector: i,
+                    action: c.actions[resource].clone(),
+                });
+            }
+            for p in &c.resources {
+                let score = match p.strip_suffix('*') {
+                    Some(prefix) if resource.starts_with(prefix) => prefix.len(),
+                    None if p == resource => usize::MAX,
+                    _ => continue,
+                };
+                if best.is_none_or(|(s, _)| score > s) {
+                    best = Some((score, i));
+                }
+            }
+        }
+        best.map(|(_, i)| Route {
+            connector: i,
+            action: resource.to_owned(),
+        })
+    }
+
+    /// Problems in the configuration itself (duplicate names, bad chunks), all of them.
+    pub fn problems(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        for (i, c) in self.connectors.iter().enumerate() {
+            if self.connectors[..i].iter().any(|o| o.name == c.name) {
+                out.push(format!("connector `{}` is configured twice", c.name));
+            }
+            if c.kind == Kind::Zenoh
+                && let Err(e) = crate::keys::check_chunk(c.server())
+            {
+                out.push(format!("connector `{}`: server {e}", c.name));
+            }
+            for a in c.actions.values() {
+                if let Err(e) = crate::keys::check_chunk(a) {
+                    out.push(format!("connector `{}`: action {e}", c.name));
+                }
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cfg() -> ConnectorsConfig {
+        ConnectorsConfig {
+            connectors: vec![
+                ConnectorConfig {
+                    name: "lander".into(),
+                    kind: Kind::Zenoh,
+                    server: Some("lander_sim".into()),
+                    resources: vec!["*".into(), "arm.*".into()],
+                    actions: [(
+                        "functional.excavate_site".into(),
+                        "excavation.excavate".into(),
+                    )]
+                    .into(),
+                    data: vec![],
+                    deadband: BTreeMap::new(),
+                    grace_ms: 1000,
+                    clock: false,
+                },
+                ConnectorConfig {
+                    name: "ground".into(),
+                    kind: Kind::Zenoh,
+                    server: None,
+                    resources: vec!["ground.*".into(), "arm.stow".into()],
+                    actions: BTreeMap::new(),
+                    data: vec![],
+                    deadband: BTreeMap::new(),
+                    grace_ms: 1000,
+                    clock: false,
+                },
+            ],
+        }
+    }
+
+    #[test]
+    fn longest_match_wins_and_actions_map() {
+        let c = cfg();
+        assert_eq!(c.route("arm.unstow").unwrap().connector, 0);
+        assert_eq!(c.route("arm.stow").unwrap().connector, 1);
+        assert_eq!(c.route("ground.approve_site").unwrap().connector, 1);
+        assert_eq!(c.route("camera.take").unwrap().connector, 0);
+        assert_eq!(
+            c.route("functional.excavate_site").unwrap().action,
+            "excavation.excavate"
+        );
+        assert!(c.problems().is_empty());
+    }
+}

@@ -1,0 +1,258 @@
+//! The JSON payloads of the activity protocol (`docs/protocol.md` § Payloads). Every payload
+//! carries the protocol version in its encoding schema (`application/json;trace.goal/1`) and is
+//! refused, never trusted, when it does not parse.
+
+use serde::{Deserialize, Serialize};
+use serde_json::{Map, Value};
+
+/// The protocol version in every encoding schema.
+pub const VERSION: u32 = 1;
+
+/// Fields of a goal, a result or feedback: a JSON object.
+pub type Fields = Map<String, Value>;
+
+/// A goal's state, on the server and as the client last saw it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "SCREAMING_SNAKE_CASE")]
+pub enum Status {
+    /// The server took the goal; it has not started.
+    Accepted,
+    /// The activity is running.
+    Executing,
+    /// A cancel was accepted; the activity is winding down.
+    Canceling,
+    /// Terminal: done, with outputs.
+    Succeeded,
+    /// Terminal: stopped after a cancel request.
+    Canceled,
+    /// Terminal: the activity failed (error code and message).
+    Aborted,
+    /// Terminal: the server refused the goal (reply to `goal` only).
+    Rejected,
+    /// Terminal, client side only: the server vanished or forgot the goal.
+    Lost,
+    /// Reply to `state` only: the server does not know the goal.
+    Unknown,
+}
+
+impl Status {
+    /// A goal in this state will not change again.
+    pub fn is_terminal(self) -> bool {
+        matches!(
+            self,
+            Status::Succeeded
+                | Status::Canceled
+                | Status::Aborted
+                | Status::Rejected
+                | Status::Lost
+        )
+    }
+}
+
+/// Error codes the protocol itself raises (systems declare their own in the catalogue).
+pub mod codes {
+    /// The server went away during the goal and did not come back within the grace period, or
+    /// forgot the goal.
+    pub const CONNECTOR_LOST: &str = "CONNECTOR_LOST";
+    /// The server refused the goal.
+    pub const REJECTED: &str = "REJECTED";
+    /// A goal or result field could not be converted to the declared type.
+    pub const TYPE_MISMATCH: &str = "TYPE_MISMATCH";
+    /// No connector serves the task's resource.
+    pub const NO_CONNECTOR: &str = "NO_CONNECTOR";
+    /// Every protocol-level code, for load-time checks (a boundary may catch them undeclared).
+    pub const ALL: [&str; 4] = [CONNECTOR_LOST, REJECTED, TYPE_MISMATCH, NO_CONNECTOR];
+}
+
+/// `get …/goal/<goal_id>` payload.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Goal {
+    /// The goal id (also the last key chunk): `<mission>.<instance>.<token>.<attempt>`.
+    pub goal_id: String,
+    /// The goal's fields, typed per the catalogue.
+    #[serde(default)]
+    pub fields: Fields,
+    /// Who sent it (executive instance), for the server's log.
+    #[serde(default)]
+    pub client: String,
+}
+
+/// Reply to a goal (also to a repeated goal: the goal's current status).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GoalReply {
+    /// The goal id.
+    pub goal_id: String,
+    /// Current status (`REJECTED` when refused).
+    pub status: Status,
+    /// Why it was rejected.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
+    /// The result, when the goal already ended (a repeat after completion).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub result: Option<ResultMsg>,
+}
+
+/// Reply to `cancel`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "SCREAMING_SNAKE_CASE")]
+pub enum CancelReply {
+    /// The cancel was taken; `CANCELING` then a terminal status follow on `status`.
+    Accepted,
+    /// The server does not know the goal.
+    UnknownGoal,
+    /// The goal had already ended.
+    Terminated,
+}
+
+/// Reply to `state`: a snapshot, never blocking.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StateReply {
+    /// The goal id.
+    pub goal_id: String,
+    /// Its status (`UNKNOWN` if the server never saw it).
+    pub status: Status,
+    /// The result once terminal.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub result: Option<ResultMsg>,
+    /// The goal's last status sequence number.
+    pub seq: u64,
+}
+
+/// On `…/status`: one transition.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StatusMsg {
+    /// The goal id.
+    pub goal_id: String,
+    /// The new status.
+    pub status: Status,
+    /// Per goal, one more for each transition.
+    pub seq: u64,
+    /// Free text (the error code when `ABORTED`).
+    #[serde(default)]
+    pub text: String,
+}
+
+/// On `…/feedback`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FeedbackMsg {
+    /// The goal id.
+    pub goal_id: String,
+    /// Progress, 0–100, if the activity knows it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub progress_pct: Option<f64>,
+    /// Activity-specific fields (catalogue `feedback`).
+    #[serde(default)]
+    pub fields: Fields,
+}
+
+/// On `…/result`, in `state` and goal replies: how a goal ended.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ResultMsg {
+    /// The goal id.
+    pub goal_id: String,
+    /// `SUCCEEDED`, `CANCELED` or `ABORTED`.
+    pub status: Status,
+    /// Outputs (when `SUCCEEDED`; partial effects may be reported when `CANCELED`).
+    #[serde(default)]
+    pub outputs: Fields,
+    /// The failure (when `ABORTED`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<Failure>,
+}
+
+/// An activity's failure: a code the model's error boundaries catch, and a message for people.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Failure {
+    /// Error code, e.g. `TOOL_STUCK` (declared in the catalogue).
+    pub code: String,
+    /// Human-readable detail.
+    #[serde(default)]
+    pub message: String,
+}
+
+/// On `<root>/tm/<source>/<channel>`: one telemetry sample, a set of named values.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Telemetry {
+    /// Mission time of the sample, milliseconds since the epoch.
+    pub mission_ms: i64,
+    /// Values by data key (`battery_soc_pct`, …).
+    pub values: Fields,
+}
+
+/// The encoding schema suffix for a payload type, e.g. `trace.goal/1`.
+pub fn schema(kind: &str) -> String {
+    format!("trace.{kind}/{VERSION}")
+}
+
+/// A payload that does not parse: named by what it should have been and why.
+#[derive(Debug, thiserror::Error)]
+#[error("malformed {what} payload on {key}: {reason}")]
+pub struct Malformed {
+    /// What was expected (`goal`, `status`, …).
+    pub what: &'static str,
+    /// The key it arrived on.
+    pub key: String,
+    /// The parse error.
+    pub reason: String,
+}
+
+/// Parses a payload of type `T`, naming the key and the problem when it fails. Payloads over
+/// `limit` bytes are refused before parsing.
+pub fn parse<T: serde::de::DeserializeOwned>(
+    what: &'static str,
+    key: &str,
+    bytes: &[u8],
+) -> Result<T, Malformed> {
+    const LIMIT: usize = 4 << 20;
+    if bytes.len() > LIMIT {
+        return Err(Malformed {
+            what,
+            key: key.to_owned(),
+            reason: format!("{} bytes is over the {LIMIT}-byte limit", bytes.len()),
+        });
+    }
+    serde_json::from_slice(bytes).map_err(|e| Malformed {
+        what,
+        key: key.to_owned(),
+        reason: e.to_string(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn payloads_round_trip_and_garbage_is_named() {
+        let r = ResultMsg {
+            goal_id: "m.1.2.1".into(),
+            status: Status::Aborted,
+            outputs: Fields::new(),
+            error: Some(Failure {
+                code: "TOOL_STUCK".into(),
+                message: "tool stuck at 12 cm".into(),
+            }),
+        };
+        let text = serde_json::to_string(&r).unwrap();
+        assert!(text.contains(r#""status":"ABORTED""#), "{text}");
+        assert_eq!(
+            parse::<ResultMsg>("result", "k", text.as_bytes()).unwrap(),
+            r
+        );
+        let e = parse::<ResultMsg>("result", "trace/act/s/a/result", b"\xff{").unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("malformed result payload on trace/act/s/a/result")
+        );
+        let e = parse::<Goal>("goal", "k", br#"{"goal_id":"g","extra":1}"#).unwrap_err();
+        assert!(e.reason.contains("unknown field"), "{e}");
+    }
+}

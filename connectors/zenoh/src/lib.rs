@@ -1,0 +1,26 @@
+//! # connector-zenoh
+//!
+//! The activity protocol of `docs/protocol.md` over Zenoh, kept thin: every key comes from
+//! `connector_api::keys`, every payload from `connector_api::wire`.
+//!
+//! - [`ZenohConnector`]: the executive's connector to one server (goals, cancels, state
+//!   reconciliation, liveliness and `CONNECTOR_LOST`, telemetry as system data);
+//! - [`ActionServer`]: the reusable server side for any system (the lander simulator, the
+//!   ground station, test servers);
+//! - [`ZenohArgs`]: the Zenoh flags and embedded defaults every TRACE binary shares.
+//!
+//! Dependencies: `zenoh` 1.10.2 with `default-features = false` and only `transport_tcp`
+//! (the other transports cost most of the build; TLS is a deployment feature to add); no
+//! `zenoh-ext`: results survive link loss through `state` reconciliation on reappearance
+//! instead of AdvancedPublisher caches, which also covers executive restarts. `sled` keeps a
+//! server's goal table across restarts; `clap` for the shared flags.
+
+mod client;
+mod codec;
+pub mod mock;
+mod server;
+mod session;
+
+pub use client::{ClientOptions, ZenohConnector};
+pub use server::{AcceptFn, ActionServer, GoalHandle, Request, ServerError, ServerOptions};
+pub use session::{DEFAULT_HUB, Role, SessionError, ZenohArgs};

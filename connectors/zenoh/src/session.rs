@@ -1,0 +1,135 @@
+//! Opening Zenoh the same way in every TRACE binary: Zenoh's own JSON5 configuration file if
+//! given, else the embedded defaults (peer mode on loopback, multicast scouting off), then the
+//! usual endpoint and scouting flags on top.
+
+use std::path::PathBuf;
+
+use connector_api::Keys;
+
+/// The loopback endpoint the executive listens on by default and every other process connects
+/// to, so a one-host mission needs no router and no configuration.
+pub const DEFAULT_HUB: &str = "tcp/127.0.0.1:7447";
+
+/// Zenoh flags shared by every binary.
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct ZenohArgs {
+    /// Zenoh configuration file (JSON5, Zenoh's own format; see deploy/zenoh/).
+    #[arg(long = "zenoh-config", value_name = "FILE")]
+    pub zenoh_config: Option<PathBuf>,
+    /// Zenoh mode: peer, client or router.
+    #[arg(long = "mode", value_name = "MODE")]
+    pub mode: Option<String>,
+    /// Endpoint to connect to (repeatable), e.g. tcp/10.0.0.2:7447.
+    #[arg(short = 'e', long = "connect", value_name = "ENDPOINT")]
+    pub connect: Vec<String>,
+    /// Endpoint to listen on (repeatable), e.g. tcp/127.0.0.1:7447.
+    #[arg(short = 'l', long = "listen", value_name = "ENDPOINT")]
+    pub listen: Vec<String>,
+    /// Disable UDP multicast scouting (off already in the embedded defaults).
+    #[arg(long)]
+    pub no_multicast_scouting: bool,
+    /// Enable UDP multicast scouting.
+    #[arg(long, conflicts_with = "no_multicast_scouting")]
+    pub multicast_scouting: bool,
+    /// Root of every key expression (to run several missions side by side).
+    #[arg(long = "key-root", value_name = "ROOT", default_value = connector_api::keys::DEFAULT_ROOT)]
+    pub root: String,
+}
+
+/// Why Zenoh could not be opened.
+#[derive(Debug, thiserror::Error)]
+pub enum SessionError {
+    /// The configuration file or a flag is invalid.
+    #[error("zenoh configuration: {0}")]
+    Config(String),
+    /// Opening the session failed.
+    #[error("cannot open zenoh: {0}")]
+    Open(String),
+    /// The key root is not usable.
+    #[error(transparent)]
+    Root(#[from] connector_api::keys::BadChunk),
+}
+
+/// Which side of the embedded default topology a process is on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Role {
+    /// Listens on [`DEFAULT_HUB`] (the executive).
+    Hub,
+    /// Connects to [`DEFAULT_HUB`] (simulator, ground station, monitors).
+    Spoke,
+}
+
+impl ZenohArgs {
+    /// The Zenoh configuration these flags describe.
+    pub fn config(&self, role: Role) -> Result<zenoh::Config, SessionError> {
+        let bad = |e: zenoh::Error| SessionError::Config(e.to_string());
+        let mut c = match &self.zenoh_config {
+            Some(path) => zenoh::Config::from_file(path)
+                .map_err(|e| SessionError::Config(format!("{}: {e}", path.display())))?,
+            None => {
+                let mut c = zenoh::Config::default();
+                c.insert_json5("mode", "\"peer\"").map_err(bad)?;
+                c.insert_json5("scouting/multicast/enabled", "false")
+                    .map_err(bad)?;
+                if self.listen.is_empty() && self.connect.is_empty() {
+                    let (listen, connect): (&[&str], &[&str]) = match role {
+                        Role::Hub => (&[DEFAULT_HUB], &[]),
+                        Role::Spoke => (&[], &[DEFAULT_HUB]),
+                    };
+                    c.insert_json5("listen/endpoints", &json(listen))
+                        .map_err(bad)?;
+                    c.insert_json5("connect/endpoints", &json(connect))
+                        .map_err(bad)?;
+                }
+                c
+            }
+        };
+        if let Some(mode) = &self.mode {
+            if !matches!(mode.as_str(), "peer" | "client" | "router") {
+                return Err(SessionError::Config(format!(
+                    "--mode {mode}: expected peer, client or router"
+                )));
+            }
+            c.insert_json5("mode", &format!("\"{mode}\""))
+                .map_err(bad)?;
+        }
+        if !self.listen.is_empty() {
+            c.insert_json5("listen/endpoints", &json(&self.listen))
+                .map_err(bad)?;
+        }
+        if !self.connect.is_empty() {
+            c.insert_json5("connect/endpoints", &json(&self.connect))
+                .map_err(bad)?;
+        }
+        if self.no_multicast_scouting || self.multicast_scouting {
+            c.insert_json5(
+                "scouting/multicast/enabled",
+                if self.multicast_scouting {
+                    "true"
+                } else {
+                    "false"
+                },
+            )
+            .map_err(bad)?;
+        }
+        Ok(c)
+    }
+
+    /// The key builder for `--key-root`.
+    pub fn keys(&self) -> Result<Keys, SessionError> {
+        Ok(Keys::new(&self.root)?)
+    }
+
+    /// Opens the session.
+    pub async fn open(&self, role: Role) -> Result<zenoh::Session, SessionError> {
+        let config = self.config(role)?;
+        zenoh::open(config)
+            .await
+            .map_err(|e| SessionError::Open(e.to_string()))
+    }
+}
+
+fn json<S: AsRef<str>>(items: &[S]) -> String {
+    serde_json::to_string(&items.iter().map(AsRef::as_ref).collect::<Vec<_>>())
+        .unwrap_or_else(|_| "[]".to_owned())
+}

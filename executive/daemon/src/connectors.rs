@@ -1,0 +1,269 @@
+//! The executive's connectors: built from the connector configuration, checked against the
+//! mission before it starts (every problem listed), and addressed by route.
+
+use std::path::Path;
+use std::time::Duration;
+
+use connector_api::{
+    Catalogue, Connector, ConnectorConfig, ConnectorsConfig, Kind, Mismatch, Reports, TaskUse, Type,
+};
+use connector_zenoh::{ClientOptions, Role, ZenohArgs, ZenohConnector};
+use executive_model::{EventDefinition, NodeKind, ProcessGraph, TaskKind};
+
+use crate::script::{Script, ScriptConnector};
+
+/// Why the connectors could not be set up.
+#[derive(Debug, thiserror::Error)]
+pub enum SetupError {
+    /// The configuration file is unreadable or invalid.
+    #[error("{path}: {reason}")]
+    Config {
+        /// The file.
+        path: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// Zenoh could not be opened.
+    #[error(transparent)]
+    Zenoh(#[from] connector_zenoh::SessionError),
+    /// A connector failed to start or to answer.
+    #[error("connector `{name}`: {reason}")]
+    Connector {
+        /// Which.
+        name: String,
+        /// What happened.
+        reason: String,
+    },
+    /// The mission does not match the systems.
+    #[error("the mission does not match the systems it drives ({} problems):\n{}", .0.len(), .0.iter().map(|m| format!("  {m}")).collect::<Vec<_>>().join("\n"))]
+    Mismatches(Vec<Mismatch>),
+}
+
+/// The loaded connectors.
+pub struct Connectors {
+    /// The configuration (routes).
+    pub config: ConnectorsConfig,
+    /// One per configured connector, in order.
+    pub list: Vec<Box<dyn Connector>>,
+    session: Option<zenoh::Session>,
+}
+
+/// What the connectors need to know about the run.
+pub struct Setup<'a> {
+    /// The connector configuration file (`None`: one scripted connector serving everything).
+    pub config: Option<&'a Path>,
+    /// The scripted connector's script.
+    pub script: Option<&'a Path>,
+    /// Where the scripted connector logs its effects.
+    pub effects: &'a Path,
+    /// Mission time speed-up (the scripted connector's durations).
+    pub speed: f64,
+    /// Zenoh flags.
+    pub zenoh: &'a ZenohArgs,
+    /// Who we are on Zenoh.
+    pub client: String,
+    /// How long to wait for each system's catalogue.
+    pub catalogue_wait: Duration,
+}
+
+fn read_config(path: &Path) -> Result<ConnectorsConfig, SetupError> {
+    let bad = |reason: String| SetupError::Config {
+        path: path.display().to_string(),
+        reason,
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
+    let config: ConnectorsConfig = toml::from_str(&text).map_err(|e| bad(e.to_string()))?;
+    let problems = config.problems();
+    if !problems.is_empty() {
+        return Err(bad(problems.join("; ")));
+    }
+    Ok(config)
+}
+
+impl Connectors {
+    /// Builds every configured connector; Zenoh is opened only if one needs it.
+    pub async fn open(setup: &Setup<'_>, reports: Reports) -> Result<Connectors, SetupError> {
+        let config = match setup.config {
+            Some(p) => read_config(p)?,
+            None => ConnectorsConfig {
+                connectors: vec![ConnectorConfig {
+                    name: "script".into(),
+                    kind: Kind::Script,
+                    server: None,
+                    resources: vec!["*".into()],
+                    actions: Default::default(),
+                    data: Vec::new(),
+                    deadband: Default::default(),
+                    grace_ms: 0,
+                    clock: false,
+                }],
+            },
+        };
+        let script = match setup.script {
+            Some(p) => {
+                let text = std::fs::read_to_string(p).map_err(|e| SetupError::Config {
+                    path: p.display().to_string(),
+                    reason: e.to_string(),
+                })?;
+                serde_json::from_str::<Script>(&text).map_err(|e| SetupError::Config {
+                    path: p.display().to_string(),
+                    reason: e.to_string(),
+                })?
+            }
+            None => Script::default(),
+        };
+        let session = if config.connectors.iter().any(|c| c.kind == Kind::Zenoh) {
+            Some(setup.zenoh.open(Role::Hub).await?)
+        } else {
+            None
+        };
+        let keys = setup.zenoh.keys()?;
+        let mut list: Vec<Box<dyn Connector>> = Vec::new();
+        for c in &config.connectors {
+            let failed = |reason: String| SetupError::Connector {
+                name: c.name.clone(),
+                reason,
+            };
+            list.push(match (c.kind, &session) {
+                (Kind::Script, _) => Box::new(
+                    ScriptConnector::new(
+                        &c.name,
+                        script.clone(),
+                        setup.effects,
+                        setup.speed,
+                        reports.clone(),
+                    )
+                    .map_err(|e| failed(e.to_string()))?,
+                ),
+                (Kind::Zenoh, Some(session)) => Box::new(
+                    ZenohConnector::new(
+                        session,
+                        ClientOptions {
+                            keys: keys.clone(),
+                            config: c.clone(),
+                            client: setup.client.clone(),
+                            catalogue_wait: setup.catalogue_wait,
+                            query_timeout: Duration::from_secs(5),
+                        },
+                        reports.clone(),
+                    )
+                    .await
+                    .map_err(|e| failed(e.to_string()))?,
+                ),
+                (Kind::Zenoh, None) => unreachable!("a session is opened for zenoh connectors"),
+            });
+        }
+        Ok(Connectors {
+            config,
+            list,
+            session,
+        })
+    }
+
+    /// Checks the mission against every connector's catalogue; all problems at once.
+    pub async fn check(&mut self, g: &ProcessGraph) -> Result<(), SetupError> {
+        let mut catalogues: Vec<Option<Catalogue>> = Vec::new();
+        for c in &mut self.list {
+            let name = c.name().to_owned();
+            catalogues.push(c.catalogue().await.map_err(|e| SetupError::Connector {
+                name,
+                reason: e.to_string(),
+            })?);
+        }
+        let mismatches = connector_api::check(&task_uses(g), &self.config, &catalogues);
+        if mismatches.is_empty() {
+            Ok(())
+        } else {
+            Err(SetupError::Mismatches(mismatches))
+        }
+    }
+
+    /// Undeclares everything and closes Zenoh.
+    pub async fn close(&mut self) {
+        for c in &mut self.list {
+            c.close().await;
+        }
+        if let Some(s) = self.session.take()
+            && let Err(e) = s.close().await
+        {
+            tracing::debug!(error = %e, "zenoh close failed");
+        }
+    }
+}
+
+fn is_path(s: &str) -> bool {
+    !s.is_empty()
+        && s.split('.').all(|p| {
+            let mut c = p.chars();
+            c.next()
+                .is_some_and(|f| f.is_ascii_alphabetic() || f == '_')
+                && c.all(|x| x.is_ascii_alphanumeric() || x == '_')
+        })
+}
+
+/// What each dispatched task of the model asks of the systems.
+pub fn task_uses(g: &ProcessGraph) -> Vec<TaskUse> {
+    let mut out = Vec::new();
+    for node in &g.nodes {
+        let NodeKind::Task(t) = &node.kind else {
+            continue;
+        };
+        let resource = t.binding.as_ref().and_then(|b| b.resource.clone());
+        let dispatched = match t.kind {
+            TaskKind::User | TaskKind::Service | TaskKind::BusinessRule => true,
+            TaskKind::Send | TaskKind::Script => resource.is_some(),
+            _ => false,
+        };
+        if !dispatched {
+            continue;
+        }
+        let ty = |f: &Option<executive_model::binding::FieldType>| {
+            f.as_ref().and_then(|f| Type::parse(&f.to_string()))
+        };
+        let (inputs, outputs) = match &t.binding {
+            Some(b) => (
+                b.inputs
+                    .iter()
+                    .map(|i| (i.target.clone(), ty(&i.ty)))
+                    .collect(),
+                b.outputs
+                    .iter()
+                    .flat_map(|o| {
+                        if is_path(&o.source.text) {
+                            vec![(o.source.text.clone(), ty(&o.ty))]
+                        } else {
+                            o.source
+                                .variables
+                                .iter()
+                                .map(|v| (v.clone(), None))
+                                .collect()
+                        }
+                    })
+                    .collect(),
+            ),
+            None => (Vec::new(), Vec::new()),
+        };
+        let caught = node
+            .boundaries
+            .iter()
+            .filter_map(|b| match &g.node(*b).kind {
+                NodeKind::Boundary(be) => Some(be),
+                _ => None,
+            })
+            .flat_map(|be| &be.triggers)
+            .filter_map(|d| match d {
+                EventDefinition::Error { error: Some(e), .. } => g.errors[e.index()].code.clone(),
+                _ => None,
+            })
+            .collect();
+        out.push(TaskUse {
+            task: node.id.clone(),
+            name: node.label().to_owned(),
+            resource: resource.unwrap_or_else(|| node.id.clone()),
+            inputs,
+            outputs,
+            caught,
+        });
+    }
+    out
+}

@@ -1,0 +1,648 @@
+//! The Zenoh activity protocol on loopback, with real sessions (multicast off, a port per
+//! test) and a real killed process: goal → feedback → result, rejection, cancel, duplicate goal
+//! ids, reconciliation after an executive restart, CONNECTOR_LOST, a result surviving a router
+//! restart, and garbage on every key. Everything waits on replies, reports or liveliness.
+
+use std::collections::BTreeMap;
+use std::process::{Child, Stdio};
+use std::time::Duration;
+
+use connector_api::wire::{Fields, Status, StatusMsg};
+use connector_api::{
+    ActionSpec, Catalogue, Channel, Command, Connector, ConnectorConfig, Keys, Kind, Report,
+};
+use connector_zenoh::mock::{self, Behaviour, MockSpec};
+use connector_zenoh::{
+    ActionServer, ClientOptions, Request, Role, ServerOptions, ZenohArgs, ZenohConnector,
+};
+use serde_json::json;
+use tokio::sync::mpsc;
+use zenoh::Session;
+
+/// A free loopback port.
+pub(crate) fn port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .expect("a free port")
+}
+
+pub(crate) fn endpoint(port: u16) -> String {
+    format!("tcp/127.0.0.1:{port}")
+}
+
+/// Zenoh flags for a peer that listens on and/or connects to loopback endpoints.
+pub(crate) fn args(listen: &[String], connect: &[String]) -> ZenohArgs {
+    ZenohArgs {
+        listen: listen.to_vec(),
+        connect: connect.to_vec(),
+        no_multicast_scouting: true,
+        root: "trace".into(),
+        ..ZenohArgs::default()
+    }
+}
+
+async fn open(listen: &[String], connect: &[String]) -> Session {
+    args(listen, connect)
+        .open(Role::Spoke)
+        .await
+        .expect("zenoh opens")
+}
+
+fn spec(name: &str) -> ActionSpec {
+    serde_json::from_value(json!({
+        "name": name,
+        "goal": {"site": {"id": "int"}, "depth_cm": "f64?"},
+        "result": {"depth_cm": "f64"},
+        "errors": {"TOOL_STUCK": "the tool is stuck"}
+    }))
+    .expect("spec")
+}
+
+fn catalogue(server: &str, actions: &[&str]) -> Catalogue {
+    Catalogue {
+        server: server.into(),
+        actions: actions.iter().map(|a| spec(a)).collect(),
+    }
+}
+
+fn behaviour(entries: &[(&str, Behaviour)]) -> BTreeMap<String, Behaviour> {
+    entries
+        .iter()
+        .map(|(k, b)| ((*k).to_owned(), b.clone()))
+        .collect()
+}
+
+fn outputs() -> Fields {
+    json!({"depth_cm": 12.5})
+        .as_object()
+        .cloned()
+        .unwrap_or_default()
+}
+
+/// Serves a mock system in this process.
+async fn serve(session: &Session, spec: MockSpec) -> ActionServer {
+    let (server, requests) = ActionServer::start(
+        session,
+        ServerOptions {
+            keys: Keys::default(),
+            catalogue: spec.catalogue.clone(),
+            store: None,
+            accept: None,
+        },
+    )
+    .await
+    .expect("server starts");
+    tokio::spawn(mock::run(spec, requests, Vec::new()));
+    server
+}
+
+fn connector_config(server: &str, grace_ms: u64) -> ConnectorConfig {
+    ConnectorConfig {
+        name: server.into(),
+        kind: Kind::Zenoh,
+        server: Some(server.into()),
+        resources: vec!["*".into()],
+        actions: BTreeMap::new(),
+        data: vec!["battery_soc_pct".into()],
+        deadband: [("battery_soc_pct".to_owned(), 1.0)].into(),
+        grace_ms,
+        clock: false,
+    }
+}
+
+async fn connector(
+    session: &Session,
+    server: &str,
+    grace_ms: u64,
+) -> (ZenohConnector, mpsc::UnboundedReceiver<Report>) {
+    let (tx, rx) = mpsc::unbounded_channel();
+    let mut c = ZenohConnector::new(
+        session,
+        ClientOptions {
+            keys: Keys::default(),
+            config: connector_config(server, grace_ms),
+            client: "test-exec".into(),
+            catalogue_wait: Duration::from_secs(20),
+            query_timeout: Duration::from_secs(5),
+        },
+        tx,
+    )
+    .await
+    .expect("connector");
+    // The catalogue answers once routing between the two sessions has converged.
+    c.catalogue().await.expect("catalogue");
+    (c, rx)
+}
+
+/// The next report matching `want`, skipping others; fails after a generous bound.
+async fn expect(
+    rx: &mut mpsc::UnboundedReceiver<Report>,
+    want: impl Fn(&Report) -> bool,
+) -> Report {
+    let found = tokio::time::timeout(Duration::from_secs(30), async {
+        loop {
+            match rx.recv().await {
+                Some(r) if want(&r) => return r,
+                Some(_) => {}
+                None => panic!("report channel closed"),
+            }
+        }
+    })
+    .await;
+    found.expect("the expected report arrived")
+}
+
+fn command(goal_id: &str, action: &str, fields: serde_json::Value) -> Command {
+    Command {
+        goal_id: goal_id.into(),
+        action: action.into(),
+        fields: fields.as_object().cloned().unwrap_or_default(),
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn goal_feedback_result_and_failure() {
+    let p = endpoint(port());
+    let sys = open(std::slice::from_ref(&p), &[]).await;
+    let exec = open(&[], &[p]).await;
+    let _server = serve(
+        &sys,
+        MockSpec {
+            catalogue: catalogue("lander", &["dig", "drill"]),
+            behaviour: behaviour(&[
+                (
+                    "dig",
+                    Behaviour {
+                        duration_ms: 30,
+                        feedback: 3,
+                        outputs: outputs(),
+                        ..Behaviour::default()
+                    },
+                ),
+                (
+                    "drill",
+                    Behaviour {
+                        fail: Some("TOOL_STUCK".into()),
+                        fail_attempts: vec![1],
+                        outputs: outputs(),
+                        ..Behaviour::default()
+                    },
+                ),
+            ]),
+        },
+    )
+    .await;
+    let (mut c, mut rx) = connector(&exec, "lander", 5000).await;
+    c.execute(command("m.1.1.1", "dig", json!({"site": {"id": 4}})));
+    expect(
+        &mut rx,
+        |r| matches!(r, Report::Accepted { goal_id } if goal_id == "m.1.1.1"),
+    )
+    .await;
+    let fb = expect(&mut rx, |r| matches!(r, Report::Feedback { .. })).await;
+    assert!(matches!(fb, Report::Feedback { progress_pct: Some(p), .. } if p > 0.0));
+    let done = expect(&mut rx, |r| matches!(r, Report::Done { .. })).await;
+    assert_eq!(
+        done,
+        Report::Done {
+            goal_id: "m.1.1.1".into(),
+            outputs: outputs()
+        }
+    );
+    // Attempt 1 of drill fails with the declared code; attempt 2 succeeds.
+    c.execute(command("m.1.2.1", "drill", json!({"site": {"id": 4}})));
+    let failed = expect(&mut rx, |r| matches!(r, Report::Failed { .. })).await;
+    assert!(
+        matches!(&failed, Report::Failed { goal_id, code, .. } if goal_id == "m.1.2.1" && code == "TOOL_STUCK"),
+        "{failed:?}"
+    );
+    c.execute(command("m.1.2.2", "drill", json!({"site": {"id": 4}})));
+    expect(
+        &mut rx,
+        |r| matches!(r, Report::Done { goal_id, .. } if goal_id == "m.1.2.2"),
+    )
+    .await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn mistyped_and_refused_goals_are_rejected_with_the_reason() {
+    let p = endpoint(port());
+    let sys = open(std::slice::from_ref(&p), &[]).await;
+    let exec = open(&[], &[p]).await;
+    let (server, mut requests) = ActionServer::start(
+        &sys,
+        ServerOptions {
+            keys: Keys::default(),
+            catalogue: catalogue("lander", &["dig"]),
+            store: None,
+            accept: Some(std::sync::Arc::new(|_, f: &Fields| {
+                if f.get("depth_cm").and_then(|d| d.as_f64()) > Some(100.0) {
+                    Err("deeper than the arm reaches".into())
+                } else {
+                    Ok(())
+                }
+            })),
+        },
+    )
+    .await
+    .expect("server");
+    let (mut c, mut rx) = connector(&exec, "lander", 5000).await;
+    c.execute(command("m.1.1.1", "dig", json!({"site": {"id": "four"}})));
+    let r = expect(&mut rx, |r| matches!(r, Report::Failed { .. })).await;
+    let Report::Failed { code, message, .. } = r else {
+        unreachable!()
+    };
+    assert_eq!(code, "REJECTED");
+    assert_eq!(message, "`site.id` must be int, got a string");
+    c.execute(command(
+        "m.1.2.1",
+        "dig",
+        json!({"site": {"id": 1}, "depth_cm": 500}),
+    ));
+    let r = expect(&mut rx, |r| matches!(r, Report::Failed { .. })).await;
+    assert!(
+        matches!(&r, Report::Failed { message, .. } if message == "deeper than the arm reaches"),
+        "{r:?}"
+    );
+    // A rejected goal id stays rejected when repeated, and the application never saw it.
+    c.execute(command("m.1.1.1", "dig", json!({"site": {"id": 1}})));
+    let r = expect(&mut rx, |r| matches!(r, Report::Failed { .. })).await;
+    assert!(matches!(&r, Report::Failed { goal_id, .. } if goal_id == "m.1.1.1"));
+    assert!(requests.try_recv().is_err());
+    assert_eq!(server.status("m.1.1.1"), Some(Status::Rejected));
+}
+
+/// Subscribes to an action's status stream (to watch the server side).
+async fn statuses(
+    session: &Session,
+    server: &str,
+    action: &str,
+) -> mpsc::UnboundedReceiver<StatusMsg> {
+    let (tx, rx) = mpsc::unbounded_channel();
+    let sub = session
+        .declare_subscriber(Keys::default().stream(server, action, Channel::Status))
+        .callback(move |s| {
+            if let Ok(m) = serde_json::from_slice::<StatusMsg>(&s.payload().to_bytes()) {
+                let _ = tx.send(m);
+            }
+        })
+        .await
+        .expect("subscriber");
+    // Keep the subscriber declared for the session's life.
+    std::mem::forget(sub);
+    rx
+}
+
+async fn until_status(rx: &mut mpsc::UnboundedReceiver<StatusMsg>, goal: &str, status: Status) {
+    tokio::time::timeout(Duration::from_secs(30), async {
+        while let Some(m) = rx.recv().await {
+            if m.goal_id == goal && m.status == status {
+                return;
+            }
+        }
+    })
+    .await
+    .expect("status reached");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn cancel_mid_goal() {
+    let p = endpoint(port());
+    let sys = open(std::slice::from_ref(&p), &[]).await;
+    let exec = open(&[], &[p]).await;
+    let server = serve(
+        &sys,
+        MockSpec {
+            catalogue: catalogue("lander", &["dig"]),
+            behaviour: behaviour(&[(
+                "dig",
+                Behaviour {
+                    hang: true,
+                    ..Behaviour::default()
+                },
+            )]),
+        },
+    )
+    .await;
+    let mut status = statuses(&exec, "lander", "dig").await;
+    let (mut c, mut rx) = connector(&exec, "lander", 5000).await;
+    c.execute(command("m.1.1.1", "dig", json!({"site": {"id": 1}})));
+    until_status(&mut status, "m.1.1.1", Status::Executing).await;
+    expect(&mut rx, |r| matches!(r, Report::Accepted { .. })).await;
+    c.abort("m.1.1.1");
+    until_status(&mut status, "m.1.1.1", Status::Canceling).await;
+    until_status(&mut status, "m.1.1.1", Status::Canceled).await;
+    assert_eq!(server.status("m.1.1.1"), Some(Status::Canceled));
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_repeated_goal_id_is_answered_with_the_same_goal() {
+    let p = endpoint(port());
+    let sys = open(std::slice::from_ref(&p), &[]).await;
+    let exec = open(&[], &[p]).await;
+    let (_server, mut requests) = ActionServer::start(
+        &sys,
+        ServerOptions {
+            keys: Keys::default(),
+            catalogue: catalogue("lander", &["dig"]),
+            store: None,
+            accept: None,
+        },
+    )
+    .await
+    .expect("server");
+    let (mut c, mut rx) = connector(&exec, "lander", 5000).await;
+    let goal = json!({"goal_id": "m.1.1.1", "fields": {"site": {"id": 1}}}).to_string();
+    let key = Keys::default().goal("lander", "dig", Channel::Goal, "m.1.1.1");
+    for _ in 0..2 {
+        let replies = exec.get(&key).payload(goal.clone()).await.expect("get");
+        let reply = replies.recv_async().await.expect("a reply");
+        let body: serde_json::Value =
+            serde_json::from_slice(&reply.result().expect("ok").payload().to_bytes())
+                .expect("json");
+        assert_eq!(body["status"], "ACCEPTED", "{body}");
+    }
+    // The connector's own send of the same id joins the goal already running.
+    c.execute(command("m.1.1.1", "dig", json!({"site": {"id": 1}})));
+    expect(&mut rx, |r| matches!(r, Report::Accepted { .. })).await;
+    let Some(Request::Goal(h)) = requests.recv().await else {
+        panic!("one goal")
+    };
+    assert!(requests.try_recv().is_err(), "the goal was started twice");
+    h.succeed(outputs()).await;
+    let done = expect(&mut rx, |r| matches!(r, Report::Done { .. })).await;
+    assert!(matches!(done, Report::Done { goal_id, .. } if goal_id == "m.1.1.1"));
+    // After completion a repeat returns the result, not a new run.
+    let replies = exec.get(&key).payload(goal).await.expect("get");
+    let reply = replies.recv_async().await.expect("a reply");
+    let body: serde_json::Value =
+        serde_json::from_slice(&reply.result().expect("ok").payload().to_bytes()).expect("json");
+    assert_eq!(body["status"], "SUCCEEDED");
+    assert_eq!(body["result"]["outputs"]["depth_cm"], 12.5);
+    assert!(requests.try_recv().is_err());
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_executive_restart_reconciles_goals_in_flight() {
+    let p = endpoint(port());
+    let sys = open(std::slice::from_ref(&p), &[]).await;
+    let (_server, mut requests) = ActionServer::start(
+        &sys,
+        ServerOptions {
+            keys: Keys::default(),
+            catalogue: catalogue("lander", &["dig"]),
+            store: None,
+            accept: None,
+        },
+    )
+    .await
+    .expect("server");
+    // First executive: sends two goals, then dies.
+    let exec1 = open(&[], std::slice::from_ref(&p)).await;
+    let mut status = statuses(&sys, "lander", "dig").await;
+    let (mut c1, mut rx1) = connector(&exec1, "lander", 5000).await;
+    c1.execute(command("m.1.1.1", "dig", json!({"site": {"id": 1}})));
+    c1.execute(command("m.1.2.1", "dig", json!({"site": {"id": 2}})));
+    for _ in 0..2 {
+        expect(&mut rx1, |r| matches!(r, Report::Accepted { .. })).await;
+    }
+    exec1.close().await.expect("close");
+    drop((c1, rx1));
+    let mut goals = BTreeMap::new();
+    for _ in 0..2 {
+        let Some(Request::Goal(h)) = requests.recv().await else {
+            panic!("goal")
+        };
+        goals.insert(h.goal_id.clone(), h);
+    }
+    // While it is down, the first goal finishes.
+    goals["m.1.1.1"].succeed(outputs()).await;
+    until_status(&mut status, "m.1.1.1", Status::Succeeded).await;
+    // The restarted executive reconciles: finished → result; running → waits; unknown → lost.
+    let exec2 = open(&[], &[p]).await;
+    let (mut c2, mut rx2) = connector(&exec2, "lander", 5000).await;
+    c2.reconcile(command("m.1.1.1", "dig", json!({})));
+    c2.reconcile(command("m.1.2.1", "dig", json!({})));
+    c2.reconcile(command("m.1.3.1", "dig", json!({})));
+    let done = expect(&mut rx2, |r| {
+        matches!(r, Report::Done { .. } | Report::Failed { .. })
+    })
+    .await;
+    let lost = expect(&mut rx2, |r| {
+        matches!(r, Report::Done { .. } | Report::Failed { .. })
+    })
+    .await;
+    let (done, lost) = if matches!(done, Report::Done { .. }) {
+        (done, lost)
+    } else {
+        (lost, done)
+    };
+    assert!(
+        matches!(&done, Report::Done { goal_id, .. } if goal_id == "m.1.1.1"),
+        "{done:?}"
+    );
+    assert!(
+        matches!(&lost, Report::Failed { goal_id, code, .. } if goal_id == "m.1.3.1" && code == "CONNECTOR_LOST"),
+        "{lost:?}"
+    );
+    goals["m.1.2.1"].succeed(outputs()).await;
+    let r = expect(&mut rx2, |r| matches!(r, Report::Done { .. })).await;
+    assert!(matches!(r, Report::Done { goal_id, .. } if goal_id == "m.1.2.1"));
+}
+
+/// Starts the mock system binary; returns once it says it is serving.
+pub(crate) fn mock_process(spec: &serde_json::Value, listen: &str, dir: &std::path::Path) -> Child {
+    use std::io::BufRead;
+    let file = dir.join("mock.json");
+    std::fs::write(&file, spec.to_string()).expect("spec written");
+    let mut child = std::process::Command::new(mission_tests::bin("trace-mock-system"))
+        .arg(&file)
+        .args(["--listen", listen, "--no-multicast-scouting"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("mock system starts");
+    let out = child.stdout.take().expect("stdout");
+    let mut line = String::new();
+    std::io::BufReader::new(out)
+        .read_line(&mut line)
+        .expect("ready line");
+    assert!(line.starts_with("ready"), "{line}");
+    child
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_server_killed_mid_goal_yields_connector_lost() {
+    let dir = tempdir("killed");
+    let p = endpoint(port());
+    let spec = json!({
+        "catalogue": catalogue("lander", &["dig"]),
+        "behaviour": {"dig": {"hang": true}}
+    });
+    let mut child = mock_process(&spec, &p, &dir);
+    let exec = open(&[], &[p]).await;
+    let (mut c, mut rx) = connector(&exec, "lander", 300).await;
+    c.execute(command("m.1.1.1", "dig", json!({"site": {"id": 1}})));
+    expect(&mut rx, |r| matches!(r, Report::Accepted { .. })).await;
+    child.kill().expect("kill -9");
+    child.wait().expect("reaped");
+    let r = expect(&mut rx, |r| matches!(r, Report::Failed { .. })).await;
+    let Report::Failed {
+        goal_id,
+        code,
+        message,
+    } = r
+    else {
+        unreachable!()
+    };
+    assert_eq!(
+        (goal_id.as_str(), code.as_str()),
+        ("m.1.1.1", "CONNECTOR_LOST")
+    );
+    assert!(
+        message.contains("did not return within 300 ms"),
+        "{message}"
+    );
+}
+
+pub(crate) fn tempdir(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("trace-it-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("temp dir");
+    d
+}
+
+async fn router(port: u16) -> Session {
+    let a = ZenohArgs {
+        mode: Some("router".into()),
+        ..args(&[endpoint(port)], &[])
+    };
+    a.open(Role::Spoke).await.expect("router opens")
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_result_published_while_the_router_is_down_is_not_lost() {
+    let rp = port();
+    let r1 = router(rp).await;
+    let client = |p: u16| ZenohArgs {
+        mode: Some("client".into()),
+        ..args(&[], &[endpoint(p)])
+    };
+    let sys = client(rp).open(Role::Spoke).await.expect("system");
+    let exec = client(rp).open(Role::Spoke).await.expect("executive");
+    let (_server, mut requests) = ActionServer::start(
+        &sys,
+        ServerOptions {
+            keys: Keys::default(),
+            catalogue: catalogue("lander", &["dig"]),
+            store: None,
+            accept: None,
+        },
+    )
+    .await
+    .expect("server");
+    let (mut c, mut rx) = connector(&exec, "lander", 60_000).await;
+    c.execute(command("m.1.1.1", "dig", json!({"site": {"id": 1}})));
+    expect(&mut rx, |r| matches!(r, Report::Accepted { .. })).await;
+    let Some(Request::Goal(h)) = requests.recv().await else {
+        panic!("goal")
+    };
+    r1.close().await.expect("router stops");
+    // Published with nobody to route it: `put` succeeds and the sample is gone.
+    assert!(h.succeed(outputs()).await);
+    let _r2 = router(rp).await;
+    // The server's liveliness comes back through the new router; the connector asks for the
+    // goal's state and gets the result.
+    let done = expect(&mut rx, |r| matches!(r, Report::Done { .. })).await;
+    assert!(matches!(done, Report::Done { goal_id, .. } if goal_id == "m.1.1.1"));
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn garbage_on_any_key_is_refused_and_both_sides_keep_working() {
+    let p = endpoint(port());
+    let sys = open(std::slice::from_ref(&p), &[]).await;
+    let exec = open(&[], &[p]).await;
+    let _server = serve(
+        &sys,
+        MockSpec {
+            catalogue: catalogue("lander", &["dig"]),
+            behaviour: behaviour(&[(
+                "dig",
+                Behaviour {
+                    outputs: outputs(),
+                    ..Behaviour::default()
+                },
+            )]),
+        },
+    )
+    .await;
+    let (mut c, mut rx) = connector(&exec, "lander", 5000).await;
+    let k = Keys::default();
+    let garbage: [&[u8]; 4] = [
+        b"\xff\xfe",
+        b"{",
+        b"[1,2]",
+        br#"{"goal_id":"m.1.1.1","status":"BOGUS","seq":1}"#,
+    ];
+    for g in garbage {
+        for ch in [Channel::Status, Channel::Feedback, Channel::Result] {
+            exec.put(k.stream("lander", "dig", ch), g.to_vec())
+                .await
+                .expect("put");
+        }
+        exec.put(k.telemetry("lander", "power"), g.to_vec())
+            .await
+            .expect("put");
+        for ch in [Channel::Goal, Channel::Cancel, Channel::State] {
+            let replies = exec
+                .get(k.goal("lander", "dig", ch, "m.9.9.9"))
+                .payload(g.to_vec())
+                .await
+                .expect("get");
+            let reply = replies.recv_async().await.expect("an answer");
+            if ch == Channel::Goal {
+                let err = reply.result().expect_err("garbage goal refused");
+                let text = String::from_utf8_lossy(&err.payload().to_bytes()).into_owned();
+                assert!(
+                    text.starts_with("malformed goal payload on trace/act/lander/dig/goal/m.9.9.9"),
+                    "{text}"
+                );
+            }
+        }
+    }
+    // A goal whose id differs from its key, and one for an action not served.
+    let replies = exec
+        .get(k.goal("lander", "dig", Channel::Goal, "m.9.9.9"))
+        .payload(json!({"goal_id": "other", "fields": {}}).to_string())
+        .await
+        .expect("get");
+    let err = replies
+        .recv_async()
+        .await
+        .expect("answer")
+        .result()
+        .expect_err("refused")
+        .payload()
+        .to_bytes()
+        .into_owned();
+    assert!(String::from_utf8_lossy(&err).contains("differs from the key"));
+    // Telemetry with a wrongly typed value is fed as data only when it parses as telemetry.
+    exec.put(
+        k.telemetry("lander", "power"),
+        json!({"mission_ms": 5, "values": {"battery_soc_pct": 80.0}}).to_string(),
+    )
+    .await
+    .expect("put");
+    let data = expect(&mut rx, |r| matches!(r, Report::Data { .. })).await;
+    assert_eq!(
+        data,
+        Report::Data {
+            key: "battery_soc_pct".into(),
+            value: json!(80.0)
+        }
+    );
+    c.execute(command("m.1.1.1", "dig", json!({"site": {"id": 1}})));
+    let done = expect(&mut rx, |r| matches!(r, Report::Done { .. })).await;
+    assert!(matches!(done, Report::Done { goal_id, .. } if goal_id == "m.1.1.1"));
+}
