@@ -170,27 +170,25 @@ impl Inner {
         ))
     }
 
+    /// Publishes a transition; a result goes first, since the client waits on it and the
+    /// status is for observers.
     async fn publish(&self, action: &str, status: StatusMsg, result: Option<ResultMsg>) {
-        let k = self.keys.stream(self.server(), action, Channel::Status);
-        if let Err(e) = self
-            .session
-            .put(k, json(&status))
-            .encoding(encoding("status"))
-            .congestion_control(CongestionControl::Block)
-            .await
-        {
-            tracing::warn!(error = %e, "status not published");
-        }
+        let server = self.server();
+        let mut puts = Vec::with_capacity(2);
         if let Some(r) = result {
-            let k = self.keys.stream(self.server(), action, Channel::Result);
+            puts.push((Channel::Result, json(&r), "result"));
+        }
+        puts.push((Channel::Status, json(&status), "status"));
+        for (channel, body, kind) in puts {
             if let Err(e) = self
                 .session
-                .put(k, json(&r))
-                .encoding(encoding("result"))
+                .put(self.keys.stream(server, action, channel), body)
+                .encoding(encoding(kind))
                 .congestion_control(CongestionControl::Block)
+                .express(true)
                 .await
             {
-                tracing::warn!(error = %e, "result not published");
+                tracing::warn!(error = %e, kind, "not published");
             }
         }
     }
@@ -202,6 +200,7 @@ impl Inner {
             .put(k, json(status))
             .encoding(encoding("status"))
             .congestion_control(CongestionControl::Block)
+            .express(true)
             .wait()
         {
             tracing::warn!(error = %e, "status not published");

@@ -133,3 +133,45 @@ fn json<S: AsRef<str>>(items: &[S]) -> String {
     serde_json::to_string(&items.iter().map(AsRef::as_ref).collect::<Vec<_>>())
         .unwrap_or_else(|_| "[]".to_owned())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shipped_zenoh_configurations_parse() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../deploy/zenoh");
+        let mut n = 0;
+        for entry in std::fs::read_dir(&dir).expect("deploy/zenoh") {
+            let path = entry.expect("entry").path();
+            let args = ZenohArgs {
+                zenoh_config: Some(path.clone()),
+                ..ZenohArgs::default()
+            };
+            args.config(Role::Spoke)
+                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            n += 1;
+        }
+        assert!(n >= 3);
+    }
+
+    #[test]
+    fn flags_override_and_bad_values_are_named() {
+        let args = ZenohArgs {
+            mode: Some("satellite".into()),
+            ..ZenohArgs::default()
+        };
+        let e = args.config(Role::Hub).unwrap_err().to_string();
+        assert!(e.contains("--mode satellite"), "{e}");
+        let args = ZenohArgs {
+            zenoh_config: Some("/nonexistent.json5".into()),
+            ..ZenohArgs::default()
+        };
+        assert!(
+            args.config(Role::Hub)
+                .unwrap_err()
+                .to_string()
+                .contains("/nonexistent.json5")
+        );
+    }
+}
