@@ -188,3 +188,93 @@ impl TapMkdir for std::path::PathBuf {
         self
     }
 }
+
+const TIMED: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
+<definitions xmlns="http://www.omg.org/spec/BPMN/20100524/MODEL" xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance" xmlns:trace="urn:trace:bpmn:1.0" id="D" targetNamespace="t">
+  <process id="P" isExecutable="true">
+    <startEvent id="S"/>
+    <sequenceFlow id="f1" sourceRef="S" targetRef="Wait"/>
+    <intermediateCatchEvent id="Wait" name="Wait Ten Hours">
+      <timerEventDefinition><timeDuration xsi:type="tFormalExpression">PT10H</timeDuration></timerEventDefinition>
+    </intermediateCatchEvent>
+    <sequenceFlow id="f2" sourceRef="Wait" targetRef="Ping"/>
+    <serviceTask id="Ping"><extensionElements><trace:task resource="sys.ping"/></extensionElements></serviceTask>
+    <sequenceFlow id="f3" sourceRef="Ping" targetRef="E"/>
+    <endEvent id="E"/>
+  </process>
+</definitions>"#;
+
+#[test]
+fn timers_run_on_the_clock_a_system_supplies() {
+    let dir = tempdir("system-clock");
+    let p = endpoint(port());
+    let start_ms = 946_684_800_000_i64; // 2000-01-01, far from today's wall clock
+    let spec = json!({
+        "catalogue": {"server": "sys", "actions": [{"name": "sys.ping"}]},
+        "clock": {"start_ms": start_ms, "speed": 200000.0}
+    });
+    let mut sys = mock_process(&spec, &p, &dir.join("sys").tap_mkdir());
+    let model = dir.join("timed.bpmn");
+    std::fs::write(&model, TIMED).expect("model");
+    let config = dir.join("connectors.toml");
+    std::fs::write(
+        &config,
+        "[[connector]]\nname = \"sys\"\nkind = \"zenoh\"\nresources = [\"sys.*\"]\nclock = true\n",
+    )
+    .expect("config");
+    // Ten hours of mission time at 200,000x is 0.18 s of wall time; on the wall clock the run
+    // would not end, so the bound below only guards a hang.
+    let mut child = Command::new(bin("trace"))
+        .arg("run")
+        .arg(&model)
+        .arg("--store")
+        .arg(dir.join("store"))
+        .arg("--connectors")
+        .arg(&config)
+        .args([
+            "--listen",
+            &endpoint(port()),
+            "--connect",
+            &p,
+            "--no-multicast-scouting",
+        ])
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .expect("trace runs");
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(120);
+    let status = loop {
+        if let Some(s) = child.try_wait().expect("wait") {
+            break Some(s);
+        }
+        if std::time::Instant::now() > deadline {
+            let _ = child.kill();
+            break None;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    let _ = (sys.kill(), sys.wait());
+    assert!(
+        status.is_some_and(|s| s.success()),
+        "the run did not end on the system clock"
+    );
+    let record = std::fs::read_to_string(dir.join("store/record.jsonl")).expect("record");
+    let at = |kind: &str| -> i64 {
+        record
+            .lines()
+            .map(|l| serde_json::from_str::<serde_json::Value>(l).expect("line"))
+            .find(|v| v["kind"] == kind)
+            .and_then(|v| v["mission_ms"].as_i64())
+            .unwrap_or_else(|| panic!("no {kind} line"))
+    };
+    let (armed, fired) = (at("timer_started"), at("timer_fired"));
+    // Mission time is the system's (year 2000), not the wall clock's.
+    assert!(
+        (start_ms..start_ms + 365 * 86_400_000).contains(&armed),
+        "armed at {armed}"
+    );
+    assert!(
+        fired - armed >= 36_000_000,
+        "fired {} ms after arming",
+        fired - armed
+    );
+}

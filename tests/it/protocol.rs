@@ -169,6 +169,7 @@ async fn goal_feedback_result_and_failure() {
     let _server = serve(
         &sys,
         MockSpec {
+            clock: None,
             catalogue: catalogue("lander", &["dig", "drill"]),
             behaviour: behaviour(&[
                 (
@@ -314,6 +315,7 @@ async fn cancel_mid_goal() {
     let server = serve(
         &sys,
         MockSpec {
+            clock: None,
             catalogue: catalogue("lander", &["dig"]),
             behaviour: behaviour(&[(
                 "dig",
@@ -566,6 +568,7 @@ async fn garbage_on_any_key_is_refused_and_both_sides_keep_working() {
     let _server = serve(
         &sys,
         MockSpec {
+            clock: None,
             catalogue: catalogue("lander", &["dig"]),
             behaviour: behaviour(&[(
                 "dig",

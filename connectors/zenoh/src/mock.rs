@@ -46,6 +46,50 @@ pub struct MockSpec {
     /// Behaviour by action name (actions not listed succeed at once with no outputs).
     #[serde(default)]
     pub behaviour: BTreeMap<String, Behaviour>,
+    /// Publish a mission clock on `<root>/tm/<server>/clock` every 50 ms.
+    #[serde(default)]
+    pub clock: Option<MockClock>,
+}
+
+/// A mock mission clock: starts at `start_ms` and runs `speed` times faster than wall time.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MockClock {
+    /// Mission time at start, ms since the epoch.
+    pub start_ms: i64,
+    /// Mission ms per wall ms.
+    pub speed: f64,
+}
+
+/// Publishes the mock clock until the session closes.
+pub async fn publish_clock(
+    session: zenoh::Session,
+    keys: connector_api::Keys,
+    server: String,
+    clock: MockClock,
+) {
+    let t0 = std::time::Instant::now();
+    let key = keys.telemetry(&server, "clock");
+    loop {
+        let mission_ms =
+            clock.start_ms + (t0.elapsed().as_secs_f64() * 1000.0 * clock.speed) as i64;
+        let sample = connector_api::wire::Telemetry {
+            mission_ms,
+            values: serde_json::json!({ "speed": clock.speed })
+                .as_object()
+                .cloned()
+                .unwrap_or_default(),
+        };
+        if session
+            .put(&key, crate::codec::json(&sample))
+            .encoding(crate::codec::encoding("telemetry"))
+            .await
+            .is_err()
+        {
+            return;
+        }
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
 }
 
 /// Runs goals as the spec says until the request channel closes.

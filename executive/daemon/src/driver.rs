@@ -158,6 +158,43 @@ impl MissionClock for ScaledWallClock {
     }
 }
 
+/// A system's mission clock (the paper's "alternate clock"): the mission time it last reported,
+/// advanced at its speed since.
+#[derive(Clone, Copy, Debug)]
+pub struct SystemClock {
+    mission0: Millis,
+    at: std::time::Instant,
+    speed: f64,
+}
+
+impl SystemClock {
+    /// The clock as reported now.
+    pub fn new(mission_ms: Millis, speed: f64) -> SystemClock {
+        SystemClock {
+            mission0: mission_ms,
+            at: std::time::Instant::now(),
+            speed: if speed.is_finite() && speed > 0.0 {
+                speed
+            } else {
+                1.0
+            },
+        }
+    }
+}
+
+impl MissionClock for SystemClock {
+    fn now(&self) -> Millis {
+        self.mission0 + (self.at.elapsed().as_secs_f64() * 1000.0 * self.speed) as Millis
+    }
+    fn wall_delay(&self, due: Millis) -> Duration {
+        let left = due.saturating_sub(self.now()).max(0) as f64 / self.speed;
+        Duration::from_micros((left * 1000.0) as u64)
+    }
+    fn speed(&self) -> f64 {
+        self.speed
+    }
+}
+
 /// Runs (or resumes) a mission to its end; blocks. Uses a single-threaded tokio runtime.
 pub fn run(opts: &RunOptions) -> Result<Summary, RunError> {
     // Zenoh refuses tokio's current-thread scheduler; one worker keeps the driver sequential.
@@ -180,7 +217,11 @@ struct Driver {
     clock: Box<dyn MissionClock>,
     seq: u64,
     tx: mpsc::UnboundedSender<Event>,
-    timers: BTreeMap<TimerKey, JoinHandle<()>>,
+    /// Armed timers with their mission-time deadlines (re-armed when the clock changes).
+    timers: BTreeMap<TimerKey, (Millis, JoinHandle<()>)>,
+    /// Mission time of the last step: inputs never go back in time when the clock source
+    /// changes.
+    last_at: Millis,
     flights: BTreeMap<TaskKey, Flight>,
     goals: HashMap<String, TaskKey>,
     snapshot_every: u64,
@@ -249,6 +290,33 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
         connectors.close().await;
         return Err(e.into());
     }
+    // A system that supplies the mission clock is heard from before anything is timed.
+    let mut early = Vec::new();
+    let mut system_clock = None;
+    if connectors.config.connectors.iter().any(|c| c.clock) {
+        let waited = tokio::time::timeout(opts.catalogue_wait, async {
+            while let Some(r) = reports.recv().await {
+                match r {
+                    Report::Clock { mission_ms, speed } => {
+                        return Some(SystemClock::new(mission_ms, speed));
+                    }
+                    other => early.push(other),
+                }
+            }
+            None
+        })
+        .await;
+        match waited {
+            Ok(Some(c)) => system_clock = Some(c),
+            _ => {
+                connectors.close().await;
+                return Err(RunError::Io(format!(
+                    "no mission clock from the system within {:?} (a connector has `clock = true`)",
+                    opts.catalogue_wait
+                )));
+            }
+        }
+    }
     store.set_meta("mission", &mission)?;
 
     let clock = match meta(&rec, "clock").and_then(|c| {
@@ -308,10 +376,15 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
         seq,
         tx,
         timers: BTreeMap::new(),
+        last_at: 0,
         flights: BTreeMap::new(),
         goals: HashMap::new(),
         snapshot_every: opts.snapshot_every.max(1),
     };
+    if let Some(c) = system_clock {
+        d.set_clock(c);
+    }
+    let early: Vec<Event> = early.into_iter().filter_map(|r| d.event_of(r)).collect();
     let mut reboots: u64 = meta(&rec, "reboots")
         .and_then(|r| r.parse().ok())
         .unwrap_or(0);
@@ -364,6 +437,7 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
             }])?;
         }
     }
+    d.feed_all(early)?;
     let mut interrupted = false;
     let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
         .map_err(|e| RunError::Io(format!("cannot watch SIGTERM: {e}")))?;
@@ -427,7 +501,7 @@ impl Driver {
                 }
             },
             Report::Clock { mission_ms, speed } => {
-                tracing::debug!(mission_ms, speed, "system clock");
+                self.set_clock(SystemClock::new(mission_ms, speed));
                 None
             }
             Report::Accepted { goal_id } => {
@@ -504,14 +578,18 @@ impl Driver {
     fn feed_all(&mut self, events: Vec<Event>) -> Result<(), RunError> {
         let mut steps = Vec::with_capacity(events.len());
         for event in events {
+            if let Event::TimerFired { timer } = &event {
+                self.timers.remove(timer);
+            }
             let input = Input {
                 seq: self.seq + 1,
-                at: self.clock.now(),
+                at: self.clock.now().max(self.last_at),
                 event,
             };
             match self.engine.step(input.clone()) {
                 Ok(actions) => {
                     self.seq = input.seq;
+                    self.last_at = input.at;
                     steps.push((input, actions));
                 }
                 Err(rejected) => tracing::warn!(%rejected, "input refused"),
@@ -557,19 +635,9 @@ impl Driver {
                     self.connectors.list[f.connector].abort(&f.goal_id);
                 }
             }
-            Action::StartTimer { timer, at } => {
-                let delay = self.clock.wall_delay(at);
-                let tx = self.tx.clone();
-                let h = tokio::spawn(async move {
-                    tokio::time::sleep(delay).await;
-                    let _ = tx.send(Event::TimerFired { timer });
-                });
-                if let Some(old) = self.timers.insert(timer, h) {
-                    old.abort();
-                }
-            }
+            Action::StartTimer { timer, at } => self.arm(timer, at),
             Action::CancelTimer { timer } => {
-                if let Some(h) = self.timers.remove(&timer) {
+                if let Some((_, h)) = self.timers.remove(&timer) {
                     h.abort();
                 }
             }
@@ -594,6 +662,29 @@ impl Driver {
             self.store.done(seq, index as u32)?;
         }
         Ok(())
+    }
+
+    /// Arms (or re-arms) a timer for mission time `at` on the current clock.
+    fn arm(&mut self, timer: TimerKey, at: Millis) {
+        let delay = self.clock.wall_delay(at);
+        let tx = self.tx.clone();
+        let h = tokio::spawn(async move {
+            tokio::time::sleep(delay).await;
+            let _ = tx.send(Event::TimerFired { timer });
+        });
+        if let Some((_, old)) = self.timers.insert(timer, (at, h)) {
+            old.abort();
+        }
+    }
+
+    /// Switches to a system's clock; armed timers are re-armed against it.
+    fn set_clock(&mut self, clock: SystemClock) {
+        self.clock = Box::new(clock);
+        let armed: Vec<(TimerKey, Millis)> =
+            self.timers.iter().map(|(k, (at, _))| (*k, *at)).collect();
+        for (timer, at) in armed {
+            self.arm(timer, at);
+        }
     }
 
     /// The resource a user task is routed by: its binding's, else its element id.

@@ -50,6 +50,14 @@ async fn main() -> anyhow::Result<()> {
     )
     .await?;
     let resume = server.unfinished();
+    if let Some(clock) = spec.clock {
+        tokio::spawn(mock::publish_clock(
+            session.clone(),
+            cli.zenoh.keys()?,
+            spec.catalogue.server.clone(),
+            clock,
+        ));
+    }
     println!("ready {}", spec.catalogue.server);
     tokio::select! {
         () = mock::run(spec, requests, resume) => {}
