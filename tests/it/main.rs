@@ -7,6 +7,7 @@ mod conformance;
 mod connectors;
 mod durability;
 mod engine;
+mod europa;
 mod hostile;
 mod missions;
 mod protocol;

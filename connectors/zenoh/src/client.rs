@@ -101,7 +101,13 @@ impl Shared {
     }
 
     fn fail(&self, goal_id: &str, code: &str, message: String) {
-        tracing::warn!(connector = self.name(), goal_id, code, %message, "goal failed");
+        // A system's own error codes are mission events (the record has them); protocol
+        // failures are the operator's concern.
+        if codes::ALL.contains(&code) {
+            tracing::warn!(connector = self.name(), goal_id, code, %message, "goal failed");
+        } else {
+            tracing::info!(connector = self.name(), goal_id, code, %message, "goal failed");
+        }
         self.report(Report::Failed {
             goal_id: goal_id.to_owned(),
             code: code.to_owned(),

@@ -627,7 +627,8 @@ impl Driver {
                 context,
             } => {
                 let resource = self.user_resource(node);
-                self.command(task, &resource, context, true, false);
+                let fields = self.user_goal(node, context);
+                self.command(task, &resource, fields, true, false);
             }
             Action::CancelTask { task } | Action::CloseUserTask { task } => {
                 if let Some(f) = self.flights.remove(&task) {
@@ -687,6 +688,17 @@ impl Driver {
         }
     }
 
+    /// The goal of a user task: which task (element id and name) and the variables the
+    /// operator sees.
+    fn user_goal(&self, node: executive_model::NodeId, context: Vars) -> Vars {
+        let n = self.g.node(node);
+        Vars::from([
+            ("task".to_owned(), Value::String(n.id.clone())),
+            ("name".to_owned(), Value::String(n.label().to_owned())),
+            ("context".to_owned(), Value::Map(context)),
+        ])
+    }
+
     /// The resource a user task is routed by: its binding's, else its element id.
     fn user_resource(&self, node: executive_model::NodeId) -> String {
         match &self.g.node(node).kind {
@@ -713,7 +725,8 @@ impl Driver {
                 context,
             } => {
                 let resource = self.user_resource(node);
-                self.command(task, &resource, context, true, true);
+                let fields = self.user_goal(node, context);
+                self.command(task, &resource, fields, true, true);
             }
             _ => {}
         }

@@ -17,6 +17,7 @@ pub mod config;
 pub mod conformance;
 pub mod connectors;
 pub mod driver;
+pub mod fly;
 pub mod record;
 pub mod script;
 pub mod validate;

@@ -31,6 +31,38 @@ enum Command {
         #[command(flatten)]
         run: RunArgs,
     },
+    /// Fly a mission on this host: start the lander simulator and the policy ground responder
+    /// as separate processes, run the executive against them over Zenoh, show progress, and
+    /// end with a summary.
+    Fly {
+        /// The mission model.
+        #[arg(default_value = "deploy/missions/europa-bsm1.bpmn")]
+        mission: PathBuf,
+        /// Working directory for the stores and the record (default: `flights/<mission>-<time>`).
+        #[arg(long)]
+        dir: Option<PathBuf>,
+        /// Connector configuration.
+        #[arg(long, default_value = "deploy/connectors.toml")]
+        connectors: PathBuf,
+        /// The ground responder's policy.
+        #[arg(long, default_value = "deploy/ground-policy.json")]
+        ground: PathBuf,
+        /// Mission time runs this many times faster than wall time (200000: a 20-day mission in
+        /// under 10 s).
+        #[arg(long, default_value_t = 200000.0)]
+        speed: f64,
+        /// The simulator's fault seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// The simulator's fault profile: nominal, demanding or quiet.
+        #[arg(long, default_value = "nominal")]
+        profile: String,
+        /// Scripted faults for the simulator (JSON).
+        #[arg(long)]
+        faults: Option<PathBuf>,
+        #[command(flatten)]
+        zenoh: connector_zenoh::ZenohArgs,
+    },
     /// Resume the mission a store holds after a crash or reboot.
     Resume {
         #[command(flatten)]
@@ -106,7 +138,10 @@ fn logging(filter: &str, json: bool) {
 
 fn main() -> anyhow::Result<ExitCode> {
     let cli = Cli::parse();
-    if !matches!(cli.command, Command::Run { .. } | Command::Resume { .. }) {
+    if !matches!(
+        cli.command,
+        Command::Run { .. } | Command::Resume { .. } | Command::Fly { .. }
+    ) {
         logging("warn", false);
     }
     match cli.command {
@@ -117,6 +152,40 @@ fn main() -> anyhow::Result<ExitCode> {
         }
         Command::Run { mission, run } => drive(Some(mission), run),
         Command::Resume { run } => drive(None, run),
+        Command::Fly {
+            mission,
+            dir,
+            connectors,
+            ground,
+            speed,
+            seed,
+            profile,
+            faults,
+            zenoh,
+        } => {
+            logging("warn,zenoh=error", false);
+            anyhow::ensure!(speed.is_finite() && speed > 0.0, "--speed must be positive");
+            let stamp = std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_secs());
+            let stem = mission
+                .file_stem()
+                .map_or_else(|| "mission".into(), |s| s.to_string_lossy().into_owned());
+            let dir =
+                dir.unwrap_or_else(|| PathBuf::from("flights").join(format!("{stem}-{stamp}")));
+            executive::fly::fly(&executive::fly::FlyOptions {
+                mission,
+                dir,
+                connectors,
+                ground,
+                speed,
+                seed,
+                profile,
+                faults,
+                zenoh,
+            })?;
+            Ok(ExitCode::SUCCESS)
+        }
         Command::Conformance(Corpus::Betsy { dir, expectations }) => {
             let stdout = std::io::stdout();
             let totals = executive::conformance::betsy(&dir, &expectations, &mut stdout.lock())?;

@@ -431,7 +431,11 @@ impl Run<'_> {
     ) {
         let tok = &self.s.tokens[&t];
         let (scope, node, instance) = (tok.scope, tok.node, tok.instance);
-        let request = match binding.filter(|b| !b.inputs.is_empty()) {
+        // A `trace:task` declares its goal exactly (no inputs: an empty goal); the other
+        // dialects pass every visible variable when they map none, as their engines do.
+        let request = match binding.filter(|b| {
+            !b.inputs.is_empty() || b.dialect == executive_model::binding::Dialect::Trace
+        }) {
             None => self.visible_vars(scope),
             Some(b) => {
                 let mut request = Vars::new();

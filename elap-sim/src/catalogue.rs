@@ -1,0 +1,64 @@
+//! The lander's action catalogue (design `elap-sim.md` §5): typed goals and results, declared
+//! error codes. Served on `<root>/cat/lander_sim`; missions are checked against it at load.
+
+use connector_api::Catalogue;
+use serde_json::json;
+
+/// The server id.
+pub const SERVER: &str = "lander_sim";
+
+/// Every activity the simulator serves.
+pub fn catalogue() -> Catalogue {
+    let actions = json!([
+        {"name": "camera.take_panorama", "goal": {"camera": "string", "exposure_ms": "int", "use_led": "bool"},
+         "result": {"image": {"image_id": "string", "size_mb": "f64"}},
+         "errors": {"CAMERA_TRIGGER_FAILURE": "the camera did not trigger", "UNDEREXPOSED": "image too dark"}},
+        {"name": "world_model.build_terrain_map", "goal": {"image_ids": "[string]"},
+         "result": {"map_id": "string", "num_candidates": "int"},
+         "errors": {"STEREO_MATCH_FAIL": "stereo matching failed"}},
+        {"name": "world_model.select_site", "goal": {"map_id": "string", "exclude_ids": "[int]", "min_score": "f64"},
+         "result": {"selected_site": {"site_id": "int", "x_m": "f64", "y_m": "f64", "score": "f64", "material": "string"}},
+         "errors": {"NO_VALID_SITE": "candidates exhausted"}},
+        {"name": "thermal.warm_up", "goal": {"component": "string", "target_temp_k": "f64", "timeout_s": "int"},
+         "result": {"reached_temp_k": "f64", "energy_used_wh": "f64"},
+         "errors": {"HEATER_STUCK_OFF": "heater failed", "SLOW_WARMUP": "warm-up took twice as long"}},
+        {"name": "arm.unstow", "result": {"arm_state": "string"}, "errors": {"ARM_JOINT_FROZEN": "joint fault"}},
+        {"name": "arm.stow", "result": {"arm_state": "string"}, "errors": {"ARM_JOINT_FROZEN": "joint fault"}},
+        {"name": "arm.approach_site", "goal": {"site_id": "int"},
+         "result": {"contact": {"found": "bool", "force_n": "f64"}, "surface_z_m": "f64"},
+         "errors": {"GROUND_NOT_FOUND": "no surface contact", "COLLISION": "unexpected contact"}},
+        {"name": "excavation.remove_tailings", "goal": {"site_id": "int"},
+         "result": {"cleared": "bool", "tailings_volume_cc": "f64"}, "errors": {"TAILINGS_REMAIN": "not cleared"}},
+        {"name": "excavation.excavate", "goal": {"site_id": "int", "target_depth_cm": "f64", "bite_depth_cm": "f64", "max_bites": "int"},
+         "result": {"achieved_depth_cm": "f64", "bites": "int", "energy_used_wh": "f64", "tool_temp_k": "f64"},
+         "errors": {"TOOL_STUCK": "the tool is stuck", "TIMEOUT": "depth not reached in the allowed bites",
+                    "HARD_MATERIAL": "hard ice", "FT_SENSOR_BIAS": "force-torque sensor bias"}},
+        {"name": "excavation.unstick_tool", "goal": {"site_id": "int", "strategy": "string"},
+         "result": {"freed": "bool", "attempt": "int"}, "errors": {"TOOL_LOST": "tool abandoned"}},
+        {"name": "excavation.assess_slump", "goal": {"site_id": "int", "image_id": "string"},
+         "result": {"slump": {"detected": "bool", "volume_cc": "f64", "usable_depth_cm": "f64"}}},
+        {"name": "sampling.find_targets", "goal": {"site_id": "int", "image_id": "string"},
+         "result": {"collection_targets": "[int]", "num_targets": "int"}},
+        {"name": "sampling.collect_sample", "goal": {"site_id": "int", "target_volume_cc": "f64"},
+         "result": {"sample": {"sample_id": "int", "volume_cc": "f64", "depth_cm": "f64"}},
+         "errors": {"INSUFFICIENT_VOLUME": "short sample", "SAMPLE_CONTAMINATED": "contaminated"}},
+        {"name": "sampling.transfer_sample", "goal": {"sample_id": "int", "instrument": "string"},
+         "result": {"delivered": "bool", "delivered_volume_cc": "f64"}, "errors": {"PORT_JAM": "port jammed", "SPILL": "spilled"}},
+        {"name": "instrument.analyze", "goal": {"sample_id": "int", "instrument": "string"},
+         "result": {"analysis": {"product_id": "string", "size_mb": "f64", "biosignature_score": "f64"}},
+         "errors": {"INSTRUMENT_FAULT": "instrument fault", "DATA_CORRUPT": "corrupt data"}},
+        {"name": "data.prioritize", "goal": {"product_ids": "[string]"},
+         "result": {"downlink_queue": "[string]", "queue_mb": "f64"}},
+        {"name": "comm.downlink", "goal": {"queue": "[string]", "link": "string", "max_mb": "f64"},
+         "result": {"sent_mb": "f64", "remaining_mb": "f64", "ground_ack": "bool"},
+         "errors": {"NO_WINDOW": "no link now", "LINK_DROPOUT": "partial send", "ANTENNA_POINTING": "antenna fault"}},
+        {"name": "comm.await_window", "goal": {"link": "string"}, "result": {"window": {"start": "int", "end": "int"}}},
+        {"name": "power.read_battery",
+         "result": {"battery": {"soc_pct": "f64", "energy_wh": "f64", "temp_k": "f64", "rul_h": "f64"}}},
+        {"name": "seismometer.record", "goal": {"duration_s": "int"}, "result": {"product_id": "string", "events": "int"}}
+    ]);
+    Catalogue {
+        server: SERVER.into(),
+        actions: serde_json::from_value(actions).unwrap_or_default(),
+    }
+}

@@ -1,0 +1,342 @@
+//! `trace fly`: one command for a whole mission on one host — starts the lander simulator and
+//! the policy ground responder as separate processes, runs the executive against them over
+//! Zenoh (embedded defaults: peers on loopback, no router), shows progress from the execution
+//! record as the mission advances, and ends with a summary.
+
+use std::collections::BTreeMap;
+use std::io::{BufRead, Seek};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use serde_json::Value;
+
+/// How to fly.
+#[derive(Clone, Debug)]
+pub struct FlyOptions {
+    /// The mission model.
+    pub mission: PathBuf,
+    /// Working directory for stores and the record (created; must not hold a previous flight).
+    pub dir: PathBuf,
+    /// The connector configuration.
+    pub connectors: PathBuf,
+    /// The ground responder's policy (a mock-system definition).
+    pub ground: PathBuf,
+    /// Simulator speed (mission ms per wall ms).
+    pub speed: f64,
+    /// Simulator seed.
+    pub seed: u64,
+    /// Simulator fault profile.
+    pub profile: String,
+    /// Simulator scripted faults.
+    pub faults: Option<PathBuf>,
+    /// Zenoh flags for the executive (the systems connect to its first listen endpoint).
+    pub zenoh: connector_zenoh::ZenohArgs,
+}
+
+/// Why a flight could not be flown.
+#[derive(Debug, thiserror::Error)]
+pub enum FlyError {
+    /// A helper process could not start.
+    #[error("{program}: {reason}")]
+    Spawn {
+        /// Which program.
+        program: String,
+        /// Why.
+        reason: String,
+    },
+    /// The working directory is not usable.
+    #[error("{0}")]
+    Dir(String),
+    /// The executive failed.
+    #[error(transparent)]
+    Run(#[from] crate::driver::RunError),
+}
+
+struct Children(Vec<Child>);
+
+impl Drop for Children {
+    fn drop(&mut self) {
+        for c in &mut self.0 {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+/// A sibling binary of the running `trace`.
+fn sibling(name: &str) -> PathBuf {
+    std::env::current_exe()
+        .ok()
+        .and_then(|p| p.parent().map(|d| d.join(name)))
+        .filter(|p| p.exists())
+        .unwrap_or_else(|| PathBuf::from(name))
+}
+
+fn start(program: &str, args: &[String], log: &Path) -> Result<Child, FlyError> {
+    let err = |reason: String| FlyError::Spawn {
+        program: program.to_owned(),
+        reason,
+    };
+    let log = std::fs::File::create(log).map_err(|e| err(e.to_string()))?;
+    let mut child = Command::new(sibling(program))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(log)
+        .spawn()
+        .map_err(|e| {
+            err(format!(
+                "{e} (build it with `cargo build --release --workspace --bins`)"
+            ))
+        })?;
+    let mut line = String::new();
+    let out = child.stdout.take().ok_or_else(|| err("no stdout".into()))?;
+    std::io::BufReader::new(out)
+        .read_line(&mut line)
+        .map_err(|e| err(e.to_string()))?;
+    if !line.starts_with("ready") {
+        let _ = child.kill();
+        return Err(err(
+            "exited before serving (see its log in the flight directory)".into(),
+        ));
+    }
+    Ok(child)
+}
+
+/// Flies the mission; prints progress and a summary to stdout.
+pub fn fly(opts: &FlyOptions) -> Result<(), FlyError> {
+    if opts.dir.join("store").exists() {
+        return Err(FlyError::Dir(format!(
+            "{} already holds a flight; choose another --dir (or `trace resume --store {}`)",
+            opts.dir.display(),
+            opts.dir.join("store").display()
+        )));
+    }
+    std::fs::create_dir_all(&opts.dir)
+        .map_err(|e| FlyError::Dir(format!("{}: {e}", opts.dir.display())))?;
+    let hub = opts
+        .zenoh
+        .listen
+        .first()
+        .cloned()
+        .unwrap_or_else(|| connector_zenoh::DEFAULT_HUB.to_owned());
+    let mut sim_args = vec![
+        "--speed".to_owned(),
+        opts.speed.to_string(),
+        "--seed".into(),
+        opts.seed.to_string(),
+        "--profile".into(),
+        opts.profile.clone(),
+        "--store".into(),
+        opts.dir.join("sim").display().to_string(),
+        "-e".into(),
+        hub.clone(),
+    ];
+    if let Some(f) = &opts.faults {
+        sim_args.extend(["--faults".to_owned(), f.display().to_string()]);
+    }
+    let mut children = Children(Vec::new());
+    children.0.push(start(
+        "elap-sim",
+        &sim_args,
+        &opts.dir.join("elap-sim.log"),
+    )?);
+    children.0.push(start(
+        "trace-mock-system",
+        &[opts.ground.display().to_string(), "-e".into(), hub.clone()],
+        &opts.dir.join("ground.log"),
+    )?);
+    let record = opts.dir.join("store").join("record.jsonl");
+    println!(
+        "flying {} — simulator, ground responder and executive as separate processes on {hub}",
+        opts.mission.display()
+    );
+    let stop = Arc::new(AtomicBool::new(false));
+    let watcher = {
+        let (record, stop) = (record.clone(), Arc::clone(&stop));
+        std::thread::spawn(move || progress(&record, &stop))
+    };
+    let mut zenoh = opts.zenoh.clone();
+    if zenoh.listen.is_empty() && zenoh.connect.is_empty() {
+        zenoh.listen = vec![hub];
+    }
+    let result = crate::driver::run(&crate::driver::RunOptions {
+        model: Some(opts.mission.clone()),
+        store: opts.dir.join("store"),
+        record: None,
+        script: None,
+        connectors: Some(opts.connectors.clone()),
+        zenoh,
+        catalogue_wait: Duration::from_secs(30),
+        speed: 1.0,
+        snapshot_every: 1000,
+    });
+    stop.store(true, Ordering::SeqCst);
+    let _ = watcher.join();
+    drop(children);
+    let summary = result?;
+    print!("{}", summarize(&record, &summary));
+    Ok(())
+}
+
+fn day(v: &Value, t0: i64) -> f64 {
+    (v["mission_ms"].as_i64().unwrap_or(t0) - t0) as f64 / 86_400_000.0
+}
+
+/// Follows the record and prints what a ground operator wants to see.
+fn progress(record: &Path, stop: &AtomicBool) {
+    let mut pos = 0u64;
+    let mut t0 = None;
+    let mut resources: BTreeMap<String, String> = BTreeMap::new();
+    let mut samples = 0;
+    let mut last_decile = 10;
+    let mut partial = String::new();
+    loop {
+        let done = stop.load(Ordering::SeqCst);
+        if let Ok(mut f) = std::fs::File::open(record)
+            && f.seek(std::io::SeekFrom::Start(pos)).is_ok()
+        {
+            let mut r = std::io::BufReader::new(f);
+            let mut line = String::new();
+            while r.read_line(&mut line).unwrap_or(0) > 0 {
+                pos += line.len() as u64;
+                partial.push_str(&line);
+                line.clear();
+                if !partial.ends_with('\n') {
+                    continue;
+                }
+                let Ok(v) = serde_json::from_str::<Value>(partial.trim()) else {
+                    partial.clear();
+                    continue;
+                };
+                partial.clear();
+                let t = *t0.get_or_insert(v["mission_ms"].as_i64().unwrap_or(0));
+                let d = day(&v, t);
+                let task = v["task"].as_str().unwrap_or_default().to_owned();
+                match v["kind"].as_str() {
+                    Some("entered") => {
+                        let ty = v["element"]["type"].as_str().unwrap_or_default();
+                        if matches!(ty, "subProcess" | "callActivity" | "transaction") {
+                            println!(
+                                "  day {d:5.2}  phase: {}",
+                                v["element"]["name"]
+                                    .as_str()
+                                    .unwrap_or_else(|| v["element"]["id"].as_str().unwrap_or("?"))
+                            );
+                        }
+                    }
+                    Some("dispatched") => {
+                        resources
+                            .insert(task, v["resource"].as_str().unwrap_or_default().to_owned());
+                    }
+                    Some("completed") => match resources.get(&task).map(String::as_str) {
+                        Some("world_model.select_site") => println!(
+                            "  day {d:5.2}  site {} selected ({})",
+                            v["output"]["selected_site"]["site_id"],
+                            v["output"]["selected_site"]["material"]
+                                .as_str()
+                                .unwrap_or("?")
+                        ),
+                        Some("instrument.analyze") => {
+                            samples += 1;
+                            println!("  day {d:5.2}  sample analysed ({samples} so far)");
+                        }
+                        Some("power.read_battery") => {
+                            // One line per 10 % of charge used.
+                            let soc = v["output"]["battery"]["soc_pct"].as_f64().unwrap_or(100.0);
+                            let decile = (soc / 10.0).floor() as i64;
+                            if decile < last_decile {
+                                last_decile = decile;
+                                println!("  day {d:5.2}  battery {soc:.1} %");
+                            }
+                        }
+                        _ => {}
+                    },
+                    Some("failed") => println!(
+                        "  day {d:5.2}  fault: {} on {}",
+                        v["code"].as_str().unwrap_or("?"),
+                        resources.get(&task).map_or("?", String::as_str)
+                    ),
+                    Some("caught") if v["what"] != "timer" => println!(
+                        "  day {d:5.2}  handled: {} {} by {}",
+                        v["what"].as_str().unwrap_or("?"),
+                        v["name"].as_str().unwrap_or(""),
+                        v["element"]["id"].as_str().unwrap_or("?")
+                    ),
+                    _ => {}
+                }
+            }
+        }
+        if done {
+            return;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// The end-of-flight summary, from the record.
+pub fn summarize(record: &Path, summary: &crate::driver::Summary) -> String {
+    let lines: Vec<Value> = std::fs::read_to_string(record)
+        .unwrap_or_default()
+        .lines()
+        .filter_map(|l| serde_json::from_str(l).ok())
+        .collect();
+    let mut resources = BTreeMap::new();
+    let (mut analysed, mut faults, mut handled) = (0, BTreeMap::<String, usize>::new(), 0);
+    let mut battery = None;
+    for v in &lines {
+        let task = v["task"].as_str().unwrap_or_default().to_owned();
+        match v["kind"].as_str() {
+            Some("dispatched") => {
+                resources.insert(task, v["resource"].as_str().unwrap_or_default().to_owned());
+            }
+            Some("completed") => match resources.get(&task).map(String::as_str) {
+                Some("instrument.analyze") => analysed += 1,
+                Some("power.read_battery") => {
+                    battery = v["output"]["battery"]["soc_pct"].as_f64().or(battery)
+                }
+                _ => {}
+            },
+            Some("failed") => {
+                *faults
+                    .entry(format!(
+                        "{} on {}",
+                        v["code"].as_str().unwrap_or("?"),
+                        resources.get(&task).map_or("?", String::as_str)
+                    ))
+                    .or_default() += 1
+            }
+            Some("caught") if v["what"] == "error" || v["what"] == "escalation" => handled += 1,
+            _ => {}
+        }
+    }
+    let t0 = lines
+        .first()
+        .and_then(|v| v["mission_ms"].as_i64())
+        .unwrap_or(0);
+    let days = lines.last().map_or(0.0, |v| day(v, t0));
+    let mut out = String::from("\nmission summary\n");
+    for (i, o) in &summary.outcomes {
+        out += &format!("  outcome:           instance {i} {o:?}\n");
+    }
+    out += &format!("  mission time:      {days:.1} days\n");
+    out += &format!("  samples analysed:  {analysed}\n");
+    if faults.is_empty() {
+        out += "  faults:            none\n";
+    } else {
+        out += &format!(
+            "  faults:            {} met, {handled} caught by the model's boundaries\n",
+            faults.values().sum::<usize>()
+        );
+        for (f, n) in &faults {
+            out += &format!("                     {n} × {f}\n");
+        }
+    }
+    if let Some(b) = battery {
+        out += &format!("  energy left:       {b:.1} % at the last battery reading\n");
+    }
+    out += &format!("  execution record:  {}\n", record.display());
+    out
+}

@@ -1,0 +1,190 @@
+//! The Europa BSM-1 mission end to end across separate processes over Zenoh: the executive
+//! (`trace run`), the lander simulator (`elap-sim`) and a policy ground responder
+//! (`trace-mock-system deploy/ground-policy.json`), checked from the execution record.
+
+use std::collections::BTreeMap;
+use std::io::BufRead;
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+
+use mission_tests::{bin, repo};
+
+use crate::protocol::{endpoint, port, tempdir};
+
+/// Starts a system process and waits for its `ready` line.
+fn system(program: &str, args: &[&str]) -> Child {
+    let mut child = Command::new(bin(program))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("system starts");
+    let mut line = String::new();
+    std::io::BufReader::new(child.stdout.take().expect("stdout"))
+        .read_line(&mut line)
+        .expect("ready line");
+    assert!(line.starts_with("ready"), "{program}: {line}");
+    child
+}
+
+struct Run {
+    outcome: serde_json::Value,
+    completed: BTreeMap<String, usize>,
+    failed: Vec<(String, String)>,
+    days: f64,
+}
+
+fn fly(dir: &Path, seed: &str, profile: &str) -> Run {
+    let hub = endpoint(port());
+    let sim_store = dir.join("sim");
+    let mut sim = system(
+        "elap-sim",
+        &[
+            "--speed",
+            "200000",
+            "--seed",
+            seed,
+            "--profile",
+            profile,
+            "--start-ms",
+            "1790000000000",
+            "--store",
+            sim_store.to_str().expect("path"),
+            "-e",
+            &hub,
+            "--no-multicast-scouting",
+        ],
+    );
+    let policy = repo().join("deploy/ground-policy.json");
+    let mut ground = system(
+        "trace-mock-system",
+        &[
+            policy.to_str().expect("path"),
+            "-e",
+            &hub,
+            "--no-multicast-scouting",
+        ],
+    );
+    let out = Command::new(bin("trace"))
+        .arg("run")
+        .arg(repo().join("deploy/missions/europa-bsm1.bpmn"))
+        .arg("--store")
+        .arg(dir.join("store"))
+        .arg("--connectors")
+        .arg(repo().join("deploy/connectors.toml"))
+        .args(["-l", &hub, "--no-multicast-scouting"])
+        .output()
+        .expect("trace runs");
+    let _ = (sim.kill(), ground.kill(), sim.wait(), ground.wait());
+    assert!(
+        out.status.success(),
+        "{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(dir.join("store/record.jsonl")).expect("record");
+    let lines: Vec<serde_json::Value> = text
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("record line"))
+        .collect();
+    let mut resource = BTreeMap::new();
+    let mut completed = BTreeMap::new();
+    let mut failed = Vec::new();
+    for v in &lines {
+        let task = v["task"].as_str().unwrap_or_default().to_owned();
+        match v["kind"].as_str() {
+            Some("dispatched") => {
+                resource.insert(task, v["resource"].as_str().unwrap_or_default().to_owned());
+            }
+            Some("completed") => *completed.entry(resource[&task].clone()).or_insert(0) += 1,
+            Some("failed") => failed.push((
+                resource[&task].clone(),
+                v["code"].as_str().unwrap_or_default().to_owned(),
+            )),
+            _ => {}
+        }
+    }
+    let first = lines
+        .first()
+        .and_then(|v| v["mission_ms"].as_i64())
+        .unwrap_or(0);
+    let last = lines
+        .last()
+        .and_then(|v| v["mission_ms"].as_i64())
+        .unwrap_or(0);
+    let outcome = lines
+        .iter()
+        .rev()
+        .find(|v| v["kind"] == "instance_finished")
+        .map(|v| v["outcome"].clone())
+        .expect("the mission ended");
+    Run {
+        outcome,
+        completed,
+        failed,
+        days: (last - first) as f64 / 86_400_000.0,
+    }
+}
+
+#[test]
+fn the_nominal_europa_mission_runs_across_processes_to_communicate_until_death() {
+    let dir = tempdir("europa-nominal");
+    let run = fly(&dir, "1", "quiet");
+    // Five samples collected, transferred and analysed, then the data downlinked until the
+    // battery is spent; the mission ends through Communicate Until Death's terminate end.
+    assert_eq!(
+        run.completed.get("instrument.analyze"),
+        Some(&5),
+        "{:?}",
+        run.completed
+    );
+    assert_eq!(run.completed.get("sampling.collect_sample"), Some(&5));
+    assert!(run.completed.get("comm.downlink").is_some_and(|n| *n > 0));
+    assert_eq!(run.outcome["type"], "terminated", "{}", run.outcome);
+    // Downlinks outside a window fail with NO_WINDOW and are handled by the model.
+    assert!(
+        run.failed
+            .iter()
+            .all(|(r, c)| r == "comm.downlink" && c == "NO_WINDOW"),
+        "{:?}",
+        run.failed
+    );
+    assert!(run.days > 10.0 && run.days < 23.0, "{} days", run.days);
+}
+
+#[test]
+fn trace_fly_runs_the_mission_with_one_command_and_summarises_it() {
+    let dir = tempdir("europa-fly");
+    let out = Command::new(bin("trace"))
+        .current_dir(repo())
+        .args(["fly", "--profile", "quiet", "--dir"])
+        .arg(dir.join("flight"))
+        .args(["-l", &endpoint(port()), "--no-multicast-scouting"])
+        .output()
+        .expect("trace fly runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for line in [
+        "phase: Excavate",
+        "sample analysed (5 so far)",
+        "mission summary",
+        "outcome:           instance 1 Terminated",
+        "samples analysed:  5",
+        "execution record:",
+    ] {
+        assert!(stdout.contains(line), "missing {line:?} in:\n{stdout}");
+    }
+    // A second flight into the same directory is refused rather than mixed with the first.
+    let again = Command::new(bin("trace"))
+        .current_dir(repo())
+        .args(["fly", "--dir"])
+        .arg(dir.join("flight"))
+        .output()
+        .expect("trace fly runs");
+    assert!(!again.status.success());
+    assert!(String::from_utf8_lossy(&again.stderr).contains("already holds a flight"));
+}
