@@ -1,6 +1,7 @@
 //! The Europa BSM-1 mission end to end across separate processes over Zenoh: the executive
 //! (`trace run`), the lander simulator (`elap-sim`) and a policy ground responder
-//! (`trace-mock-system deploy/ground-policy.json`), checked from the execution record.
+//! (`trace-mock-system deploy/ground-policy.json`), and the named fault scenarios flown with
+//! `trace fly --scenario`, each checked from the execution record.
 
 use std::collections::BTreeMap;
 use std::io::BufRead;
@@ -35,6 +36,7 @@ struct Run {
 }
 
 fn fly(dir: &Path, seed: &str, profile: &str) -> Run {
+    let _one = FLIGHT.lock().unwrap_or_else(|p| p.into_inner());
     let hub = endpoint(port());
     let sim_store = dir.join("sim");
     let mut sim = system(
@@ -154,10 +156,11 @@ fn the_nominal_europa_mission_runs_across_processes_to_communicate_until_death()
 
 #[test]
 fn trace_fly_runs_the_mission_with_one_command_and_summarises_it() {
+    let _one = FLIGHT.lock().unwrap_or_else(|p| p.into_inner());
     let dir = tempdir("europa-fly");
     let out = Command::new(bin("trace"))
         .current_dir(repo())
-        .args(["fly", "--profile", "quiet", "--dir"])
+        .args(["fly", "--speed", "100000", "--profile", "quiet", "--dir"])
         .arg(dir.join("flight"))
         .args(["-l", &endpoint(port()), "--no-multicast-scouting"])
         .output()
@@ -187,4 +190,141 @@ fn trace_fly_runs_the_mission_with_one_command_and_summarises_it() {
         .expect("trace fly runs");
     assert!(!again.status.success());
     assert!(String::from_utf8_lossy(&again.stderr).contains("already holds a flight"));
+}
+
+/// One flight at a time: mission time runs on the wall clock at a high speed, so a flight
+/// competing for the CPU with another would see its lander age faster between steps.
+static FLIGHT: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// Flies a named scenario with `trace fly`; returns the record's lines.
+fn scenario(name: &str) -> Vec<serde_json::Value> {
+    let _one = FLIGHT.lock().unwrap_or_else(|p| p.into_inner());
+    let dir = tempdir(&format!("scenario-{name}"));
+    let out = Command::new(bin("trace"))
+        .current_dir(repo())
+        .args(["fly", "--speed", "100000", "--scenario", name, "--dir"])
+        .arg(dir.join("flight"))
+        .args(["-l", &endpoint(port()), "--no-multicast-scouting"])
+        .output()
+        .expect("trace fly runs");
+    assert!(
+        out.status.success(),
+        "{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    std::fs::read_to_string(dir.join("flight/store/record.jsonl"))
+        .expect("record")
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("record line"))
+        .collect()
+}
+
+/// (resource, kind, code or output) of every task outcome, in order.
+fn outcomes(lines: &[serde_json::Value]) -> Vec<(String, String, serde_json::Value)> {
+    let mut resource = BTreeMap::new();
+    let mut out = Vec::new();
+    for v in lines {
+        let task = v["task"].as_str().unwrap_or_default().to_owned();
+        match v["kind"].as_str() {
+            Some("dispatched") => {
+                resource.insert(task, v["resource"].as_str().unwrap_or_default().to_owned());
+            }
+            Some(k @ ("completed" | "failed")) => out.push((
+                resource[&task].clone(),
+                k.to_owned(),
+                if k == "failed" {
+                    v["code"].clone()
+                } else {
+                    v["output"].clone()
+                },
+            )),
+            _ => {}
+        }
+    }
+    out
+}
+
+fn count(o: &[(String, String, serde_json::Value)], resource: &str, kind: &str) -> usize {
+    o.iter()
+        .filter(|(r, k, _)| r == resource && k == kind)
+        .count()
+}
+
+#[test]
+fn scenario_stuck_tool_recovered() {
+    let o = outcomes(&scenario("stuck-tool-recovered"));
+    let stuck = o
+        .iter()
+        .position(|(r, k, c)| r == "excavation.excavate" && k == "failed" && c == "TOOL_STUCK")
+        .expect("the tool stuck");
+    // Causal order: stuck, then unstick, then the excavation retried and completed.
+    let unstick = o[stuck..]
+        .iter()
+        .position(|(r, k, _)| r == "excavation.unstick_tool" && k == "completed")
+        .expect("unstick ran")
+        + stuck;
+    assert!(
+        o[unstick..]
+            .iter()
+            .any(|(r, k, _)| r == "excavation.excavate" && k == "completed")
+    );
+    assert_eq!(count(&o, "instrument.analyze", "completed"), 5);
+}
+
+#[test]
+fn scenario_stuck_tool_abandoned_for_a_new_site() {
+    let lines = scenario("stuck-tool-abandoned");
+    let o = outcomes(&lines);
+    assert_eq!(count(&o, "excavation.excavate", "failed"), 4);
+    assert!(
+        lines
+            .iter()
+            .any(|v| v["kind"] == "caught" && v["what"] == "escalation")
+    );
+    // The abandoned site is excluded: one more site selected than samples need.
+    assert!(count(&o, "world_model.select_site", "completed") >= 4);
+    assert_eq!(count(&o, "instrument.analyze", "completed"), 5);
+}
+
+#[test]
+fn scenario_slump_repeats_the_removal() {
+    let o = outcomes(&scenario("slump"));
+    let slumped = o
+        .iter()
+        .position(|(r, _, out)| r == "excavation.assess_slump" && out["slump"]["detected"] == true)
+        .expect("a slump was detected");
+    // The next step of the excavation (the battery monitor runs alongside) is the removal again.
+    let next = o[slumped + 1..]
+        .iter()
+        .find(|(r, _, _)| r.starts_with("excavation.") || r.starts_with("arm."))
+        .expect("the excavation went on");
+    assert_eq!(next.0, "excavation.excavate", "{next:?}");
+    assert_eq!(count(&o, "instrument.analyze", "completed"), 5);
+}
+
+#[test]
+fn scenario_battery_abort_leads_to_communicate_until_death() {
+    let lines = scenario("battery-abort");
+    let thrown = lines
+        .iter()
+        .position(|v| {
+            v["kind"] == "thrown" && v["what"] == "signal" && v["name"] == "BATTERY_LOW_ABORT"
+        })
+        .expect("the battery monitor aborted");
+    let o = outcomes(&lines[thrown..]);
+    // After the abort: no more science, only communication and battery readings.
+    assert!(
+        o.iter().all(|(r, _, _)| r.starts_with("comm.")
+            || r.starts_with("data.")
+            || r.starts_with("power.")),
+        "{o:?}"
+    );
+    assert!(count(&outcomes(&lines), "instrument.analyze", "completed") < 5);
+    let last = lines
+        .iter()
+        .rev()
+        .find(|v| v["kind"] == "instance_finished")
+        .expect("ended");
+    assert_eq!(last["outcome"]["type"], "terminated");
 }

@@ -55,6 +55,51 @@ pub enum FlyError {
     Run(#[from] crate::driver::RunError),
 }
 
+/// A named scenario (`deploy/scenarios/<name>.json`): seed, profile and scripted faults.
+#[derive(Debug)]
+pub struct Scenario {
+    /// What it shows.
+    pub description: String,
+    /// Simulator seed.
+    pub seed: u64,
+    /// Fault profile.
+    pub profile: String,
+    /// The scripted faults, written out for the simulator.
+    pub faults: PathBuf,
+}
+
+impl Scenario {
+    /// Reads `deploy/scenarios/<name>.json` and writes its faults into `dir`.
+    pub fn load(name: &str, dir: &Path) -> Result<Scenario, FlyError> {
+        let bad = |reason: String| FlyError::Dir(format!("scenario `{name}`: {reason}"));
+        if name.is_empty()
+            || !name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+        {
+            return Err(bad("names are letters, digits, - and _".into()));
+        }
+        let path = Path::new("deploy/scenarios").join(format!("{name}.json"));
+        let text =
+            std::fs::read_to_string(&path).map_err(|e| bad(format!("{}: {e}", path.display())))?;
+        let v: Value =
+            serde_json::from_str(&text).map_err(|e| bad(format!("{}: {e}", path.display())))?;
+        std::fs::create_dir_all(dir).map_err(|e| bad(e.to_string()))?;
+        let faults = dir.join("faults.json");
+        std::fs::write(
+            &faults,
+            serde_json::json!({ "faults": v["faults"] }).to_string(),
+        )
+        .map_err(|e| bad(e.to_string()))?;
+        Ok(Scenario {
+            description: v["description"].as_str().unwrap_or_default().to_owned(),
+            seed: v["seed"].as_u64().unwrap_or(1),
+            profile: v["profile"].as_str().unwrap_or("nominal").to_owned(),
+            faults,
+        })
+    }
+}
+
 struct Children(Vec<Child>);
 
 impl Drop for Children {
@@ -286,6 +331,7 @@ pub fn summarize(record: &Path, summary: &crate::driver::Summary) -> String {
     let mut resources = BTreeMap::new();
     let (mut analysed, mut faults, mut handled) = (0, BTreeMap::<String, usize>::new(), 0);
     let mut battery = None;
+    let mut contingencies = Vec::new();
     for v in &lines {
         let task = v["task"].as_str().unwrap_or_default().to_owned();
         match v["kind"].as_str() {
@@ -309,6 +355,12 @@ pub fn summarize(record: &Path, summary: &crate::driver::Summary) -> String {
                     .or_default() += 1
             }
             Some("caught") if v["what"] == "error" || v["what"] == "escalation" => handled += 1,
+            Some("thrown") if v["what"] == "signal" || v["what"] == "escalation" => contingencies
+                .push(format!(
+                    "{} {}",
+                    v["what"].as_str().unwrap_or("?"),
+                    v["name"].as_str().unwrap_or("?")
+                )),
             _ => {}
         }
     }
@@ -333,6 +385,9 @@ pub fn summarize(record: &Path, summary: &crate::driver::Summary) -> String {
         for (f, n) in &faults {
             out += &format!("                     {n} × {f}\n");
         }
+    }
+    if !contingencies.is_empty() {
+        out += &format!("  contingencies:     {}\n", contingencies.join(", "));
     }
     if let Some(b) = battery {
         out += &format!("  energy left:       {b:.1} % at the last battery reading\n");

@@ -60,6 +60,10 @@ enum Command {
         /// Scripted faults for the simulator (JSON).
         #[arg(long)]
         faults: Option<PathBuf>,
+        /// A named scenario from deploy/scenarios/ (seed, profile and scripted faults), e.g.
+        /// `stuck-tool-recovered`; overrides --seed, --profile and --faults.
+        #[arg(long)]
+        scenario: Option<String>,
         #[command(flatten)]
         zenoh: connector_zenoh::ZenohArgs,
     },
@@ -161,6 +165,7 @@ fn main() -> anyhow::Result<ExitCode> {
             seed,
             profile,
             faults,
+            scenario,
             zenoh,
         } => {
             logging("warn,zenoh=error", false);
@@ -173,6 +178,12 @@ fn main() -> anyhow::Result<ExitCode> {
                 .map_or_else(|| "mission".into(), |s| s.to_string_lossy().into_owned());
             let dir =
                 dir.unwrap_or_else(|| PathBuf::from("flights").join(format!("{stem}-{stamp}")));
+            let (mut seed, mut profile, mut faults) = (seed, profile, faults);
+            if let Some(name) = &scenario {
+                let s = executive::fly::Scenario::load(name, &dir)?;
+                println!("scenario {name}: {}", s.description);
+                (seed, profile, faults) = (s.seed, s.profile, Some(s.faults));
+            }
             executive::fly::fly(&executive::fly::FlyOptions {
                 mission,
                 dir,
