@@ -469,6 +469,13 @@ impl Sim {
                 }
                 other => return Err(Refused(format!("the lander has no activity `{other}`"))),
             };
+        // A scripted stall: the activity makes no progress and draws nothing extra until it
+        // is cancelled (a wedged mechanism the mission deadline must rescue).
+        let (duration_ms, power_w) = if forced_code.as_deref() == Some("STALL") {
+            (30 * 24 * HOUR_MS, 0.0)
+        } else {
+            (duration_ms, power_w)
+        };
         Ok(Plan {
             action: action.to_owned(),
             duration_ms,

@@ -36,7 +36,9 @@ pub struct Scripted {
     /// The n-th call of that action in the mission (1-based); all calls if absent.
     #[serde(default)]
     pub call: Option<u32>,
-    /// The error code, or `HIGH_POWER_DRAW` (adds `draw_w` to the idle draw, no failure).
+    /// The error code; or `HIGH_POWER_DRAW` (adds `draw_w` to the idle draw, no failure);
+    /// or `STALL` (the activity never finishes on its own); or `SLUMP` (assess_slump detects
+    /// one).
     pub code: String,
     /// For `HIGH_POWER_DRAW`: extra watts.
     #[serde(default)]

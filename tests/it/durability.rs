@@ -67,7 +67,7 @@ fn start(dir: &Path, resume: bool) -> Child {
 
 /// Polls the execution record until `ready` holds for its text (true) or the process exits
 /// (false). The record line is the event; the millisecond between polls only spares the CPU.
-fn until_record(child: &mut Child, record: &Path, ready: impl Fn(&str) -> bool) -> bool {
+pub(crate) fn until_record(child: &mut Child, record: &Path, ready: impl Fn(&str) -> bool) -> bool {
     loop {
         if child.try_wait().expect("wait").is_some() {
             return false;

@@ -328,3 +328,132 @@ fn scenario_battery_abort_leads_to_communicate_until_death() {
         .expect("ended");
     assert_eq!(last["outcome"]["type"], "terminated");
 }
+
+#[test]
+fn scenario_executive_killed_mid_excavation_and_restarted() {
+    let _one = FLIGHT.lock().unwrap_or_else(|p| p.into_inner());
+    let dir = tempdir("europa-reboot");
+    let hub = endpoint(port());
+    let sim_store = dir.join("sim");
+    let mut sim = system(
+        "elap-sim",
+        &[
+            "--speed",
+            "100000",
+            "--profile",
+            "quiet",
+            "--start-ms",
+            "1790000000000",
+            "--store",
+            sim_store.to_str().expect("path"),
+            "-e",
+            &hub,
+            "--no-multicast-scouting",
+        ],
+    );
+    let policy = repo().join("deploy/ground-policy.json");
+    let mut ground = system(
+        "trace-mock-system",
+        &[
+            policy.to_str().expect("path"),
+            "-e",
+            &hub,
+            "--no-multicast-scouting",
+        ],
+    );
+    let exec = |verb: &str| {
+        let mut c = Command::new(bin("trace"));
+        c.arg(verb);
+        if verb == "run" {
+            c.arg(repo().join("deploy/missions/europa-bsm1.bpmn"));
+        }
+        c.arg("--store")
+            .arg(dir.join("store"))
+            .arg("--connectors")
+            .arg(repo().join("deploy/connectors.toml"))
+            .args(["-l", &hub, "--no-multicast-scouting"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null());
+        c
+    };
+    let record = dir.join("store/record.jsonl");
+    let mut first = exec("run").spawn().expect("executive starts");
+    let excavating = crate::durability::until_record(&mut first, &record, |text| {
+        text.contains(r#""resource":"excavation.excavate""#)
+    });
+    assert!(excavating, "the executive ended before excavating");
+    first.kill().expect("kill -9");
+    first.wait().expect("reaped");
+    let before = std::fs::read_to_string(&record).expect("record");
+    let in_flight: Vec<String> = before
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .filter(|v| v["kind"] == "dispatched" && v["resource"] == "excavation.excavate")
+        .filter_map(|v| v["task"].as_str().map(str::to_owned))
+        .collect();
+    let status = exec("resume").status().expect("executive resumes");
+    let _ = (sim.kill(), ground.kill(), sim.wait(), ground.wait());
+    assert!(status.success());
+    // A line written again after the kill repeats its (seq, idx): readers keep the first.
+    let mut seen = std::collections::BTreeSet::new();
+    let lines: Vec<serde_json::Value> = std::fs::read_to_string(&record)
+        .expect("record")
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).expect("line"))
+        .filter(|v| {
+            v["seq"].is_null() || seen.insert((v["seq"].clone().to_string(), v["idx"].to_string()))
+        })
+        .collect();
+    assert!(lines.iter().any(|v| v["kind"] == "reboot"));
+    // The excavation in flight at the kill ended exactly once: reconciled, not lost or repeated.
+    for task in &in_flight {
+        let ends = lines
+            .iter()
+            .filter(|v| {
+                v["task"] == task.as_str() && (v["kind"] == "completed" || v["kind"] == "failed")
+            })
+            .count();
+        assert_eq!(ends, 1, "task {task} ended {ends} times");
+    }
+    let o = outcomes(&lines);
+    assert_eq!(count(&o, "instrument.analyze", "completed"), 5);
+    assert!(o.iter().all(|(_, _, c)| c != "CONNECTOR_LOST"), "{o:?}");
+}
+
+#[test]
+fn scenario_deadline_cancels_the_excavation_in_flight() {
+    let lines = scenario("deadline");
+    let fired = lines
+        .iter()
+        .position(|v| v["kind"] == "caught" && v["element"]["id"] == "MissionDeadline")
+        .expect("the mission deadline fired");
+    // The stalled excavation was cancelled by the interrupting deadline, never completed.
+    let cancelled: Vec<&str> = lines[fired..]
+        .iter()
+        .filter(|v| v["kind"] == "cancelled")
+        .filter_map(|v| v["task"].as_str())
+        .collect();
+    assert!(!cancelled.is_empty(), "no task cancelled at the deadline");
+    let resources: BTreeMap<&str, &str> = lines
+        .iter()
+        .filter(|v| v["kind"] == "dispatched")
+        .filter_map(|v| Some((v["task"].as_str()?, v["resource"].as_str()?)))
+        .collect();
+    assert!(
+        cancelled
+            .iter()
+            .any(|t| resources.get(t) == Some(&"excavation.excavate")),
+        "{cancelled:?}"
+    );
+    let after = outcomes(&lines[fired..]);
+    assert!(
+        after.iter().all(|(r, _, _)| !r.starts_with("excavation.")),
+        "{after:?}"
+    );
+    let last = lines
+        .iter()
+        .rev()
+        .find(|v| v["kind"] == "instance_finished")
+        .expect("ended");
+    assert_eq!(last["outcome"]["type"], "terminated");
+}
