@@ -40,17 +40,32 @@ struct Cli {
     zenoh: ZenohArgs,
 }
 
-/// The mission clock: mission time at a wall instant, running `speed` times faster.
-#[derive(Clone, Copy)]
+/// The mission clock: held at the landing time until the first goal arrives (the lander does
+/// not age while the executive starts), then running `speed` times faster than wall time.
 struct Clock {
     base_ms: i64,
-    at: Instant,
+    at: std::sync::OnceLock<Instant>,
     speed: f64,
 }
 
 impl Clock {
     fn now(&self) -> i64 {
-        self.base_ms + (self.at.elapsed().as_secs_f64() * 1000.0 * self.speed) as i64
+        match self.at.get() {
+            Some(at) => self.base_ms + (at.elapsed().as_secs_f64() * 1000.0 * self.speed) as i64,
+            None => self.base_ms,
+        }
+    }
+    /// Starts the clock (first goal); later calls do nothing.
+    fn run(&self) {
+        let _ = self.at.set(Instant::now());
+    }
+    /// The speed telemetry reports: 0 while held.
+    fn rate(&self) -> f64 {
+        if self.at.get().is_some() {
+            self.speed
+        } else {
+            0.0
+        }
     }
     fn wall(&self, mission_ms: i64) -> Duration {
         Duration::from_secs_f64((mission_ms.max(0) as f64 / 1000.0 / self.speed).min(1e6))
@@ -122,7 +137,7 @@ async fn main() -> anyhow::Result<()> {
     };
     let clock = Clock {
         base_ms: sim.world.now_ms,
-        at: Instant::now(),
+        at: std::sync::OnceLock::new(),
         speed: cli.speed,
     };
     let shared = Arc::new(Shared {
@@ -191,6 +206,7 @@ async fn main() -> anyhow::Result<()> {
 /// Runs one activity: plan at the start, wait its duration on the mission clock (feedback on
 /// the way, cancel honoured), then apply it and report.
 async fn activity(h: GoalHandle, shared: Arc<Shared>, mut cancel: watch::Receiver<bool>) {
+    shared.clock.run();
     let plan = {
         let mut sim = shared.sim.lock().unwrap_or_else(|p| p.into_inner());
         sim.world.advance(shared.clock.now());
@@ -265,7 +281,7 @@ async fn telemetry(session: zenoh::Session, keys: connector_api::Keys, shared: A
             let w = &sim.world;
             (
                 [
-                    ("clock", json!({"speed": shared.clock.speed})),
+                    ("clock", json!({"speed": shared.clock.rate()})),
                     (
                         "power",
                         json!({"battery_soc_pct": w.soc_pct(), "battery_energy_wh": w.energy_wh}),

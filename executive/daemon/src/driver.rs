@@ -173,7 +173,8 @@ impl SystemClock {
         SystemClock {
             mission0: mission_ms,
             at: std::time::Instant::now(),
-            speed: if speed.is_finite() && speed > 0.0 {
+            // 0: the system holds its clock (not started yet); timers wait for the next report.
+            speed: if speed.is_finite() && speed >= 0.0 {
                 speed
             } else {
                 1.0
@@ -187,6 +188,9 @@ impl MissionClock for SystemClock {
         self.mission0 + (self.at.elapsed().as_secs_f64() * 1000.0 * self.speed) as Millis
     }
     fn wall_delay(&self, due: Millis) -> Duration {
+        if self.speed == 0.0 {
+            return Duration::from_secs(3600);
+        }
         let left = due.saturating_sub(self.now()).max(0) as f64 / self.speed;
         Duration::from_micros((left * 1000.0) as u64)
     }
