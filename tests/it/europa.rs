@@ -178,6 +178,7 @@ fn trace_fly_runs_the_mission_with_one_command_and_summarises_it() {
         "outcome:           instance 1 Terminated",
         "samples analysed:  5",
         "execution record:",
+        "timeline:",
     ] {
         assert!(stdout.contains(line), "missing {line:?} in:\n{stdout}");
     }

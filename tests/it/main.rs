@@ -12,3 +12,4 @@ mod hostile;
 mod missions;
 mod protocol;
 mod tidy;
+mod timeline;

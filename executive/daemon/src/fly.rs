@@ -223,6 +223,11 @@ pub fn fly(opts: &FlyOptions) -> Result<(), FlyError> {
     drop(children);
     let summary = result?;
     print!("{}", summarize(&record, &summary));
+    let page = opts.dir.join("timeline.html");
+    match crate::timeline::write(&record, &page) {
+        Ok(_) => println!("  timeline:          {}", page.display()),
+        Err(e) => tracing::warn!(error = %e, "timeline not written"),
+    }
     Ok(())
 }
 

@@ -20,4 +20,5 @@ pub mod driver;
 pub mod fly;
 pub mod record;
 pub mod script;
+pub mod timeline;
 pub mod validate;

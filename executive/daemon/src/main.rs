@@ -72,6 +72,14 @@ enum Command {
         #[command(flatten)]
         run: RunArgs,
     },
+    /// Write the execution record as a self-contained HTML timeline (opens offline).
+    Timeline {
+        /// The execution record (JSON Lines).
+        record: PathBuf,
+        /// The page to write.
+        #[arg(short, long, default_value = "timeline.html")]
+        output: PathBuf,
+    },
     /// Run a public conformance corpus against the engine (exit 1 if a case fails).
     #[command(subcommand)]
     Conformance(Corpus),
@@ -195,6 +203,24 @@ fn main() -> anyhow::Result<ExitCode> {
                 faults,
                 zenoh,
             })?;
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Timeline { record, output } => {
+            let t = executive::timeline::write(&record, &output)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", record.display()))?;
+            println!(
+                "{}: {} lanes, {} bars, {} markers, {} plotted series{}",
+                output.display(),
+                t.lanes.len(),
+                t.bars.len(),
+                t.markers.len(),
+                t.series.len(),
+                if t.skipped > 0 {
+                    format!(" ({} unreadable record lines skipped)", t.skipped)
+                } else {
+                    String::new()
+                }
+            );
             Ok(ExitCode::SUCCESS)
         }
         Command::Conformance(Corpus::Betsy { dir, expectations }) => {
