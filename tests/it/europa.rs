@@ -458,3 +458,115 @@ fn scenario_deadline_cancels_the_excavation_in_flight() {
         .expect("ended");
     assert_eq!(last["outcome"]["type"], "terminated");
 }
+
+#[test]
+fn a_monitor_started_mid_mission_starts_from_the_present() {
+    let _one = FLIGHT.lock().unwrap_or_else(|p| p.into_inner());
+    let dir = tempdir("europa-monitor");
+    let hub = endpoint(port());
+    let mut sim = system(
+        "elap-sim",
+        &[
+            "--speed",
+            "100000",
+            "--profile",
+            "quiet",
+            "-e",
+            &hub,
+            "--no-multicast-scouting",
+        ],
+    );
+    let policy = repo().join("deploy/ground-policy.json");
+    let mut ground = system(
+        "trace-mock-system",
+        &[
+            policy.to_str().expect("path"),
+            "-e",
+            &hub,
+            "--no-multicast-scouting",
+        ],
+    );
+    let record = dir.join("store/record.jsonl");
+    let mut exec = Command::new(bin("trace"))
+        .arg("run")
+        .arg(repo().join("deploy/missions/europa-bsm1.bpmn"))
+        .arg("--store")
+        .arg(dir.join("store"))
+        .arg("--connectors")
+        .arg(repo().join("deploy/connectors.toml"))
+        .args(["-l", &hub, "--no-multicast-scouting"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("executive starts");
+    let mid = crate::durability::until_record(&mut exec, &record, |t| {
+        t.contains(r#""resource":"instrument.analyze""#)
+    });
+    assert!(mid, "the mission ended before the monitor joined");
+    let joined_at = std::fs::read_to_string(&record)
+        .expect("record")
+        .lines()
+        .count();
+    let out = Command::new(bin("trace"))
+        .args([
+            "monitor",
+            "--jsonl",
+            "--lines",
+            "5",
+            "-e",
+            &hub,
+            "--no-multicast-scouting",
+        ])
+        .output()
+        .expect("monitor runs");
+    let _ = (
+        exec.kill(),
+        exec.wait(),
+        sim.kill(),
+        ground.kill(),
+        sim.wait(),
+        ground.wait(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("monitor prints JSON Lines"))
+        .collect();
+    assert_eq!(lines.len(), 6, "a snapshot and five record lines");
+    let snap = &lines[0]["state"];
+    assert_eq!(lines[0]["kind"], "snapshot");
+    assert!(
+        snap["mission"]
+            .as_str()
+            .is_some_and(|m| m.starts_with("europa-bsm1-"))
+    );
+    // The present: at least as far as the record was when the monitor joined, with tokens in
+    // the science phase.
+    let seq0 = snap["seq"].as_u64().expect("seq");
+    let record_now: Vec<serde_json::Value> = std::fs::read_to_string(&record)
+        .expect("record")
+        .lines()
+        .filter_map(|l| serde_json::from_str(l).ok())
+        .collect();
+    let seq_at_join = record_now[..joined_at.min(record_now.len())]
+        .iter()
+        .filter_map(|v| v["seq"].as_u64())
+        .max()
+        .unwrap_or(0);
+    assert!(
+        seq0 >= seq_at_join,
+        "snapshot at {seq0}, record at {seq_at_join}"
+    );
+    assert!(snap["tokens"].as_object().is_some_and(|t| !t.is_empty()));
+    // What follows is the record itself, after the snapshot.
+    for l in &lines[1..] {
+        if let Some(s) = l["seq"].as_u64() {
+            assert!(s > seq0);
+        }
+        assert!(record_now.contains(l), "not in the record: {l}");
+    }
+}

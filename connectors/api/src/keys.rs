@@ -161,6 +161,16 @@ impl Keys {
         format!("{}/tm/{source}/*", self.root)
     }
 
+    /// `<root>/exec/<mission>/record`: every execution-record line as it is written.
+    pub fn exec_record(&self, mission: &str) -> String {
+        format!("{}/exec/{mission}/record", self.root)
+    }
+
+    /// `<root>/exec/<mission>/state`: queryable, the mission's current state.
+    pub fn exec_state(&self, mission: &str) -> String {
+        format!("{}/exec/{mission}/state", self.root)
+    }
+
     /// `<root>/msg/<server>/<name>`: a notification pushed from the mission to a system.
     pub fn notification(&self, server: &str, name: &str) -> String {
         format!("{}/msg/{server}/{name}", self.root)

@@ -178,6 +178,11 @@ impl Connectors {
         }
     }
 
+    /// The Zenoh session, if a connector opened one.
+    pub fn session(&self) -> Option<&zenoh::Session> {
+        self.session.as_ref()
+    }
+
     /// Undeclares everything and closes Zenoh.
     pub async fn close(&mut self) {
         for c in &mut self.list {

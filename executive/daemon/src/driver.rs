@@ -106,6 +106,7 @@ pub enum RunError {
 struct Flight {
     connector: usize,
     goal_id: String,
+    resource: String,
     user: bool,
 }
 
@@ -217,6 +218,8 @@ struct Driver {
     store: SledStore,
     record: RecordWriter,
     connectors: Connectors,
+    /// Live publication for remote monitors (when Zenoh is open).
+    monitor: Option<crate::monitor::Publisher>,
     mission: String,
     clock: Box<dyn MissionClock>,
     seq: u64,
@@ -369,12 +372,30 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
     let record = RecordWriter::open(&record_path, Arc::clone(&graph))
         .map_err(|e| RunError::Io(format!("{}: {e}", record_path.display())))?;
     let (tx, mut rx) = mpsc::unbounded_channel();
+    let mut record = record;
+    let monitor = match connectors.session() {
+        Some(session) => {
+            let keys = opts.zenoh.keys().map_err(|e| RunError::Io(e.to_string()))?;
+            match crate::monitor::Publisher::start(session, &keys, &mission).await {
+                Ok(p) => {
+                    record.mirror(p.mirror());
+                    Some(p)
+                }
+                Err(e) => {
+                    tracing::warn!(error = %e, "live monitoring not available");
+                    None
+                }
+            }
+        }
+        None => None,
+    };
     let mut d = Driver {
         g: graph,
         engine,
         store,
         record,
         connectors,
+        monitor,
         mission,
         clock: Box::new(clock),
         seq,
@@ -613,6 +634,17 @@ impl Driver {
         if snapshot {
             self.store.snapshot(self.seq, self.engine.state())?;
         }
+        if let Some(m) = &self.monitor {
+            let in_flight = self
+                .flights
+                .iter()
+                .map(|(task, f)| {
+                    serde_json::json!({"task": task.to_string(), "goal": f.goal_id,
+                        "resource": f.resource, "user_task": f.user})
+                })
+                .collect();
+            m.update(&self.engine, self.last_at, in_flight);
+        }
         Ok(())
     }
 
@@ -776,6 +808,7 @@ impl Driver {
             Flight {
                 connector: route.connector,
                 goal_id,
+                resource: resource.to_owned(),
                 user,
             },
         );

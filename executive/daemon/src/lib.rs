@@ -18,6 +18,7 @@ pub mod conformance;
 pub mod connectors;
 pub mod driver;
 pub mod fly;
+pub mod monitor;
 pub mod record;
 pub mod script;
 pub mod timeline;

@@ -72,6 +72,21 @@ enum Command {
         #[command(flatten)]
         run: RunArgs,
     },
+    /// Watch a running mission from any host on the Zenoh network: its present state, then
+    /// every execution-record entry as it happens.
+    Monitor {
+        /// The mission id (default: the first executive found).
+        #[arg(long)]
+        mission: Option<String>,
+        /// Print the record stream as JSON Lines (first line: the state snapshot).
+        #[arg(long)]
+        jsonl: bool,
+        /// Stop after this many record lines.
+        #[arg(long)]
+        lines: Option<usize>,
+        #[command(flatten)]
+        zenoh: connector_zenoh::ZenohArgs,
+    },
     /// Write the execution record as a self-contained HTML timeline (opens offline).
     Timeline {
         /// The execution record (JSON Lines).
@@ -152,7 +167,10 @@ fn main() -> anyhow::Result<ExitCode> {
     let cli = Cli::parse();
     if !matches!(
         cli.command,
-        Command::Run { .. } | Command::Resume { .. } | Command::Fly { .. }
+        Command::Run { .. }
+            | Command::Resume { .. }
+            | Command::Fly { .. }
+            | Command::Monitor { .. }
     ) {
         logging("warn", false);
     }
@@ -203,6 +221,27 @@ fn main() -> anyhow::Result<ExitCode> {
                 faults,
                 zenoh,
             })?;
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Monitor {
+            mission,
+            jsonl,
+            lines,
+            zenoh,
+        } => {
+            logging("warn,zenoh=error", false);
+            let rt = tokio::runtime::Builder::new_multi_thread()
+                .worker_threads(1)
+                .enable_all()
+                .build()?;
+            let mut stdout = std::io::stdout();
+            rt.block_on(executive::monitor::watch(
+                &zenoh,
+                mission,
+                jsonl,
+                lines,
+                &mut stdout,
+            ))?;
             Ok(ExitCode::SUCCESS)
         }
         Command::Timeline { record, output } => {

@@ -13,17 +13,25 @@ use serde_json::{Map, Value, json};
 /// The record schema version written in every line (`"v"`).
 pub const RECORD_VERSION: u32 = 1;
 
+/// Where record lines are also sent as they are written (live monitoring).
+pub type Mirror = Box<dyn Fn(&str) + Send>;
+
 /// Appends record lines to a file.
 pub struct RecordWriter {
     file: File,
     graph: Arc<ProcessGraph>,
+    mirror: Option<Mirror>,
 }
 
 impl RecordWriter {
     /// Opens `path` for appending (created if missing).
     pub fn open(path: &Path, graph: Arc<ProcessGraph>) -> std::io::Result<RecordWriter> {
         let file = OpenOptions::new().create(true).append(true).open(path)?;
-        Ok(RecordWriter { file, graph })
+        Ok(RecordWriter {
+            file,
+            graph,
+            mirror: None,
+        })
     }
 
     /// Writes one engine record entry, stamped with the input's sequence number, the action's
@@ -85,12 +93,21 @@ impl RecordWriter {
         self.line(&line)
     }
 
+    /// Every line written from now on is also handed to `mirror` (live monitoring).
+    pub fn mirror(&mut self, mirror: Mirror) {
+        self.mirror = Some(mirror);
+    }
+
     fn line(&mut self, v: &Value) -> std::io::Result<()> {
         let mut text = serde_json::to_string(v).map_err(std::io::Error::other)?;
         text.push('\n');
         // One write per line, then flush: a kill leaves whole lines only.
         self.file.write_all(text.as_bytes())?;
-        self.file.flush()
+        self.file.flush()?;
+        if let Some(m) = &self.mirror {
+            m(text.trim_end());
+        }
+        Ok(())
     }
 }
 

@@ -1,0 +1,237 @@
+//! Remote monitoring. The executive side (`Publisher`): a liveliness token
+//! `<root>/alive/exec/<mission>`, every execution-record line on `<root>/exec/<mission>/record`,
+//! and a snapshot of the mission's present state on the queryable `<root>/exec/<mission>/state`,
+//! so a monitor that joins late starts from the present. The monitor side is `trace monitor`
+//! ([`watch`]).
+
+use std::collections::BTreeMap;
+use std::sync::{Arc, Mutex};
+
+use connector_api::Keys;
+use connector_zenoh::{Role, ZenohArgs};
+use executive_engine::Engine;
+use serde_json::{Value, json};
+use tokio::sync::mpsc;
+use zenoh::qos::CongestionControl;
+use zenoh::{Session, Wait};
+
+/// The executive's live publication.
+pub struct Publisher {
+    state: Arc<Mutex<Value>>,
+    _queryable: zenoh::query::Queryable<()>,
+    _token: zenoh::liveliness::LivelinessToken,
+    lines: mpsc::UnboundedSender<String>,
+}
+
+impl Publisher {
+    /// Declares the token and the state queryable; record lines go out in order on a task.
+    pub async fn start(
+        session: &Session,
+        keys: &Keys,
+        mission: &str,
+    ) -> Result<Publisher, zenoh::Error> {
+        let state = Arc::new(Mutex::new(json!({ "mission": mission })));
+        let snapshot = Arc::clone(&state);
+        let queryable = session
+            .declare_queryable(keys.exec_state(mission))
+            .callback(move |q| {
+                let body = snapshot.lock().map(|s| s.to_string()).unwrap_or_default();
+                if let Err(e) = q.reply(q.key_expr().clone(), body).wait() {
+                    tracing::debug!(error = %e, "state reply failed");
+                }
+            })
+            .await?;
+        let token = session
+            .liveliness()
+            .declare_token(keys.alive("exec", mission))
+            .await?;
+        let (tx, mut rx) = mpsc::unbounded_channel::<String>();
+        let (session, key) = (session.clone(), keys.exec_record(mission));
+        tokio::spawn(async move {
+            while let Some(line) = rx.recv().await {
+                if let Err(e) = session
+                    .put(&key, line)
+                    .congestion_control(CongestionControl::Block)
+                    .await
+                {
+                    tracing::debug!(error = %e, "record line not published");
+                }
+            }
+        });
+        Ok(Publisher {
+            state,
+            _queryable: queryable,
+            _token: token,
+            lines: tx,
+        })
+    }
+
+    /// A function handing record lines to the publication.
+    pub fn mirror(&self) -> crate::record::Mirror {
+        let tx = self.lines.clone();
+        Box::new(move |line| {
+            let _ = tx.send(line.to_owned());
+        })
+    }
+
+    /// Replaces the snapshot with the engine's present state.
+    pub fn update(&self, engine: &Engine, mission_ms: i64, in_flight: Vec<Value>) {
+        let g = engine.graph();
+        let s = engine.state();
+        let mut tokens: BTreeMap<String, usize> = BTreeMap::new();
+        for t in s.tokens.values() {
+            *tokens.entry(g.node(t.node).id.clone()).or_default() += 1;
+        }
+        let instances: Vec<Value> = s
+            .instances
+            .iter()
+            .map(|(id, i)| json!({ "instance": id.0, "outcome": i.outcome }))
+            .collect();
+        let snapshot = json!({
+            "mission": self.state.lock().map(|v| v["mission"].clone()).unwrap_or_default(),
+            "seq": s.last_seq,
+            "mission_ms": mission_ms,
+            "instances": instances,
+            "tokens": tokens,
+            "in_flight": in_flight,
+            "data": s.data,
+        });
+        if let Ok(mut st) = self.state.lock() {
+            *st = snapshot;
+        }
+    }
+}
+
+/// `trace monitor`: finds a running mission (or the one named), prints its present state, then
+/// every record line as it happens — readable, or raw JSON Lines with `jsonl`. Returns when the
+/// mission's executive goes away (or after `lines` record lines, for tools and tests).
+pub async fn watch(
+    zenoh: &ZenohArgs,
+    mission: Option<String>,
+    jsonl: bool,
+    lines: Option<usize>,
+    out: &mut (dyn std::io::Write + Send),
+) -> anyhow::Result<()> {
+    let session = zenoh
+        .open(Role::Spoke)
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let keys = zenoh.keys()?;
+    // Which mission: the one named, else the first executive alive.
+    let (alive_tx, mut alive_rx) = mpsc::unbounded_channel::<(String, bool)>();
+    let prefix = format!("{}/alive/exec/", keys.root());
+    let _alive = session
+        .liveliness()
+        .declare_subscriber(format!("{prefix}*"))
+        .history(true)
+        .callback(move |s| {
+            let id = s.key_expr().as_str().trim_start_matches(&prefix).to_owned();
+            let _ = alive_tx.send((id, s.kind() == zenoh::sample::SampleKind::Put));
+        })
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let mission = loop {
+        match alive_rx.recv().await {
+            Some((id, true)) if mission.as_ref().is_none_or(|m| *m == id) => break id,
+            Some(_) => {}
+            None => anyhow::bail!("monitor stopped"),
+        }
+    };
+    // Subscribe first, then take the snapshot, so nothing falls between them.
+    let (tx, mut rx) = mpsc::unbounded_channel::<String>();
+    let _sub = session
+        .declare_subscriber(keys.exec_record(&mission))
+        .callback(move |s| {
+            let _ = tx.send(String::from_utf8_lossy(&s.payload().to_bytes()).into_owned());
+        })
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let replies = session
+        .get(keys.exec_state(&mission))
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let snapshot: Value = match replies.recv_async().await {
+        Ok(r) => r
+            .result()
+            .ok()
+            .and_then(|s| serde_json::from_slice(&s.payload().to_bytes()).ok())
+            .unwrap_or(Value::Null),
+        Err(_) => Value::Null,
+    };
+    let seq0 = snapshot["seq"].as_u64().unwrap_or(0);
+    if jsonl {
+        writeln!(out, "{}", json!({ "kind": "snapshot", "state": snapshot }))?;
+    } else {
+        writeln!(out, "mission {mission} — now at step {seq0}")?;
+        for (element, n) in snapshot["tokens"].as_object().into_iter().flatten() {
+            writeln!(out, "  active: {element} ×{n}")?;
+        }
+        for f in snapshot["in_flight"].as_array().into_iter().flatten() {
+            writeln!(
+                out,
+                "  in flight: {} ({})",
+                f["resource"].as_str().unwrap_or("?"),
+                f["goal"].as_str().unwrap_or("?")
+            )?;
+        }
+    }
+    out.flush()?;
+    let mut printed = 0;
+    loop {
+        let line = tokio::select! {
+            l = rx.recv() => l,
+            a = alive_rx.recv() => match a {
+                Some((id, false)) if id == mission => None,
+                _ => continue,
+            },
+        };
+        let Some(line) = line else { break };
+        let Ok(v) = serde_json::from_str::<Value>(&line) else {
+            tracing::warn!("an unreadable record line was ignored");
+            continue;
+        };
+        // Lines the snapshot already covers are skipped.
+        if v["seq"].as_u64().is_some_and(|s| s <= seq0) {
+            continue;
+        }
+        if jsonl {
+            writeln!(out, "{line}")?;
+        } else {
+            writeln!(
+                out,
+                "  {} {}",
+                v["kind"].as_str().unwrap_or("?"),
+                describe(&v)
+            )?;
+        }
+        out.flush()?;
+        printed += 1;
+        if lines.is_some_and(|n| printed >= n) {
+            break;
+        }
+    }
+    session.close().await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    Ok(())
+}
+
+fn describe(v: &Value) -> String {
+    let element = v["element"]["name"]
+        .as_str()
+        .or_else(|| v["element"]["id"].as_str())
+        .unwrap_or("");
+    match v["kind"].as_str().unwrap_or_default() {
+        "dispatched" => format!("{} ({element})", v["resource"].as_str().unwrap_or("?")),
+        "failed" => format!(
+            "{} {}",
+            v["code"].as_str().unwrap_or("?"),
+            v["message"].as_str().unwrap_or("")
+        ),
+        "completed" => v["task"].as_str().unwrap_or("").to_owned(),
+        "thrown" | "caught" => format!(
+            "{} {} {element}",
+            v["what"].as_str().unwrap_or(""),
+            v["name"].as_str().unwrap_or("")
+        ),
+        _ => element.to_owned(),
+    }
+}
