@@ -28,6 +28,52 @@ fn system(program: &str, args: &[&str]) -> Child {
     child
 }
 
+/// The lander simulator (with `sim` flags) and the policy ground responder on `hub`; both
+/// are killed when this is dropped.
+struct Systems(Child, Child);
+
+impl Systems {
+    fn start(hub: &str, sim: &[&str]) -> Systems {
+        let mut args = sim.to_vec();
+        args.extend(["-e", hub, "--no-multicast-scouting"]);
+        let policy = repo().join("deploy/ground-policy.json");
+        let ground = [
+            policy.to_str().expect("path"),
+            "-e",
+            hub,
+            "--no-multicast-scouting",
+        ];
+        Systems(
+            system("elap-sim", &args),
+            system("trace-mock-system", &ground),
+        )
+    }
+}
+
+impl Drop for Systems {
+    fn drop(&mut self) {
+        for c in [&mut self.0, &mut self.1] {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+/// `trace <verb>` (`run` or `resume`) on the Europa mission against `hub`, its store in `dir`.
+fn executive(verb: &str, dir: &Path, hub: &str) -> Command {
+    let mut c = Command::new(bin("trace"));
+    c.arg(verb);
+    if verb == "run" {
+        c.arg(repo().join("deploy/missions/europa-bsm1.bpmn"));
+    }
+    c.arg("--store")
+        .arg(dir.join("store"))
+        .arg("--connectors")
+        .arg(repo().join("deploy/connectors.toml"))
+        .args(["-l", hub, "--no-multicast-scouting"]);
+    c
+}
+
 struct Run {
     outcome: serde_json::Value,
     completed: BTreeMap<String, usize>,
@@ -39,8 +85,8 @@ fn fly(dir: &Path, seed: &str, profile: &str) -> Run {
     let _one = FLIGHT.lock().unwrap_or_else(|p| p.into_inner());
     let hub = endpoint(port());
     let sim_store = dir.join("sim");
-    let mut sim = system(
-        "elap-sim",
+    let systems = Systems::start(
+        &hub,
         &[
             "--speed",
             "200000",
@@ -52,32 +98,10 @@ fn fly(dir: &Path, seed: &str, profile: &str) -> Run {
             "1790000000000",
             "--store",
             sim_store.to_str().expect("path"),
-            "-e",
-            &hub,
-            "--no-multicast-scouting",
         ],
     );
-    let policy = repo().join("deploy/ground-policy.json");
-    let mut ground = system(
-        "trace-mock-system",
-        &[
-            policy.to_str().expect("path"),
-            "-e",
-            &hub,
-            "--no-multicast-scouting",
-        ],
-    );
-    let out = Command::new(bin("trace"))
-        .arg("run")
-        .arg(repo().join("deploy/missions/europa-bsm1.bpmn"))
-        .arg("--store")
-        .arg(dir.join("store"))
-        .arg("--connectors")
-        .arg(repo().join("deploy/connectors.toml"))
-        .args(["-l", &hub, "--no-multicast-scouting"])
-        .output()
-        .expect("trace runs");
-    let _ = (sim.kill(), ground.kill(), sim.wait(), ground.wait());
+    let out = executive("run", dir, &hub).output().expect("trace runs");
+    drop(systems);
     assert!(
         out.status.success(),
         "{}\n{}",
@@ -344,8 +368,8 @@ fn scenario_executive_killed_mid_excavation_and_restarted() {
     let dir = tempdir("europa-reboot");
     let hub = endpoint(port());
     let sim_store = dir.join("sim");
-    let mut sim = system(
-        "elap-sim",
+    let systems = Systems::start(
+        &hub,
         &[
             "--speed",
             "100000",
@@ -355,34 +379,11 @@ fn scenario_executive_killed_mid_excavation_and_restarted() {
             "1790000000000",
             "--store",
             sim_store.to_str().expect("path"),
-            "-e",
-            &hub,
-            "--no-multicast-scouting",
-        ],
-    );
-    let policy = repo().join("deploy/ground-policy.json");
-    let mut ground = system(
-        "trace-mock-system",
-        &[
-            policy.to_str().expect("path"),
-            "-e",
-            &hub,
-            "--no-multicast-scouting",
         ],
     );
     let exec = |verb: &str| {
-        let mut c = Command::new(bin("trace"));
-        c.arg(verb);
-        if verb == "run" {
-            c.arg(repo().join("deploy/missions/europa-bsm1.bpmn"));
-        }
-        c.arg("--store")
-            .arg(dir.join("store"))
-            .arg("--connectors")
-            .arg(repo().join("deploy/connectors.toml"))
-            .args(["-l", &hub, "--no-multicast-scouting"])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null());
+        let mut c = executive(verb, &dir, &hub);
+        c.stdout(Stdio::null()).stderr(Stdio::null());
         c
     };
     let record = dir.join("store/record.jsonl");
@@ -401,7 +402,7 @@ fn scenario_executive_killed_mid_excavation_and_restarted() {
         .filter_map(|v| v["task"].as_str().map(str::to_owned))
         .collect();
     let status = exec("resume").status().expect("executive resumes");
-    let _ = (sim.kill(), ground.kill(), sim.wait(), ground.wait());
+    drop(systems);
     assert!(status.success());
     // A line written again after the kill repeats its (seq, idx): readers keep the first.
     let mut seen = std::collections::BTreeSet::new();
@@ -472,37 +473,9 @@ fn a_monitor_started_mid_mission_starts_from_the_present() {
     let _one = FLIGHT.lock().unwrap_or_else(|p| p.into_inner());
     let dir = tempdir("europa-monitor");
     let hub = endpoint(port());
-    let mut sim = system(
-        "elap-sim",
-        &[
-            "--speed",
-            "100000",
-            "--profile",
-            "quiet",
-            "-e",
-            &hub,
-            "--no-multicast-scouting",
-        ],
-    );
-    let policy = repo().join("deploy/ground-policy.json");
-    let mut ground = system(
-        "trace-mock-system",
-        &[
-            policy.to_str().expect("path"),
-            "-e",
-            &hub,
-            "--no-multicast-scouting",
-        ],
-    );
+    let systems = Systems::start(&hub, &["--speed", "100000", "--profile", "quiet"]);
     let record = dir.join("store/record.jsonl");
-    let mut exec = Command::new(bin("trace"))
-        .arg("run")
-        .arg(repo().join("deploy/missions/europa-bsm1.bpmn"))
-        .arg("--store")
-        .arg(dir.join("store"))
-        .arg("--connectors")
-        .arg(repo().join("deploy/connectors.toml"))
-        .args(["-l", &hub, "--no-multicast-scouting"])
+    let mut exec = executive("run", &dir, &hub)
         .stdout(Stdio::null())
         .stderr(Stdio::null())
         .spawn()
@@ -527,14 +500,8 @@ fn a_monitor_started_mid_mission_starts_from_the_present() {
         ])
         .output()
         .expect("monitor runs");
-    let _ = (
-        exec.kill(),
-        exec.wait(),
-        sim.kill(),
-        ground.kill(),
-        sim.wait(),
-        ground.wait(),
-    );
+    let _ = (exec.kill(), exec.wait());
+    drop(systems);
     assert!(
         out.status.success(),
         "{}",

@@ -80,6 +80,21 @@ fn outputs() -> Fields {
         .unwrap_or_default()
 }
 
+/// A bare server `lander` serving `dig`; the test plays the application.
+async fn dig_server(session: &Session) -> (ActionServer, mpsc::UnboundedReceiver<Request>) {
+    ActionServer::start(
+        session,
+        ServerOptions {
+            keys: Keys::default(),
+            catalogue: catalogue("lander", &["dig"]),
+            store: None,
+            accept: None,
+        },
+    )
+    .await
+    .expect("server")
+}
+
 /// Serves a mock system in this process.
 async fn serve(session: &Session, spec: MockSpec) -> ActionServer {
     let (server, requests) = ActionServer::start(
@@ -343,17 +358,7 @@ async fn a_repeated_goal_id_is_answered_with_the_same_goal() {
     let p = endpoint(port());
     let sys = open(std::slice::from_ref(&p), &[]).await;
     let exec = open(&[], &[p]).await;
-    let (_server, mut requests) = ActionServer::start(
-        &sys,
-        ServerOptions {
-            keys: Keys::default(),
-            catalogue: catalogue("lander", &["dig"]),
-            store: None,
-            accept: None,
-        },
-    )
-    .await
-    .expect("server");
+    let (_server, mut requests) = dig_server(&sys).await;
     let (mut c, mut rx) = connector(&exec, "lander", 5000).await;
     let goal = json!({"goal_id": "m.1.1.1", "fields": {"site": {"id": 1}}}).to_string();
     let key = Keys::default().goal("lander", "dig", Channel::Goal, "m.1.1.1");
@@ -389,17 +394,7 @@ async fn a_repeated_goal_id_is_answered_with_the_same_goal() {
 async fn an_executive_restart_reconciles_goals_in_flight() {
     let p = endpoint(port());
     let sys = open(std::slice::from_ref(&p), &[]).await;
-    let (_server, mut requests) = ActionServer::start(
-        &sys,
-        ServerOptions {
-            keys: Keys::default(),
-            catalogue: catalogue("lander", &["dig"]),
-            store: None,
-            accept: None,
-        },
-    )
-    .await
-    .expect("server");
+    let (_server, mut requests) = dig_server(&sys).await;
     // First executive: sends two goals, then dies.
     let exec1 = open(&[], std::slice::from_ref(&p)).await;
     let mut status = statuses(&sys, "lander", "dig").await;
@@ -533,17 +528,7 @@ async fn a_result_published_while_the_router_is_down_is_not_lost() {
     };
     let sys = client(rp).open(Role::Spoke).await.expect("system");
     let exec = client(rp).open(Role::Spoke).await.expect("executive");
-    let (_server, mut requests) = ActionServer::start(
-        &sys,
-        ServerOptions {
-            keys: Keys::default(),
-            catalogue: catalogue("lander", &["dig"]),
-            store: None,
-            accept: None,
-        },
-    )
-    .await
-    .expect("server");
+    let (_server, mut requests) = dig_server(&sys).await;
     let (mut c, mut rx) = connector(&exec, "lander", 60_000).await;
     c.execute(command("m.1.1.1", "dig", json!({"site": {"id": 1}})));
     expect(&mut rx, |r| matches!(r, Report::Accepted { .. })).await;

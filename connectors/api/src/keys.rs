@@ -37,6 +37,21 @@ pub fn check_chunk(name: &str) -> Result<(), BadChunk> {
     })
 }
 
+/// A goal id: `<mission>.<instance>.<token>.<attempt>` (stable across restarts, new per
+/// attempt, one key chunk when the mission id is one).
+pub fn goal_id(mission: &str, instance: u64, token: u64, attempt: u32) -> String {
+    format!("{mission}.{instance}.{token}.{attempt}")
+}
+
+/// The attempt a goal id names (its last part; 1 if it has none).
+pub fn goal_attempt(goal_id: &str) -> u32 {
+    goal_id
+        .rsplit('.')
+        .next()
+        .and_then(|a| a.parse().ok())
+        .unwrap_or(1)
+}
+
 /// The key builder for one root.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Keys {
@@ -216,6 +231,7 @@ mod tests {
             Some("arm.stow")
         );
         assert_eq!(Keys::last_chunk("trace/act/s/a/goal/g1"), "g1");
+        assert_eq!(goal_attempt(&goal_id("m-1", 1, 42, 3)), 3);
     }
 
     #[test]

@@ -361,18 +361,12 @@ impl Shared {
             SampleKind::Put => {
                 tracing::info!(connector = self.name(), action, "action served");
                 s.alive.insert(action.clone());
-                let (unsent, sent): (Vec<Command>, Vec<Command>) = {
-                    let mut unsent = Vec::new();
-                    let mut sent = Vec::new();
-                    for f in s.flights.values().filter(|f| f.command.action == action) {
-                        if f.acked {
-                            sent.push(f.command.clone());
-                        } else {
-                            unsent.push(f.command.clone());
-                        }
-                    }
-                    (unsent, sent)
-                };
+                let (sent, unsent): (Vec<_>, Vec<_>) = s
+                    .flights
+                    .values()
+                    .filter(|f| f.command.action == action)
+                    .map(|f| (f.acked, f.command.clone()))
+                    .partition(|(acked, _)| *acked);
                 let cancels: Vec<String> = s
                     .cancels
                     .iter()
@@ -380,10 +374,10 @@ impl Shared {
                     .map(|(g, _)| g.clone())
                     .collect();
                 drop(s);
-                for c in unsent {
+                for (_, c) in unsent {
                     self.rt.spawn(Arc::clone(self).send(c));
                 }
-                for c in sent {
+                for (_, c) in sent {
                     self.rt.spawn(Arc::clone(self).reconcile(c));
                 }
                 for g in cancels {

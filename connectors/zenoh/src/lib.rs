@@ -23,4 +23,4 @@ mod session;
 
 pub use client::{ClientOptions, ZenohConnector};
 pub use server::{AcceptFn, ActionServer, GoalHandle, Request, ServerError, ServerOptions};
-pub use session::{DEFAULT_HUB, Role, SessionError, ZenohArgs};
+pub use session::{DEFAULT_HUB, Role, SessionError, ZenohArgs, log_to_stderr};

@@ -151,12 +151,7 @@ async fn goal(h: GoalHandle, b: Behaviour, mut cancel: watch::Receiver<bool>) {
             h.feedback(Some(pct), Fields::new()).await;
         }
     }
-    let attempt: u32 = h
-        .goal_id
-        .rsplit('.')
-        .next()
-        .and_then(|a| a.parse().ok())
-        .unwrap_or(1);
+    let attempt = connector_api::keys::goal_attempt(&h.goal_id);
     match &b.fail {
         Some(code) if b.fail_attempts.is_empty() || b.fail_attempts.contains(&attempt) => {
             h.abort(code, &format!("{} failed (scripted)", h.action))

@@ -310,20 +310,14 @@ impl Inner {
             Ok(p) => p,
             Err(e) => return refuse(query, &e),
         };
-        let table = self.table();
-        let answer = match table.get(&goal_id) {
-            None => CancelReply::UnknownGoal,
-            Some(e) if e.status.is_terminal() => CancelReply::Terminated,
-            Some(e) if e.status == Status::Canceling => CancelReply::Accepted,
-            Some(_) => CancelReply::Accepted,
+        let (answer, first) = match self.table().get(&goal_id).map(|e| e.status) {
+            None => (CancelReply::UnknownGoal, false),
+            Some(s) if s.is_terminal() => (CancelReply::Terminated, false),
+            Some(s) => (CancelReply::Accepted, s != Status::Canceling),
         };
-        let already = table
-            .get(&goal_id)
-            .is_some_and(|e| e.status == Status::Canceling);
-        drop(table);
         reply_json(query, "cancel_reply", &answer);
-        if answer == CancelReply::Accepted
-            && !already
+        // A repeated cancel is answered again but asks the application only once.
+        if first
             && let Some((action, status, _)) =
                 self.transition(&goal_id, Status::Canceling, "cancel requested", None)
         {

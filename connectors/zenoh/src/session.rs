@@ -129,6 +129,18 @@ impl ZenohArgs {
     }
 }
 
+/// Logging for system processes: to stderr, `RUST_LOG` or warnings (Zenoh's own only if
+/// errors).
+pub fn log_to_stderr() {
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn,zenoh=error")),
+        )
+        .with_writer(std::io::stderr)
+        .init();
+}
+
 fn json<S: AsRef<str>>(items: &[S]) -> String {
     serde_json::to_string(&items.iter().map(AsRef::as_ref).collect::<Vec<_>>())
         .unwrap_or_else(|_| "[]".to_owned())

@@ -94,13 +94,7 @@ impl Shared {
 
 #[tokio::main(flavor = "multi_thread", worker_threads = 2)]
 async fn main() -> anyhow::Result<()> {
-    tracing_subscriber::fmt()
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn,zenoh=error")),
-        )
-        .with_writer(std::io::stderr)
-        .init();
+    connector_zenoh::log_to_stderr();
     let cli = Cli::parse();
     anyhow::ensure!(
         cli.speed.is_finite() && cli.speed > 0.0,

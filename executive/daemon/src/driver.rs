@@ -218,8 +218,6 @@ struct Driver {
     store: SledStore,
     record: RecordWriter,
     connectors: Connectors,
-    /// Live publication for remote monitors (when Zenoh is open).
-    monitor: Option<crate::monitor::Publisher>,
     mission: String,
     clock: Box<dyn MissionClock>,
     seq: u64,
@@ -373,13 +371,13 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
         .map_err(|e| RunError::Io(format!("{}: {e}", record_path.display())))?;
     let (tx, mut rx) = mpsc::unbounded_channel();
     let mut record = record;
-    let monitor = match connectors.session() {
+    let mut monitor = match connectors.session() {
         Some(session) => {
             let keys = opts.zenoh.keys().map_err(|e| RunError::Io(e.to_string()))?;
             match crate::monitor::Publisher::start(session, &keys, &mission).await {
-                Ok(p) => {
+                Ok((p, queries)) => {
                     record.mirror(p.mirror());
-                    Some(p)
+                    Some((p, queries))
                 }
                 Err(e) => {
                     tracing::warn!(error = %e, "live monitoring not available");
@@ -395,7 +393,6 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
         store,
         record,
         connectors,
-        monitor,
         mission,
         clock: Box::new(clock),
         seq,
@@ -469,8 +466,18 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
     while !d.finished() {
         // SIGINT or SIGTERM: stop between steps; everything committed stays, `trace resume`
         // continues.
+        let state_query = async {
+            match monitor.as_mut() {
+                Some((_, queries)) => queries.recv().await,
+                None => std::future::pending().await,
+            }
+        };
         let first = tokio::select! {
             m = rx.recv() => m,
+            Some(q) = state_query => {
+                crate::monitor::answer(q, d.snapshot()).await;
+                None
+            }
             r = reports.recv() => r.and_then(|r| d.event_of(r)),
             _ = tokio::signal::ctrl_c() => { interrupted = true; break }
             _ = term.recv() => { interrupted = true; break }
@@ -634,37 +641,14 @@ impl Driver {
         if snapshot {
             self.store.snapshot(self.seq, self.engine.state())?;
         }
-        if let Some(m) = &self.monitor {
-            let in_flight = self
-                .flights
-                .iter()
-                .map(|(task, f)| {
-                    serde_json::json!({"task": task.to_string(), "goal": f.goal_id,
-                        "resource": f.resource, "user_task": f.user})
-                })
-                .collect();
-            m.update(&self.engine, self.last_at, in_flight);
-        }
         Ok(())
     }
 
     /// Performs one action; `index` `usize::MAX` for re-commands (nothing to mark done).
     fn perform(&mut self, seq: u64, index: usize, a: Action) -> Result<(), RunError> {
         match a {
-            Action::DispatchTask {
-                task,
-                resource,
-                request,
-                ..
-            } => self.command(task, &resource, request, false, false),
-            Action::OpenUserTask {
-                task,
-                node,
-                context,
-            } => {
-                let resource = self.user_resource(node);
-                let fields = self.user_goal(node, context);
-                self.command(task, &resource, fields, true, false);
+            a @ (Action::DispatchTask { .. } | Action::OpenUserTask { .. }) => {
+                self.command_of(a, false)
             }
             Action::CancelTask { task } | Action::CloseUserTask { task } => {
                 if let Some(f) = self.flights.remove(&task) {
@@ -701,6 +685,19 @@ impl Driver {
         Ok(())
     }
 
+    /// The present state for a remote monitor.
+    fn snapshot(&self) -> serde_json::Value {
+        let in_flight = self
+            .flights
+            .iter()
+            .map(|(task, f)| {
+                serde_json::json!({"task": task.to_string(), "goal": f.goal_id,
+                    "resource": f.resource, "user_task": f.user})
+            })
+            .collect();
+        crate::monitor::snapshot(&self.mission, &self.engine, self.last_at, in_flight)
+    }
+
     /// Arms (or re-arms) a timer for mission time `at` on the current clock.
     fn arm(&mut self, timer: TimerKey, at: Millis) {
         let delay = self.clock.wall_delay(at);
@@ -715,7 +712,14 @@ impl Driver {
     }
 
     /// Switches to a system's clock; armed timers are re-armed against it.
+    /// Systems report their clock several times a second; timers are re-armed only when the
+    /// report disagrees with the clock in use (another speed, or drift beyond 10 ms of wall
+    /// time).
     fn set_clock(&mut self, clock: SystemClock) {
+        let drift = (self.clock.now() - clock.now()).abs() as f64;
+        if self.clock.speed() == clock.speed && drift <= 10.0 * clock.speed.max(1.0) {
+            return;
+        }
         self.clock = Box::new(clock);
         let armed: Vec<(TimerKey, Millis)> =
             self.timers.iter().map(|(k, (at, _))| (*k, *at)).collect();
@@ -748,13 +752,18 @@ impl Driver {
 
     /// After a restart: asks the system about a command performed before the crash.
     fn reconcile(&mut self, a: Action) {
+        self.command_of(a, true);
+    }
+
+    /// A dispatch or a user task, sent (or, `reconcile`, asked about) through its connector.
+    fn command_of(&mut self, a: Action, reconcile: bool) {
         match a {
             Action::DispatchTask {
                 task,
                 resource,
                 request,
                 ..
-            } => self.command(task, &resource, request, false, true),
+            } => self.command(task, &resource, request, false, reconcile),
             Action::OpenUserTask {
                 task,
                 node,
@@ -762,7 +771,7 @@ impl Driver {
             } => {
                 let resource = self.user_resource(node);
                 let fields = self.user_goal(node, context);
-                self.command(task, &resource, fields, true, true);
+                self.command(task, &resource, fields, true, reconcile);
             }
             _ => {}
         }
@@ -781,9 +790,11 @@ impl Driver {
         if self.flights.contains_key(&task) {
             return;
         }
-        let goal_id = format!(
-            "{}.{}.{}.{}",
-            self.mission, task.instance.0, task.token.0, task.attempt
+        let goal_id = connector_api::keys::goal_id(
+            &self.mission,
+            task.instance.0,
+            task.token.0,
+            task.attempt,
         );
         let Some(route) = self.connectors.config.route(resource) else {
             let _ = self.tx.send(Event::TaskFailed {

@@ -13,26 +13,41 @@ use std::time::Duration;
 
 use serde_json::Value;
 
-/// How to fly.
-#[derive(Clone, Debug)]
+/// How to fly (the flags of `trace fly`).
+#[derive(Clone, Debug, clap::Args)]
 pub struct FlyOptions {
     /// The mission model.
+    #[arg(default_value = "deploy/missions/europa-bsm1.bpmn")]
     pub mission: PathBuf,
-    /// Working directory for stores and the record (created; must not hold a previous flight).
-    pub dir: PathBuf,
-    /// The connector configuration.
+    /// Working directory for the stores and the record (default: `flights/<mission>-<time>`);
+    /// it must not hold a previous flight.
+    #[arg(long)]
+    pub dir: Option<PathBuf>,
+    /// Connector configuration.
+    #[arg(long, default_value = "deploy/connectors.toml")]
     pub connectors: PathBuf,
     /// The ground responder's policy (a mock-system definition).
+    #[arg(long, default_value = "deploy/ground-policy.json")]
     pub ground: PathBuf,
-    /// Simulator speed (mission ms per wall ms).
+    /// Mission time runs this many times faster than wall time (200000: a 20-day mission in
+    /// under 10 s).
+    #[arg(long, default_value_t = 200000.0)]
     pub speed: f64,
-    /// Simulator seed.
+    /// The simulator's fault seed.
+    #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Simulator fault profile.
+    /// The simulator's fault profile: nominal, demanding or quiet.
+    #[arg(long, default_value = "nominal")]
     pub profile: String,
-    /// Simulator scripted faults.
+    /// Scripted faults for the simulator (JSON).
+    #[arg(long)]
     pub faults: Option<PathBuf>,
+    /// A named scenario from deploy/scenarios/ (seed, profile and scripted faults), e.g.
+    /// `stuck-tool-recovered`; overrides --seed, --profile and --faults.
+    #[arg(long)]
+    pub scenario: Option<String>,
     /// Zenoh flags for the executive (the systems connect to its first listen endpoint).
+    #[command(flatten)]
     pub zenoh: connector_zenoh::ZenohArgs,
 }
 
@@ -152,15 +167,40 @@ fn start(program: &str, args: &[String], log: &Path) -> Result<Child, FlyError> 
 
 /// Flies the mission; prints progress and a summary to stdout.
 pub fn fly(opts: &FlyOptions) -> Result<(), FlyError> {
-    if opts.dir.join("store").exists() {
+    if !(opts.speed.is_finite() && opts.speed > 0.0) {
         return Err(FlyError::Dir(format!(
-            "{} already holds a flight; choose another --dir (or `trace resume --store {}`)",
-            opts.dir.display(),
-            opts.dir.join("store").display()
+            "--speed {} must be positive",
+            opts.speed
         )));
     }
-    std::fs::create_dir_all(&opts.dir)
-        .map_err(|e| FlyError::Dir(format!("{}: {e}", opts.dir.display())))?;
+    let mut opts = opts.clone();
+    let dir = opts.dir.clone().unwrap_or_else(|| {
+        let stamp = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_secs());
+        let stem = opts
+            .mission
+            .file_stem()
+            .map_or_else(|| "mission".into(), |s| s.to_string_lossy().into_owned());
+        PathBuf::from("flights").join(format!("{stem}-{stamp}"))
+    });
+    if let Some(name) = &opts.scenario {
+        let s = Scenario::load(name, &dir)?;
+        println!("scenario {name}: {}", s.description);
+        (opts.seed, opts.profile, opts.faults) = (s.seed, s.profile, Some(s.faults));
+    }
+    fly_in(&opts, &dir)
+}
+
+fn fly_in(opts: &FlyOptions, dir: &Path) -> Result<(), FlyError> {
+    if dir.join("store").exists() {
+        return Err(FlyError::Dir(format!(
+            "{} already holds a flight; choose another --dir (or `trace resume --store {}`)",
+            dir.display(),
+            dir.join("store").display()
+        )));
+    }
+    std::fs::create_dir_all(dir).map_err(|e| FlyError::Dir(format!("{}: {e}", dir.display())))?;
     let hub = opts
         .zenoh
         .listen
@@ -175,7 +215,7 @@ pub fn fly(opts: &FlyOptions) -> Result<(), FlyError> {
         "--profile".into(),
         opts.profile.clone(),
         "--store".into(),
-        opts.dir.join("sim").display().to_string(),
+        dir.join("sim").display().to_string(),
         "-e".into(),
         hub.clone(),
     ];
@@ -183,17 +223,15 @@ pub fn fly(opts: &FlyOptions) -> Result<(), FlyError> {
         sim_args.extend(["--faults".to_owned(), f.display().to_string()]);
     }
     let mut children = Children(Vec::new());
-    children.0.push(start(
-        "elap-sim",
-        &sim_args,
-        &opts.dir.join("elap-sim.log"),
-    )?);
+    children
+        .0
+        .push(start("elap-sim", &sim_args, &dir.join("elap-sim.log"))?);
     children.0.push(start(
         "trace-mock-system",
         &[opts.ground.display().to_string(), "-e".into(), hub.clone()],
-        &opts.dir.join("ground.log"),
+        &dir.join("ground.log"),
     )?);
-    let record = opts.dir.join("store").join("record.jsonl");
+    let record = dir.join("store").join("record.jsonl");
     println!(
         "flying {} — simulator, ground responder and executive as separate processes on {hub}",
         opts.mission.display()
@@ -209,7 +247,7 @@ pub fn fly(opts: &FlyOptions) -> Result<(), FlyError> {
     }
     let result = crate::driver::run(&crate::driver::RunOptions {
         model: Some(opts.mission.clone()),
-        store: opts.dir.join("store"),
+        store: dir.join("store"),
         record: None,
         script: None,
         connectors: Some(opts.connectors.clone()),
@@ -223,7 +261,7 @@ pub fn fly(opts: &FlyOptions) -> Result<(), FlyError> {
     drop(children);
     let summary = result?;
     print!("{}", summarize(&record, &summary));
-    let page = opts.dir.join("timeline.html");
+    let page = dir.join("timeline.html");
     match crate::timeline::write(&record, &page) {
         Ok(_) => println!("  timeline:          {}", page.display()),
         Err(e) => tracing::warn!(error = %e, "timeline not written"),
@@ -239,7 +277,7 @@ fn day(v: &Value, t0: i64) -> f64 {
 fn progress(record: &Path, stop: &AtomicBool) {
     let mut pos = 0u64;
     let mut t0 = None;
-    let mut resources: BTreeMap<String, String> = BTreeMap::new();
+    let mut reader = crate::record::Reader::default();
     let mut samples = 0;
     let mut last_decile = 10;
     let mut partial = String::new();
@@ -257,14 +295,11 @@ fn progress(record: &Path, stop: &AtomicBool) {
                 if !partial.ends_with('\n') {
                     continue;
                 }
-                let Ok(v) = serde_json::from_str::<Value>(partial.trim()) else {
-                    partial.clear();
-                    continue;
-                };
+                let entry = reader.read(&partial);
                 partial.clear();
+                let Some(v) = entry else { continue };
                 let t = *t0.get_or_insert(v["mission_ms"].as_i64().unwrap_or(0));
                 let d = day(&v, t);
-                let task = v["task"].as_str().unwrap_or_default().to_owned();
                 match v["kind"].as_str() {
                     Some("entered") => {
                         let ty = v["element"]["type"].as_str().unwrap_or_default();
@@ -277,11 +312,7 @@ fn progress(record: &Path, stop: &AtomicBool) {
                             );
                         }
                     }
-                    Some("dispatched") => {
-                        resources
-                            .insert(task, v["resource"].as_str().unwrap_or_default().to_owned());
-                    }
-                    Some("completed") => match resources.get(&task).map(String::as_str) {
+                    Some("completed") => match reader.resource(&v) {
                         Some("world_model.select_site") => println!(
                             "  day {d:5.2}  site {} selected ({})",
                             v["output"]["selected_site"]["site_id"],
@@ -307,7 +338,7 @@ fn progress(record: &Path, stop: &AtomicBool) {
                     Some("failed") => println!(
                         "  day {d:5.2}  fault: {} on {}",
                         v["code"].as_str().unwrap_or("?"),
-                        resources.get(&task).map_or("?", String::as_str)
+                        reader.resource(&v).unwrap_or("?")
                     ),
                     Some("caught") if v["what"] != "timer" => println!(
                         "  day {d:5.2}  handled: {} {} by {}",
@@ -328,22 +359,15 @@ fn progress(record: &Path, stop: &AtomicBool) {
 
 /// The end-of-flight summary, from the record.
 pub fn summarize(record: &Path, summary: &crate::driver::Summary) -> String {
-    let lines: Vec<Value> = std::fs::read_to_string(record)
-        .unwrap_or_default()
-        .lines()
-        .filter_map(|l| serde_json::from_str(l).ok())
-        .collect();
-    let mut resources = BTreeMap::new();
+    let mut reader = crate::record::Reader::default();
+    let text = std::fs::read_to_string(record).unwrap_or_default();
+    let lines: Vec<Value> = text.lines().filter_map(|l| reader.read(l)).collect();
     let (mut analysed, mut faults, mut handled) = (0, BTreeMap::<String, usize>::new(), 0);
     let mut battery = None;
     let mut contingencies = Vec::new();
     for v in &lines {
-        let task = v["task"].as_str().unwrap_or_default().to_owned();
         match v["kind"].as_str() {
-            Some("dispatched") => {
-                resources.insert(task, v["resource"].as_str().unwrap_or_default().to_owned());
-            }
-            Some("completed") => match resources.get(&task).map(String::as_str) {
+            Some("completed") => match reader.resource(v) {
                 Some("instrument.analyze") => analysed += 1,
                 Some("power.read_battery") => {
                     battery = v["output"]["battery"]["soc_pct"].as_f64().or(battery)
@@ -355,7 +379,7 @@ pub fn summarize(record: &Path, summary: &crate::driver::Summary) -> String {
                     .entry(format!(
                         "{} on {}",
                         v["code"].as_str().unwrap_or("?"),
-                        resources.get(&task).map_or("?", String::as_str)
+                        reader.resource(v).unwrap_or("?")
                     ))
                     .or_default() += 1
             }

@@ -34,39 +34,7 @@ enum Command {
     /// Fly a mission on this host: start the lander simulator and the policy ground responder
     /// as separate processes, run the executive against them over Zenoh, show progress, and
     /// end with a summary.
-    Fly {
-        /// The mission model.
-        #[arg(default_value = "deploy/missions/europa-bsm1.bpmn")]
-        mission: PathBuf,
-        /// Working directory for the stores and the record (default: `flights/<mission>-<time>`).
-        #[arg(long)]
-        dir: Option<PathBuf>,
-        /// Connector configuration.
-        #[arg(long, default_value = "deploy/connectors.toml")]
-        connectors: PathBuf,
-        /// The ground responder's policy.
-        #[arg(long, default_value = "deploy/ground-policy.json")]
-        ground: PathBuf,
-        /// Mission time runs this many times faster than wall time (200000: a 20-day mission in
-        /// under 10 s).
-        #[arg(long, default_value_t = 200000.0)]
-        speed: f64,
-        /// The simulator's fault seed.
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// The simulator's fault profile: nominal, demanding or quiet.
-        #[arg(long, default_value = "nominal")]
-        profile: String,
-        /// Scripted faults for the simulator (JSON).
-        #[arg(long)]
-        faults: Option<PathBuf>,
-        /// A named scenario from deploy/scenarios/ (seed, profile and scripted faults), e.g.
-        /// `stuck-tool-recovered`; overrides --seed, --profile and --faults.
-        #[arg(long)]
-        scenario: Option<String>,
-        #[command(flatten)]
-        zenoh: connector_zenoh::ZenohArgs,
-    },
+    Fly(executive::fly::FlyOptions),
     /// Resume the mission a store holds after a crash or reboot.
     Resume {
         #[command(flatten)]
@@ -182,45 +150,9 @@ fn main() -> anyhow::Result<ExitCode> {
         }
         Command::Run { mission, run } => drive(Some(mission), run),
         Command::Resume { run } => drive(None, run),
-        Command::Fly {
-            mission,
-            dir,
-            connectors,
-            ground,
-            speed,
-            seed,
-            profile,
-            faults,
-            scenario,
-            zenoh,
-        } => {
+        Command::Fly(opts) => {
             logging("warn,zenoh=error", false);
-            anyhow::ensure!(speed.is_finite() && speed > 0.0, "--speed must be positive");
-            let stamp = std::time::SystemTime::now()
-                .duration_since(std::time::UNIX_EPOCH)
-                .map_or(0, |d| d.as_secs());
-            let stem = mission
-                .file_stem()
-                .map_or_else(|| "mission".into(), |s| s.to_string_lossy().into_owned());
-            let dir =
-                dir.unwrap_or_else(|| PathBuf::from("flights").join(format!("{stem}-{stamp}")));
-            let (mut seed, mut profile, mut faults) = (seed, profile, faults);
-            if let Some(name) = &scenario {
-                let s = executive::fly::Scenario::load(name, &dir)?;
-                println!("scenario {name}: {}", s.description);
-                (seed, profile, faults) = (s.seed, s.profile, Some(s.faults));
-            }
-            executive::fly::fly(&executive::fly::FlyOptions {
-                mission,
-                dir,
-                connectors,
-                ground,
-                speed,
-                seed,
-                profile,
-                faults,
-                zenoh,
-            })?;
+            executive::fly::fly(&opts)?;
             Ok(ExitCode::SUCCESS)
         }
         Command::Monitor {

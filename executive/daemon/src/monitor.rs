@@ -4,41 +4,37 @@
 //! so a monitor that joins late starts from the present. The monitor side is `trace monitor`
 //! ([`watch`]).
 
-use std::collections::BTreeMap;
-use std::sync::{Arc, Mutex};
-
 use connector_api::Keys;
 use connector_zenoh::{Role, ZenohArgs};
 use executive_engine::Engine;
 use serde_json::{Value, json};
+use std::collections::BTreeMap;
 use tokio::sync::mpsc;
+use zenoh::Session;
 use zenoh::qos::CongestionControl;
-use zenoh::{Session, Wait};
+use zenoh::query::Query;
 
-/// The executive's live publication.
+/// The executive's live publication. State queries are handed to the driver, which answers
+/// them between steps with a snapshot built then (nothing is built for nobody).
 pub struct Publisher {
-    state: Arc<Mutex<Value>>,
     _queryable: zenoh::query::Queryable<()>,
     _token: zenoh::liveliness::LivelinessToken,
     lines: mpsc::UnboundedSender<String>,
 }
 
 impl Publisher {
-    /// Declares the token and the state queryable; record lines go out in order on a task.
+    /// Declares the token and the state queryable (its queries arrive on the returned
+    /// receiver); record lines go out in order on a task.
     pub async fn start(
         session: &Session,
         keys: &Keys,
         mission: &str,
-    ) -> Result<Publisher, zenoh::Error> {
-        let state = Arc::new(Mutex::new(json!({ "mission": mission })));
-        let snapshot = Arc::clone(&state);
+    ) -> Result<(Publisher, mpsc::UnboundedReceiver<Query>), zenoh::Error> {
+        let (queries_tx, queries) = mpsc::unbounded_channel();
         let queryable = session
             .declare_queryable(keys.exec_state(mission))
             .callback(move |q| {
-                let body = snapshot.lock().map(|s| s.to_string()).unwrap_or_default();
-                if let Err(e) = q.reply(q.key_expr().clone(), body).wait() {
-                    tracing::debug!(error = %e, "state reply failed");
-                }
+                let _ = queries_tx.send(q);
             })
             .await?;
         let token = session
@@ -58,12 +54,14 @@ impl Publisher {
                 }
             }
         });
-        Ok(Publisher {
-            state,
-            _queryable: queryable,
-            _token: token,
-            lines: tx,
-        })
+        Ok((
+            Publisher {
+                _queryable: queryable,
+                _token: token,
+                lines: tx,
+            },
+            queries,
+        ))
     }
 
     /// A function handing record lines to the publication.
@@ -73,32 +71,39 @@ impl Publisher {
             let _ = tx.send(line.to_owned());
         })
     }
+}
 
-    /// Replaces the snapshot with the engine's present state.
-    pub fn update(&self, engine: &Engine, mission_ms: i64, in_flight: Vec<Value>) {
-        let g = engine.graph();
-        let s = engine.state();
-        let mut tokens: BTreeMap<String, usize> = BTreeMap::new();
-        for t in s.tokens.values() {
-            *tokens.entry(g.node(t.node).id.clone()).or_default() += 1;
-        }
-        let instances: Vec<Value> = s
-            .instances
-            .iter()
-            .map(|(id, i)| json!({ "instance": id.0, "outcome": i.outcome }))
-            .collect();
-        let snapshot = json!({
-            "mission": self.state.lock().map(|v| v["mission"].clone()).unwrap_or_default(),
-            "seq": s.last_seq,
-            "mission_ms": mission_ms,
-            "instances": instances,
-            "tokens": tokens,
-            "in_flight": in_flight,
-            "data": s.data,
-        });
-        if let Ok(mut st) = self.state.lock() {
-            *st = snapshot;
-        }
+/// The mission's present state, as a state query is answered.
+pub fn snapshot(mission: &str, engine: &Engine, mission_ms: i64, in_flight: Vec<Value>) -> Value {
+    let g = engine.graph();
+    let s = engine.state();
+    let mut tokens: BTreeMap<&str, usize> = BTreeMap::new();
+    for t in s.tokens.values() {
+        *tokens.entry(g.node(t.node).id.as_str()).or_default() += 1;
+    }
+    let instances: Vec<Value> = s
+        .instances
+        .iter()
+        .map(|(id, i)| json!({ "instance": id.0, "outcome": i.outcome }))
+        .collect();
+    json!({
+        "mission": mission,
+        "seq": s.last_seq,
+        "mission_ms": mission_ms,
+        "instances": instances,
+        "tokens": tokens,
+        "in_flight": in_flight,
+        "data": s.data,
+    })
+}
+
+/// Answers one state query.
+pub async fn answer(query: Query, snapshot: Value) {
+    if let Err(e) = query
+        .reply(query.key_expr().clone(), snapshot.to_string())
+        .await
+    {
+        tracing::debug!(error = %e, "state reply failed");
     }
 }
 

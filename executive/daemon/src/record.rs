@@ -111,6 +111,43 @@ impl RecordWriter {
     }
 }
 
+/// Reads a record back: parses each line, counts the unreadable ones (a line cut by a crash),
+/// keeps the first of a line written again after a restart (same `seq` and `idx`), and
+/// remembers each task's resource from its `dispatched` line.
+#[derive(Debug, Default)]
+pub struct Reader {
+    seen: std::collections::BTreeSet<(u64, u64)>,
+    resources: std::collections::BTreeMap<String, String>,
+    /// Lines that were not JSON.
+    pub skipped: usize,
+}
+
+impl Reader {
+    /// The line's entry, or `None` if it is unreadable, blank or a repeat.
+    pub fn read(&mut self, line: &str) -> Option<Value> {
+        let Ok(v) = serde_json::from_str::<Value>(line) else {
+            self.skipped += usize::from(!line.trim().is_empty());
+            return None;
+        };
+        if let (Some(seq), Some(idx)) = (v["seq"].as_u64(), v["idx"].as_u64())
+            && !self.seen.insert((seq, idx))
+        {
+            return None;
+        }
+        if v["kind"] == "dispatched"
+            && let (Some(task), Some(resource)) = (v["task"].as_str(), v["resource"].as_str())
+        {
+            self.resources.insert(task.to_owned(), resource.to_owned());
+        }
+        Some(v)
+    }
+
+    /// The resource of the task an entry is about, if it was dispatched.
+    pub fn resource(&self, v: &Value) -> Option<&str> {
+        self.resources.get(v["task"].as_str()?).map(String::as_str)
+    }
+}
+
 fn wall(ms: i64) -> String {
     chrono::DateTime::from_timestamp_millis(ms)
         .unwrap_or_default()

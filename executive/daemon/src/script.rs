@@ -140,13 +140,7 @@ impl Connector for ScriptConnector {
         {
             return;
         }
-        // The attempt is the goal id's last chunk (`<mission>.<instance>.<token>.<attempt>`).
-        let attempt: u32 = command
-            .goal_id
-            .rsplit('.')
-            .next()
-            .and_then(|a| a.parse().ok())
-            .unwrap_or(1);
+        let attempt = connector_api::keys::goal_attempt(&command.goal_id);
         let rule = self.rule(&command.action).clone();
         let fails = rule
             .fail

@@ -81,7 +81,7 @@ pub fn build(lines: impl Iterator<Item = String>) -> Timeline {
     let mut t = Timeline::default();
     let mut open: BTreeMap<String, (String, String, i64, String)> = BTreeMap::new(); // task → (lane, label, start, resource)
     let mut phases: BTreeMap<i64, (String, i64)> = BTreeMap::new(); // token → (label, start)
-    let mut seen = std::collections::BTreeSet::new();
+    let mut reader = crate::record::Reader::default();
     let (mut first, mut last) = (i64::MAX, i64::MIN);
     let mut lanes: Vec<String> = Vec::new();
     let lane = |name: &str, lanes: &mut Vec<String>| {
@@ -90,13 +90,9 @@ pub fn build(lines: impl Iterator<Item = String>) -> Timeline {
         }
     };
     for line in lines {
-        let Ok(v) = serde_json::from_str::<Value>(&line) else {
-            t.skipped += usize::from(!line.trim().is_empty());
+        let Some(v) = reader.read(&line) else {
             continue;
         };
-        if !v["seq"].is_null() && !seen.insert((v["seq"].to_string(), v["idx"].to_string())) {
-            continue;
-        }
         let at = v["mission_ms"].as_i64().unwrap_or(0);
         first = first.min(at);
         last = last.max(at);
@@ -250,6 +246,7 @@ pub fn build(lines: impl Iterator<Item = String>) -> Timeline {
         _ => 1,
     });
     t.lanes = lanes;
+    t.skipped = reader.skipped;
     t.span = if first <= last { (first, last) } else { (0, 0) };
     t
 }
