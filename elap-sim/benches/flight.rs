@@ -79,10 +79,15 @@ fn main() {
                 hub.clone(),
             ],
         );
-        let policy = root().join("deploy/ground-policy.json");
+        let policy = root().join("deploy/ground/policy.toml");
         let mut ground = system(
-            "trace-mock-system",
-            &[policy.display().to_string(), "-e".into(), hub.clone()],
+            "ground-station",
+            &[
+                "--policy".into(),
+                policy.display().to_string(),
+                "-e".into(),
+                hub.clone(),
+            ],
         );
         let t = Instant::now();
         let mut exec = Command::new(target().join("trace"))

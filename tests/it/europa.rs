@@ -1,6 +1,6 @@
 //! The Europa BSM-1 mission end to end across separate processes over Zenoh: the executive
-//! (`trace run`), the lander simulator (`elap-sim`) and a policy ground responder
-//! (`trace-mock-system deploy/ground-policy.json`), and the named fault scenarios flown with
+//! (`trace run`), the lander simulator (`elap-sim`) and a ground station answering by policy
+//! (`ground-station --policy deploy/ground/policy.toml`), and the named fault scenarios flown with
 //! `trace fly --scenario`, each checked from the execution record.
 
 use std::collections::BTreeMap;
@@ -28,7 +28,7 @@ fn system(program: &str, args: &[&str]) -> Child {
     child
 }
 
-/// The lander simulator (with `sim` flags) and the policy ground responder on `hub`; both
+/// The lander simulator (with `sim` flags) and a policy ground station on `hub`; both
 /// are killed when this is dropped.
 struct Systems(Child, Child);
 
@@ -36,8 +36,9 @@ impl Systems {
     fn start(hub: &str, sim: &[&str]) -> Systems {
         let mut args = sim.to_vec();
         args.extend(["-e", hub, "--no-multicast-scouting"]);
-        let policy = repo().join("deploy/ground-policy.json");
+        let policy = repo().join("deploy/ground/policy.toml");
         let ground = [
+            "--policy",
             policy.to_str().expect("path"),
             "-e",
             hub,
@@ -45,7 +46,7 @@ impl Systems {
         ];
         Systems(
             system("elap-sim", &args),
-            system("trace-mock-system", &ground),
+            system("ground-station", &ground),
         )
     }
 }

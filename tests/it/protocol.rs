@@ -89,6 +89,7 @@ async fn dig_server(session: &Session) -> (ActionServer, mpsc::UnboundedReceiver
             catalogue: catalogue("lander", &["dig"]),
             store: None,
             accept: None,
+            instance: None,
         },
     )
     .await
@@ -104,6 +105,7 @@ async fn serve(session: &Session, spec: MockSpec) -> ActionServer {
             catalogue: spec.catalogue.clone(),
             store: None,
             accept: None,
+            instance: None,
         },
     )
     .await
@@ -123,6 +125,7 @@ fn connector_config(server: &str, grace_ms: u64) -> ConnectorConfig {
         deadband: [("battery_soc_pct".to_owned(), 1.0)].into(),
         grace_ms,
         clock: false,
+        answers: false,
     }
 }
 
@@ -138,6 +141,7 @@ async fn connector(
             keys: Keys::default(),
             config: connector_config(server, grace_ms),
             client: "test-exec".into(),
+            mission: "m".into(),
             catalogue_wait: Duration::from_secs(20),
             query_timeout: Duration::from_secs(5),
         },
@@ -259,6 +263,7 @@ async fn mistyped_and_refused_goals_are_rejected_with_the_reason() {
                     Ok(())
                 }
             })),
+            instance: None,
         },
     )
     .await

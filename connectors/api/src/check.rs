@@ -184,6 +184,7 @@ mod tests {
                 deadband: Default::default(),
                 grace_ms: 1,
                 clock: false,
+                answers: false,
             }],
         };
         let cat = Catalogue {

@@ -4,10 +4,12 @@
 
 use std::future::Future;
 use std::pin::Pin;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use serde_json::Value;
 use tokio::sync::mpsc::UnboundedSender;
+use tokio::sync::oneshot;
 
 use crate::catalogue::Catalogue;
 use crate::wire::Fields;
@@ -69,6 +71,18 @@ pub enum Report {
         /// New value.
         value: Value,
     },
+    /// An operator answered a user task (ground stations): the executive applies it if the
+    /// task is still open and the answer fits, and gives its verdict to the sender.
+    Answer {
+        /// Which goal (user task).
+        goal_id: String,
+        /// The answer's fields (already checked against the catalogue).
+        fields: Fields,
+        /// Who answered, for the execution record (`ana@station-b`).
+        operator: String,
+        /// Where the executive's verdict goes.
+        verdict: Verdict,
+    },
     /// The system's mission clock: mission time `mission_ms` at the moment of the report,
     /// running `speed` times faster than wall time.
     Clock {
@@ -77,6 +91,39 @@ pub enum Report {
         /// Mission ms per wall ms.
         speed: f64,
     },
+}
+
+/// The executive's verdict on an [`Report::Answer`]: `Ok` once the answer is committed,
+/// `Err(reason)` when it was refused (nothing changed). Given at most once.
+#[derive(Clone)]
+pub struct Verdict(Arc<Mutex<Option<oneshot::Sender<Result<(), String>>>>>);
+
+impl Verdict {
+    /// A verdict slot and the receiver the sender of the answer waits on.
+    pub fn new() -> (Verdict, oneshot::Receiver<Result<(), String>>) {
+        let (tx, rx) = oneshot::channel();
+        (Verdict(Arc::new(Mutex::new(Some(tx)))), rx)
+    }
+
+    /// Gives the verdict (later calls do nothing).
+    pub fn give(&self, verdict: Result<(), String>) {
+        let tx = self.0.lock().unwrap_or_else(|p| p.into_inner()).take();
+        if let Some(tx) = tx {
+            let _ = tx.send(verdict);
+        }
+    }
+}
+
+impl std::fmt::Debug for Verdict {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Verdict")
+    }
+}
+
+impl PartialEq for Verdict {
+    fn eq(&self, other: &Verdict) -> bool {
+        Arc::ptr_eq(&self.0, &other.0)
+    }
 }
 
 /// Why a connector could not do what it was asked (not a task failure: those are reports).

@@ -81,6 +81,8 @@ pub enum Channel {
     Feedback,
     /// Stream: results.
     Result,
+    /// Queryable (executive side): an operator's answer to a user task.
+    Answer,
 }
 
 impl fmt::Display for Channel {
@@ -92,6 +94,7 @@ impl fmt::Display for Channel {
             Channel::Status => "status",
             Channel::Feedback => "feedback",
             Channel::Result => "result",
+            Channel::Answer => "answer",
         })
     }
 }
@@ -147,9 +150,21 @@ impl Keys {
         format!("{}/alive/act/{server}/{action}", self.root)
     }
 
-    /// `<root>/alive/act/<server>/*`: every served action of a server.
+    /// `<root>/alive/act/<server>/<action>/<instance>`: "this action is being served by
+    /// `instance`" — for servers of which several run at once (ground stations).
+    pub fn alive_action_by(&self, server: &str, action: &str, instance: &str) -> String {
+        format!("{}/alive/act/{server}/{action}/{instance}", self.root)
+    }
+
+    /// `<root>/alive/act/<server>/**`: every served action of a server, by any instance.
     pub fn alive_actions_of(&self, server: &str) -> String {
-        format!("{}/alive/act/{server}/*", self.root)
+        format!("{}/alive/act/{server}/**", self.root)
+    }
+
+    /// `<root>/act/<server>/*/answer/<mission>.$*`: what an executive declares to receive the
+    /// answers to its own user tasks (goal ids start with the mission id).
+    pub fn answers_of(&self, server: &str, mission: &str) -> String {
+        format!("{}/act/{server}/*/answer/{mission}.$*", self.root)
     }
 
     /// The action named by a key under [`Keys::alive_actions_of`] or a stream key.
@@ -229,6 +244,18 @@ mod tests {
         assert_eq!(
             k.action_of("trace/act/lander_sim/arm.stow/status"),
             Some("arm.stow")
+        );
+        assert_eq!(
+            k.action_of("trace/alive/act/ground/ground.approve_site/station-a"),
+            Some("ground.approve_site")
+        );
+        assert_eq!(
+            k.goal("ground", "ground.approve_site", Channel::Answer, "m-1.1.2.1"),
+            "trace/act/ground/ground.approve_site/answer/m-1.1.2.1"
+        );
+        assert_eq!(
+            k.answers_of("ground", "m-1"),
+            "trace/act/ground/*/answer/m-1.$*"
         );
         assert_eq!(Keys::last_chunk("trace/act/s/a/goal/g1"), "g1");
         assert_eq!(goal_attempt(&goal_id("m-1", 1, 42, 3)), 3);

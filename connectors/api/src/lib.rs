@@ -5,7 +5,7 @@
 //!
 //! - [`contract`]: the [`Connector`] trait (execute, reconcile, abort, catalogue, notify) and
 //!   the [`Report`]s a connector sends back (accepted, feedback, done, failed, cancelled,
-//!   system data, mission clock);
+//!   system data, mission clock, an operator's answer with its [`Verdict`]);
 //! - [`keys`]: every key expression of the protocol, built in one place;
 //! - [`wire`]: the JSON payloads, status codes and protocol error codes;
 //! - [`catalogue`]: the action catalogue with typed (nested) fields and declared error codes;
@@ -28,7 +28,7 @@ pub mod wire;
 
 pub use catalogue::{ActionSpec, Catalogue, Type};
 pub use check::{Mismatch, TaskUse, check};
-pub use contract::{Command, Connector, ConnectorError, Report, Reports};
+pub use contract::{Command, Connector, ConnectorError, Report, Reports, Verdict};
 pub use keys::{Channel, Keys};
 pub use routes::{ConnectorConfig, ConnectorsConfig, Kind, Route};
 pub use wire::{Fields, Status};

@@ -59,6 +59,11 @@ pub struct ConnectorConfig {
     /// Zenoh: this connector's system supplies the mission clock.
     #[serde(default)]
     pub clock: bool,
+    /// Zenoh: the server is a set of ground stations answering user tasks. Every goal and
+    /// cancel goes to all of them; answers arrive as `answer` queries, the executive checks
+    /// each and the first valid one wins (`docs/protocol.md` § Ground stations).
+    #[serde(default)]
+    pub answers: bool,
 }
 
 fn default_grace() -> u64 {
@@ -153,6 +158,7 @@ mod tests {
                     deadband: BTreeMap::new(),
                     grace_ms: 1000,
                     clock: false,
+                    answers: false,
                 },
                 ConnectorConfig {
                     name: "ground".into(),
@@ -164,6 +170,7 @@ mod tests {
                     deadband: BTreeMap::new(),
                     grace_ms: 1000,
                     clock: false,
+                    answers: false,
                 },
             ],
         }

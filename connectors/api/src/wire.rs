@@ -94,6 +94,44 @@ pub struct GoalReply {
     pub result: Option<ResultMsg>,
 }
 
+/// `get …/cancel/<goal_id>` payload (optional: an empty payload is a cancel without reason).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CancelRequest {
+    /// Why, for the people at the server ("answered by ana at station-b", "withdrawn: the
+    /// approval window closed").
+    pub reason: String,
+}
+
+/// `get …/answer/<goal_id>` payload: an operator's answer to a user task, sent by a ground
+/// station to the executive.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Answer {
+    /// The user task's goal id (also the last key chunk).
+    pub goal_id: String,
+    /// The answer's fields, typed per the catalogue's `result`.
+    pub fields: Fields,
+    /// Who answered (recorded in the execution record).
+    pub operator: String,
+    /// From which ground station.
+    pub station: String,
+}
+
+/// Reply to `answer`: whether it was applied, or why not. Exactly one answer per user task
+/// is applied; every other is refused with the reason.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AnswerReply {
+    /// The goal id.
+    pub goal_id: String,
+    /// The answer closed the task.
+    pub applied: bool,
+    /// Why it was refused (unknown or closed task, missing field, wrong type, …).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
+}
+
 /// Reply to `cancel`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "SCREAMING_SNAKE_CASE")]

@@ -86,6 +86,7 @@ async fn main() {
             catalogue,
             store: None,
             accept: None,
+            instance: None,
         },
     )
     .await
@@ -112,8 +113,10 @@ async fn main() {
                 deadband: BTreeMap::new(),
                 grace_ms: 3000,
                 clock: false,
+                answers: false,
             },
             client: "bench".into(),
+            mission: "bench".into(),
             catalogue_wait: Duration::from_secs(30),
             query_timeout: Duration::from_secs(5),
         },

@@ -6,6 +6,11 @@
 //! before those goals fail with `CONNECTOR_LOST`, and when it comes back every goal in flight
 //! is reconciled with a `state` query — so a result published while the link was down is
 //! recovered rather than lost.
+//!
+//! A connector configured with `answers` talks to ground stations instead: goals and cancels
+//! go to every station, and operators' answers arrive as `answer` queries that are checked
+//! (open task, form, then the engine) and answered with the verdict — the first valid answer
+//! wins, and the other stations are told who answered.
 
 use std::collections::{HashMap, HashSet};
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -13,18 +18,18 @@ use std::time::Duration;
 
 use connector_api::contract::BoxFuture;
 use connector_api::wire::{
-    self, CancelReply, FeedbackMsg, Goal, GoalReply, ResultMsg, StateReply, StatusMsg, Telemetry,
-    codes,
+    self, Answer, AnswerReply, CancelReply, CancelRequest, FeedbackMsg, Goal, GoalReply,
+    ResultMsg, StateReply, StatusMsg, Telemetry, codes,
 };
 use connector_api::{
     Catalogue, Channel, Command, Connector, ConnectorConfig, ConnectorError, Keys, Report, Reports,
-    Status,
+    Status, Verdict,
 };
 use serde_json::Value;
 use zenoh::Session;
 use zenoh::pubsub::Subscriber;
 use zenoh::qos::CongestionControl;
-use zenoh::query::ConsolidationMode;
+use zenoh::query::{ConsolidationMode, Query, QueryTarget, Queryable};
 use zenoh::sample::{Sample, SampleKind};
 
 use crate::codec::{encoding, json};
@@ -38,6 +43,8 @@ pub struct ClientOptions {
     pub config: ConnectorConfig,
     /// Who we are, sent with every goal (for the server's log).
     pub client: String,
+    /// The mission id every goal id starts with (answers are received for these only).
+    pub mission: String,
     /// How long `catalogue()` waits for the server to appear.
     pub catalogue_wait: Duration,
     /// How long one goal, state or cancel query may take.
@@ -54,12 +61,21 @@ struct Flight {
 #[derive(Default)]
 struct State {
     flights: HashMap<String, Flight>,
-    alive: HashSet<String>,
+    /// Per served action, the liveliness tokens announcing it (one per server instance).
+    alive: HashMap<String, HashSet<String>>,
     /// Per action: bumped on every appearance, so a pending grace timer knows it is stale.
     generation: HashMap<String, u64>,
     /// Cancels not yet answered: goal id → action.
     cancels: HashMap<String, String>,
     last_data: HashMap<String, Value>,
+    /// Ground stations: why a user task is no longer open, for refusing late answers.
+    closed: HashMap<String, String>,
+}
+
+impl State {
+    fn served(&self, action: &str) -> bool {
+        self.alive.get(action).is_some_and(|t| !t.is_empty())
+    }
 }
 
 struct Shared {
@@ -75,6 +91,7 @@ struct Shared {
 pub struct ZenohConnector {
     shared: Arc<Shared>,
     subscribers: Vec<Subscriber<()>>,
+    answers: Option<Queryable<()>>,
 }
 
 fn payload(sample: &Sample) -> Vec<u8> {
@@ -92,6 +109,15 @@ impl Shared {
 
     fn state(&self) -> MutexGuard<'_, State> {
         self.state.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Queries reach every server instance (ground stations) or the best-matching one.
+    fn target(&self) -> QueryTarget {
+        if self.opts.config.answers {
+            QueryTarget::All
+        } else {
+            QueryTarget::BestMatching
+        }
     }
 
     fn report(&self, r: Report) {
@@ -115,8 +141,12 @@ impl Shared {
         });
     }
 
-    /// A goal ended: reported once (the flight is removed), duplicates ignored.
+    /// A goal ended: reported once (the flight is removed), duplicates ignored. A ground
+    /// station's task closes only through an answer query, never through a published result.
     fn deliver(&self, r: ResultMsg) {
+        if self.opts.config.answers {
+            return tracing::debug!(goal_id = r.goal_id, "ground result ignored: answers close tasks");
+        }
         let Some(flight) = self.state().flights.remove(&r.goal_id) else {
             return;
         };
@@ -175,6 +205,7 @@ impl Shared {
             .get(&key)
             .payload(json(&goal))
             .encoding(encoding("goal"))
+            .target(self.target())
             .consolidation(ConsolidationMode::None)
             .timeout(self.opts.query_timeout)
             .await
@@ -224,7 +255,7 @@ impl Shared {
             tokio::time::sleep(Duration::from_millis(100)).await;
             let again = {
                 let s = self.state();
-                s.alive.contains(&command.action)
+                s.served(&command.action)
                     && s.flights.get(&command.goal_id).is_some_and(|f| !f.acked)
             };
             if again {
@@ -268,8 +299,12 @@ impl Shared {
         }
     }
 
-    /// Asks the server what became of a goal.
+    /// Asks the server what became of a goal. Ground stations are sent the goal again
+    /// instead: any station may hold it, and a repeated goal is harmless.
     async fn reconcile(self: Arc<Shared>, command: Command) {
+        if self.opts.config.answers {
+            return self.send(command).await;
+        }
         let key = self.opts.keys.goal(
             self.server(),
             &command.action,
@@ -320,14 +355,19 @@ impl Shared {
         }
     }
 
-    async fn cancel(self: Arc<Shared>, goal_id: String, action: String) {
+    async fn cancel(self: Arc<Shared>, goal_id: String, action: String, reason: Option<String>) {
         let key = self
             .opts
             .keys
             .goal(self.server(), &action, Channel::Cancel, &goal_id);
-        let Ok(replies) = self
-            .session
-            .get(&key)
+        let mut get = self.session.get(&key);
+        if let Some(reason) = reason {
+            get = get
+                .payload(json(&CancelRequest { reason }))
+                .encoding(encoding("cancel"));
+        }
+        let Ok(replies) = get
+            .target(self.target())
             .consolidation(ConsolidationMode::None)
             .timeout(self.opts.query_timeout)
             .await
@@ -345,6 +385,99 @@ impl Shared {
         }
     }
 
+    /// `…/answer/<goal_id>` from a ground station: replies with the verdict.
+    async fn on_answer(self: Arc<Shared>, query: Query) {
+        let reply = self.answer(&query).await;
+        match &reply.reason {
+            None => tracing::info!(goal_id = reply.goal_id, "answer applied"),
+            Some(reason) => tracing::info!(goal_id = reply.goal_id, reason, "answer refused"),
+        }
+        if let Err(e) = query
+            .reply(query.key_expr().clone(), json(&reply))
+            .encoding(encoding("answer_reply"))
+            .await
+        {
+            tracing::warn!(error = %e, "answer reply failed");
+        }
+    }
+
+    /// Checks an answer (payload, open task, form), hands it to the executive and waits for
+    /// its verdict. The first applied answer closes the task at every other station.
+    async fn answer(self: &Arc<Shared>, query: &Query) -> AnswerReply {
+        let key = query.key_expr().as_str();
+        let goal_id = Keys::last_chunk(key).to_owned();
+        let refused = |reason: String| AnswerReply {
+            goal_id: goal_id.clone(),
+            applied: false,
+            reason: Some(reason),
+        };
+        let bytes = query
+            .payload()
+            .map(|p| p.to_bytes().into_owned())
+            .unwrap_or_default();
+        let a = match wire::parse::<Answer>("answer", key, &bytes) {
+            Ok(a) => a,
+            Err(e) => return refused(e.to_string()),
+        };
+        if a.goal_id != goal_id {
+            return refused(format!(
+                "the answer names goal `{}` but was sent for `{goal_id}`",
+                a.goal_id
+            ));
+        }
+        if a.operator.trim().is_empty() || a.station.trim().is_empty() {
+            return refused("an answer must name its operator and station".to_owned());
+        }
+        let action = {
+            let s = self.state();
+            match s.flights.get(&goal_id) {
+                Some(f) => f.command.action.clone(),
+                None => {
+                    return refused(match s.closed.get(&goal_id) {
+                        Some(why) => format!("user task `{goal_id}` is closed: {why}"),
+                        None => format!("no open user task has goal id `{goal_id}`"),
+                    });
+                }
+            }
+        };
+        let spec = self
+            .catalogue
+            .lock()
+            .ok()
+            .and_then(|c| c.as_ref()?.action(&action).cloned());
+        if let Some(Err(e)) = spec.map(|s| s.check_result(&a.fields)) {
+            return refused(format!("the answer does not fit the form of `{action}`: {e}"));
+        }
+        let operator = format!("{}@{}", a.operator, a.station);
+        let (verdict, decided) = Verdict::new();
+        self.report(Report::Answer {
+            goal_id: goal_id.clone(),
+            fields: a.fields,
+            operator: operator.clone(),
+            verdict,
+        });
+        match decided.await {
+            Ok(Ok(())) => {
+                let why = format!("answered by {operator}");
+                {
+                    let mut s = self.state();
+                    s.flights.remove(&goal_id);
+                    s.closed.insert(goal_id.clone(), why.clone());
+                }
+                // Every other station drops the task (the winner's reply tells it first).
+                self.rt
+                    .spawn(Arc::clone(self).cancel(goal_id.clone(), action, Some(why)));
+                AnswerReply {
+                    goal_id,
+                    applied: true,
+                    reason: None,
+                }
+            }
+            Ok(Err(reason)) => refused(reason),
+            Err(_) => refused("the executive is stopping; the answer was not applied".to_owned()),
+        }
+    }
+
     /// Liveliness of one action changed.
     fn on_liveliness(self: &Arc<Shared>, sample: &Sample) {
         let key = sample.key_expr().as_str();
@@ -359,8 +492,11 @@ impl Shared {
         };
         match sample.kind() {
             SampleKind::Put => {
-                tracing::info!(connector = self.name(), action, "action served");
-                s.alive.insert(action.clone());
+                tracing::info!(connector = self.name(), action, key, "action served");
+                s.alive
+                    .entry(action.clone())
+                    .or_default()
+                    .insert(key.to_owned());
                 let (sent, unsent): (Vec<_>, Vec<_>) = s
                     .flights
                     .values()
@@ -381,13 +517,16 @@ impl Shared {
                     self.rt.spawn(Arc::clone(self).reconcile(c));
                 }
                 for g in cancels {
-                    self.rt.spawn(Arc::clone(self).cancel(g, action.clone()));
+                    self.rt.spawn(Arc::clone(self).cancel(g, action.clone(), None));
                 }
             }
             SampleKind::Delete => {
-                tracing::warn!(connector = self.name(), action, "action no longer served");
-                s.alive.remove(&action);
-                let running = s.flights.values().any(|f| f.command.action == action);
+                tracing::warn!(connector = self.name(), action, key, "action no longer served");
+                if let Some(tokens) = s.alive.get_mut(&action) {
+                    tokens.remove(key);
+                }
+                let running =
+                    !s.served(&action) && s.flights.values().any(|f| f.command.action == action);
                 drop(s);
                 if running {
                     self.start_grace(action, generation);
@@ -404,7 +543,7 @@ impl Shared {
             tokio::time::sleep(grace).await;
             let lost: Vec<String> = {
                 let mut s = me.state();
-                if s.alive.contains(&action) || s.generation.get(&action) != Some(&generation) {
+                if s.served(&action) || s.generation.get(&action) != Some(&generation) {
                     return;
                 }
                 let ids: Vec<String> = s
@@ -566,9 +705,27 @@ impl ZenohConnector {
                 .await
                 .map_err(z)?,
         );
+        let answers = if shared.opts.config.answers {
+            let me = Arc::clone(&shared);
+            let ke = keys.answers_of(&server, &shared.opts.mission);
+            Some(
+                session
+                    .declare_queryable(ke)
+                    .complete(true)
+                    .callback(move |q| {
+                        let me = Arc::clone(&me);
+                        me.rt.clone().spawn(async move { me.on_answer(q).await });
+                    })
+                    .await
+                    .map_err(z)?,
+            )
+        } else {
+            None
+        };
         Ok(ZenohConnector {
             shared,
             subscribers,
+            answers,
         })
     }
 
@@ -578,7 +735,7 @@ impl ZenohConnector {
             command: command.clone(),
             acked,
         });
-        let alive = s.alive.contains(&command.action);
+        let alive = s.served(&command.action);
         let generation = s.generation.get(&command.action).copied().unwrap_or(0);
         drop(s);
         if !alive {
@@ -664,12 +821,17 @@ impl Connector for ZenohConnector {
         };
         let action = flight.command.action;
         s.cancels.insert(goal_id.to_owned(), action.clone());
-        let alive = s.alive.contains(&action);
+        let reason = self.shared.opts.config.answers.then(|| {
+            let r = "withdrawn by the mission (a boundary event or the end of its scope)";
+            s.closed.insert(goal_id.to_owned(), r.to_owned());
+            r.to_owned()
+        });
+        let alive = s.served(&action);
         drop(s);
         if alive {
             self.shared
                 .rt
-                .spawn(Arc::clone(&self.shared).cancel(goal_id.to_owned(), action));
+                .spawn(Arc::clone(&self.shared).cancel(goal_id.to_owned(), action, reason));
         }
     }
 
@@ -694,6 +856,11 @@ impl Connector for ZenohConnector {
 
     fn close(&mut self) -> BoxFuture<'_, ()> {
         Box::pin(async move {
+            if let Some(q) = self.answers.take()
+                && let Err(e) = q.undeclare().await
+            {
+                tracing::debug!(error = %e, "undeclare failed");
+            }
             for s in self.subscribers.drain(..) {
                 if let Err(e) = s.undeclare().await {
                     tracing::debug!(error = %e, "undeclare failed");

@@ -7,6 +7,7 @@
 //!   reconciliation, liveliness and `CONNECTOR_LOST`, telemetry as system data);
 //! - [`ActionServer`]: the reusable server side for any system (the lander simulator, the
 //!   ground station, test servers);
+//! - [`send_answer`]: a ground station's answer to a user task, and the executive's verdict;
 //! - [`ZenohArgs`]: the Zenoh flags and embedded defaults every TRACE binary shares.
 //!
 //! Dependencies: `zenoh` 1.10.2 with `default-features = false` and only `transport_tcp`
@@ -15,12 +16,14 @@
 //! instead of AdvancedPublisher caches, which also covers executive restarts. `sled` keeps a
 //! server's goal table across restarts; `clap` for the shared flags.
 
+mod answer;
 mod client;
 mod codec;
 pub mod mock;
 mod server;
 mod session;
 
+pub use answer::{AnswerError, send_answer};
 pub use client::{ClientOptions, ZenohConnector};
 pub use server::{AcceptFn, ActionServer, GoalHandle, Request, ServerError, ServerOptions};
 pub use session::{DEFAULT_HUB, Role, SessionError, ZenohArgs, log_to_stderr};

@@ -114,7 +114,7 @@ pub async fn run(
     while let Some(r) = requests.recv().await {
         match r {
             Request::Goal(h) => spawn(h),
-            Request::Cancel(h) => {
+            Request::Cancel(h, _) => {
                 if let Some(tx) = cancels
                     .lock()
                     .unwrap_or_else(|p| p.into_inner())

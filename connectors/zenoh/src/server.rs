@@ -37,6 +37,9 @@ pub struct ServerOptions {
     pub store: Option<sled::Tree>,
     /// Extra acceptance rule after the type checks.
     pub accept: Option<AcceptFn>,
+    /// This server's instance, when several serve the same server id at once (ground
+    /// stations): each announces its actions under its own liveliness token.
+    pub instance: Option<String>,
 }
 
 /// Why the server could not start.
@@ -58,8 +61,9 @@ pub enum ServerError {
 pub enum Request {
     /// Run this goal (already accepted).
     Goal(GoalHandle),
-    /// Stop this goal; answer with [`GoalHandle::canceled`] (or finish it if too late).
-    Cancel(GoalHandle),
+    /// Stop this goal; answer with [`GoalHandle::canceled`] (or finish it if too late). The
+    /// reason, when the canceller gave one, is for the people at the server.
+    Cancel(GoalHandle, Option<String>),
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -310,6 +314,15 @@ impl Inner {
             Ok(p) => p,
             Err(e) => return refuse(query, &e),
         };
+        let reason = match query.payload().map(|p| p.to_bytes()) {
+            Some(bytes) if !bytes.is_empty() => {
+                match wire::parse::<wire::CancelRequest>("cancel", &key, &bytes) {
+                    Ok(r) => Some(r.reason),
+                    Err(e) => return refuse(query, &e.to_string()),
+                }
+            }
+            _ => None,
+        };
         let (answer, first) = match self.table().get(&goal_id).map(|e| e.status) {
             None => (CancelReply::UnknownGoal, false),
             Some(s) if s.is_terminal() => (CancelReply::Terminated, false),
@@ -324,7 +337,7 @@ impl Inner {
             self.publish_now(&action, &status);
             let handle = self.table().get(&goal_id).map(|e| self.handle(&goal_id, e));
             if let Some(h) = handle {
-                let _ = self.requests.send(Request::Cancel(h));
+                let _ = self.requests.send(Request::Cancel(h, reason));
             }
         }
     }
@@ -483,11 +496,18 @@ impl ActionServer {
                 .map_err(z)?,
         );
         let mut tokens = Vec::new();
+        if let Some(i) = &opts.instance {
+            connector_api::keys::check_chunk(i)?;
+        }
         for a in &opts.catalogue.actions {
+            let token = match &opts.instance {
+                Some(i) => opts.keys.alive_action_by(&server, &a.name, i),
+                None => opts.keys.alive_action(&server, &a.name),
+            };
             tokens.push(
                 session
                     .liveliness()
-                    .declare_token(opts.keys.alive_action(&server, &a.name))
+                    .declare_token(token)
                     .await
                     .map_err(z)?,
             );

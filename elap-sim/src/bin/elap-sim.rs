@@ -158,6 +158,7 @@ async fn main() -> anyhow::Result<()> {
             catalogue: catalogue(),
             store: goals,
             accept: None,
+            instance: None,
         },
     )
     .await?;
@@ -180,7 +181,7 @@ async fn main() -> anyhow::Result<()> {
         tokio::select! {
             r = requests.recv() => match r {
                 Some(Request::Goal(h)) => start(h),
-                Some(Request::Cancel(h)) => {
+                Some(Request::Cancel(h, _)) => {
                     if let Some(tx) = cancels.lock().unwrap_or_else(|p| p.into_inner()).remove(&h.goal_id) {
                         let _ = tx.send(true);
                     }

@@ -60,8 +60,8 @@ pub struct Setup<'a> {
     pub speed: f64,
     /// Zenoh flags.
     pub zenoh: &'a ZenohArgs,
-    /// Who we are on Zenoh.
-    pub client: String,
+    /// The mission id (goal ids start with it; we are `exec-<mission>` on Zenoh).
+    pub mission: String,
     /// How long to wait for each system's catalogue.
     pub catalogue_wait: Duration,
 }
@@ -96,6 +96,7 @@ impl Connectors {
                     deadband: Default::default(),
                     grace_ms: 0,
                     clock: false,
+                    answers: false,
                 }],
             },
         };
@@ -141,7 +142,8 @@ impl Connectors {
                         ClientOptions {
                             keys: keys.clone(),
                             config: c.clone(),
-                            client: setup.client.clone(),
+                            client: format!("exec-{}", setup.mission),
+                            mission: setup.mission.clone(),
                             catalogue_wait: setup.catalogue_wait,
                             query_timeout: Duration::from_secs(5),
                         },

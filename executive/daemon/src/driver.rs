@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
 
-use connector_api::{Command, Report};
+use connector_api::{Command, Report, Verdict};
 use connector_zenoh::ZenohArgs;
 use executive_engine::{
     Action, Engine, Event, Input, Millis, Outcome, TaskKey, TimerKey, Value, Vars,
@@ -229,6 +229,8 @@ struct Driver {
     last_at: Millis,
     flights: BTreeMap<TaskKey, Flight>,
     goals: HashMap<String, TaskKey>,
+    /// Operators' answers waiting to be stepped, each with the verdict its sender waits for.
+    answers: Vec<(String, Event, Verdict)>,
     snapshot_every: u64,
 }
 
@@ -285,7 +287,7 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
             effects: &effects,
             speed: opts.speed.max(1e-6),
             zenoh: &opts.zenoh,
-            client: format!("exec-{mission}"),
+            mission: mission.clone(),
             catalogue_wait: opts.catalogue_wait,
         },
         reports_tx,
@@ -401,6 +403,7 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
         last_at: 0,
         flights: BTreeMap::new(),
         goals: HashMap::new(),
+        answers: Vec::new(),
         snapshot_every: opts.snapshot_every.max(1),
     };
     if let Some(c) = system_clock {
@@ -495,6 +498,7 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
             }
         }
         d.feed_all(events)?;
+        d.apply_answers()?;
     }
     d.store.flush()?;
     d.connectors.close().await;
@@ -555,6 +559,33 @@ impl Driver {
                 tracing::debug!(goal_id, "goal cancelled");
                 None
             }
+            Report::Answer {
+                goal_id,
+                fields,
+                operator,
+                verdict,
+            } => {
+                let task = match self.goals.get(&goal_id) {
+                    Some(t) if self.flights.get(t).is_some_and(|f| f.user) => *t,
+                    _ => {
+                        verdict.give(Err(format!("user task `{goal_id}` is not open")));
+                        return None;
+                    }
+                };
+                match serde_json::from_value::<Vars>(serde_json::Value::Object(fields)) {
+                    Ok(answer) => self.answers.push((
+                        goal_id,
+                        Event::UserTaskAnswered {
+                            task,
+                            answer,
+                            operator,
+                        },
+                        verdict,
+                    )),
+                    Err(e) => verdict.give(Err(format!("the answer's values do not convert: {e}"))),
+                }
+                None
+            }
             Report::Done { goal_id, outputs } => {
                 let task = self.goals.remove(&goal_id)?;
                 let flight = self.flights.remove(&task)?;
@@ -606,9 +637,34 @@ impl Driver {
         }
     }
 
-    /// Inputs stepped in order, committed together (one flush), then acted on.
-    fn feed_all(&mut self, events: Vec<Event>) -> Result<(), RunError> {
+    /// Operators' answers, one step each: the verdict goes back once the step is committed
+    /// (applied) or refused by the engine (nothing changed) — a task closed meanwhile by a
+    /// boundary event refuses the answer.
+    fn apply_answers(&mut self) -> Result<(), RunError> {
+        for (goal_id, event, verdict) in std::mem::take(&mut self.answers) {
+            // Out of flight first, so closing the answered task withdraws it from no station.
+            let task = self.goals.remove(&goal_id);
+            let flight = task.and_then(|t| self.flights.remove(&t));
+            let refused = self.feed_all(vec![event])?.pop().flatten();
+            match refused {
+                None => verdict.give(Ok(())),
+                Some(reason) => {
+                    if let (Some(task), Some(flight)) = (task, flight) {
+                        self.goals.insert(goal_id, task);
+                        self.flights.insert(task, flight);
+                    }
+                    verdict.give(Err(reason));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Inputs stepped in order, committed together (one flush), then acted on. Returns, per
+    /// input, why the engine refused it (`None`: stepped).
+    fn feed_all(&mut self, events: Vec<Event>) -> Result<Vec<Option<String>>, RunError> {
         let mut steps = Vec::with_capacity(events.len());
+        let mut refusals = Vec::with_capacity(events.len());
         for event in events {
             if let Event::TimerFired { timer } = &event {
                 self.timers.remove(timer);
@@ -623,12 +679,16 @@ impl Driver {
                     self.seq = input.seq;
                     self.last_at = input.at;
                     steps.push((input, actions));
+                    refusals.push(None);
                 }
-                Err(rejected) => tracing::warn!(%rejected, "input refused"),
+                Err(rejected) => {
+                    tracing::warn!(%rejected, "input refused");
+                    refusals.push(Some(rejected.to_string()));
+                }
             }
         }
         if steps.is_empty() {
-            return Ok(());
+            return Ok(refusals);
         }
         self.store.commit_batch(&steps)?;
         let mut snapshot = false;
@@ -641,7 +701,7 @@ impl Driver {
         if snapshot {
             self.store.snapshot(self.seq, self.engine.state())?;
         }
-        Ok(())
+        Ok(refusals)
     }
 
     /// Performs one action; `index` `usize::MAX` for re-commands (nothing to mark done).
@@ -728,15 +788,31 @@ impl Driver {
         }
     }
 
-    /// The goal of a user task: which task (element id and name) and the variables the
-    /// operator sees.
-    fn user_goal(&self, node: executive_model::NodeId, context: Vars) -> Vars {
+    /// The goal of a user task: which task (element id and name), the variables the
+    /// operator sees, and the deadline — the earliest timer boundary on the task (mission
+    /// time), when it has one.
+    fn user_goal(&self, task: TaskKey, node: executive_model::NodeId, context: Vars) -> Vars {
         let n = self.g.node(node);
-        Vars::from([
+        let mut goal = Vars::from([
             ("task".to_owned(), Value::String(n.id.clone())),
             ("name".to_owned(), Value::String(n.label().to_owned())),
             ("context".to_owned(), Value::Map(context)),
-        ])
+        ]);
+        let deadline = self
+            .engine
+            .state()
+            .waits
+            .values()
+            .filter(|w| w.token == Some(task.token))
+            .filter_map(|w| match w.on {
+                executive_engine::On::Timer { due, .. } => Some(due),
+                _ => None,
+            })
+            .min();
+        if let Some(due) = deadline {
+            goal.insert("deadline_ms".to_owned(), Value::Int(due));
+        }
+        goal
     }
 
     /// The resource a user task is routed by: its binding's, else its element id.
@@ -770,7 +846,7 @@ impl Driver {
                 context,
             } => {
                 let resource = self.user_resource(node);
-                let fields = self.user_goal(node, context);
+                let fields = self.user_goal(task, node, context);
                 self.command(task, &resource, fields, true, reconcile);
             }
             _ => {}

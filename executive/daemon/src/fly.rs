@@ -1,5 +1,5 @@
 //! `trace fly`: one command for a whole mission on one host — starts the lander simulator and
-//! the policy ground responder as separate processes, runs the executive against them over
+//! a ground station answering by policy as separate processes, runs the executive against them over
 //! Zenoh (embedded defaults: peers on loopback, no router), shows progress from the execution
 //! record as the mission advances, and ends with a summary.
 
@@ -26,9 +26,13 @@ pub struct FlyOptions {
     /// Connector configuration.
     #[arg(long, default_value = "deploy/connectors.toml")]
     pub connectors: PathBuf,
-    /// The ground responder's policy (a mock-system definition).
-    #[arg(long, default_value = "deploy/ground-policy.json")]
-    pub ground: PathBuf,
+    /// The policy of the ground station `trace fly` starts.
+    #[arg(long, default_value = "deploy/ground/policy.toml")]
+    pub ground_policy: PathBuf,
+    /// Start no ground station: answer the user tasks from another terminal with
+    /// `ground-station --interactive`, or let the model's timers decide.
+    #[arg(long)]
+    pub no_ground: bool,
     /// Mission time runs this many times faster than wall time (200000: a 20-day mission in
     /// under 10 s).
     #[arg(long, default_value_t = 200000.0)]
@@ -141,6 +145,7 @@ fn start(program: &str, args: &[String], log: &Path) -> Result<Child, FlyError> 
         reason,
     };
     let log = std::fs::File::create(log).map_err(|e| err(e.to_string()))?;
+    let mut copy = log.try_clone().map_err(|e| err(e.to_string()))?;
     let mut child = Command::new(sibling(program))
         .args(args)
         .stdout(Stdio::piped())
@@ -153,15 +158,16 @@ fn start(program: &str, args: &[String], log: &Path) -> Result<Child, FlyError> 
         })?;
     let mut line = String::new();
     let out = child.stdout.take().ok_or_else(|| err("no stdout".into()))?;
-    std::io::BufReader::new(out)
-        .read_line(&mut line)
-        .map_err(|e| err(e.to_string()))?;
+    let mut out = std::io::BufReader::new(out);
+    out.read_line(&mut line).map_err(|e| err(e.to_string()))?;
     if !line.starts_with("ready") {
         let _ = child.kill();
         return Err(err(
             "exited before serving (see its log in the flight directory)".into(),
         ));
     }
+    // What it prints after that (a ground station's answers) goes to its log.
+    std::thread::spawn(move || std::io::copy(&mut out, &mut copy));
     Ok(child)
 }
 
@@ -226,15 +232,29 @@ fn fly_in(opts: &FlyOptions, dir: &Path) -> Result<(), FlyError> {
     children
         .0
         .push(start("elap-sim", &sim_args, &dir.join("elap-sim.log"))?);
-    children.0.push(start(
-        "trace-mock-system",
-        &[opts.ground.display().to_string(), "-e".into(), hub.clone()],
-        &dir.join("ground.log"),
-    )?);
+    if !opts.no_ground {
+        children.0.push(start(
+            "ground-station",
+            &[
+                "--policy".to_owned(),
+                opts.ground_policy.display().to_string(),
+                "--station".into(),
+                "fly-policy".into(),
+                "-e".into(),
+                hub.clone(),
+            ],
+            &dir.join("ground.log"),
+        )?);
+    }
     let record = dir.join("store").join("record.jsonl");
     println!(
-        "flying {} — simulator, ground responder and executive as separate processes on {hub}",
-        opts.mission.display()
+        "flying {} — simulator, {} and executive as separate processes on {hub}",
+        opts.mission.display(),
+        if opts.no_ground {
+            "no ground station (answer with `ground-station --interactive`)"
+        } else {
+            "a policy ground station"
+        }
     );
     let stop = Arc::new(AtomicBool::new(false));
     let watcher = {

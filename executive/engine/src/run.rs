@@ -344,8 +344,15 @@ impl Run<'_> {
         }
         match task.kind {
             TaskKind::User => {
+                // The operator sees the visible variables and the task's declared inputs.
+                let mut context = self.visible_vars(scope);
+                if let Some(b) = &task.binding {
+                    match self.task_inputs(t, b, context) {
+                        Some(c) => context = c,
+                        None => return,
+                    }
+                }
                 let key = self.next_key(t);
-                let context = self.visible_vars(scope);
                 if let Some(tok) = self.s.tokens.get_mut(&t) {
                     tok.at = At::UserTask(key);
                 }
@@ -423,6 +430,39 @@ impl Run<'_> {
         }
     }
 
+    /// A task's declared inputs evaluated over `into`; a failing input fails the task with
+    /// `TYPE_MISMATCH` (and gives `None`).
+    fn task_inputs(
+        &mut self,
+        t: TokenId,
+        b: &executive_model::binding::TaskBinding,
+        mut into: Vars,
+    ) -> Option<Vars> {
+        let tok = &self.s.tokens[&t];
+        let (scope, node) = (tok.scope, tok.node);
+        for m in &b.inputs {
+            let value = self
+                .eval(scope, &m.source, &mut Vars::new())
+                .and_then(|v| match &m.ty {
+                    Some(ty) => eval::convert(v, ty),
+                    None => Ok(v),
+                });
+            match value {
+                Ok(v) => eval::set_path(&mut into, &m.target, v),
+                Err(e) => {
+                    let message = format!(
+                        "input `{}` of `{}`: {e}",
+                        m.target,
+                        self.g.node(node).label()
+                    );
+                    self.task_error(t, "TYPE_MISMATCH", &message);
+                    return None;
+                }
+            }
+        }
+        Some(into)
+    }
+
     fn dispatch(
         &mut self,
         t: TokenId,
@@ -437,29 +477,10 @@ impl Run<'_> {
             !b.inputs.is_empty() || b.dialect == executive_model::binding::Dialect::Trace
         }) {
             None => self.visible_vars(scope),
-            Some(b) => {
-                let mut request = Vars::new();
-                for m in &b.inputs {
-                    let value =
-                        self.eval(scope, &m.source, &mut Vars::new())
-                            .and_then(|v| match &m.ty {
-                                Some(ty) => eval::convert(v, ty),
-                                None => Ok(v),
-                            });
-                    match value {
-                        Ok(v) => eval::set_path(&mut request, &m.target, v),
-                        Err(e) => {
-                            let message = format!(
-                                "input `{}` of `{}`: {e}",
-                                m.target,
-                                self.g.node(node).label()
-                            );
-                            return self.task_error(t, "TYPE_MISMATCH", &message);
-                        }
-                    }
-                }
-                request
-            }
+            Some(b) => match self.task_inputs(t, b, Vars::new()) {
+                Some(request) => request,
+                None => return,
+            },
         };
         let key = self.next_key(t);
         if let Some(tok) = self.s.tokens.get_mut(&t) {

@@ -40,6 +40,7 @@ async fn main() -> anyhow::Result<()> {
             catalogue: spec.catalogue.clone(),
             store,
             accept: None,
+            instance: None,
         },
     )
     .await?;

@@ -1,0 +1,197 @@
+//! The station on Zenoh: serves the forms as the `ground` server (one more server of the
+//! activity protocol, announced per station so several can run), opens each user task on the
+//! desk, answers by policy where the policy says so, sends operators' answers, and closes tasks
+//! the mission withdrew or another station answered.
+//!
+//! Everything the station does is printed as one line per event (`task 3 open: …`,
+//! `task 3 answered: …`, `task 3 refused: …`, `task 3 closed: …`), for the operator and for
+//! tools that follow the station's output.
+
+use std::io::Write;
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::Duration;
+
+use connector_api::wire::Answer;
+use connector_api::{Catalogue, Fields, Keys};
+use connector_zenoh::{ActionServer, Request, ServerError, ServerOptions};
+use tokio::sync::mpsc;
+use zenoh::Session;
+use zenoh::liveliness::LivelinessToken;
+
+use crate::desk::Desk;
+use crate::policy::{Decision, Policy};
+
+/// How long an answer waits for the executive's verdict.
+const VERDICT_WAIT: Duration = Duration::from_secs(10);
+
+/// A running ground station.
+pub struct Station {
+    session: Session,
+    keys: Keys,
+    forms: Arc<Catalogue>,
+    /// This station's id (key chunk), recorded with every answer it sends.
+    pub id: String,
+    desk: Mutex<Desk>,
+    _server: ActionServer,
+    _alive: LivelinessToken,
+}
+
+/// Prints one event line and flushes (the output may be a pipe or a terminal).
+pub fn say(line: &str) {
+    let mut out = std::io::stdout().lock();
+    let _ = writeln!(out, "{line}");
+    let _ = out.flush();
+}
+
+impl Station {
+    /// Serves the forms as station `id`; the receiver yields the tasks and withdrawals.
+    pub async fn start(
+        session: &Session,
+        keys: Keys,
+        forms: Arc<Catalogue>,
+        id: String,
+        store: Option<sled::Tree>,
+    ) -> Result<(Arc<Station>, mpsc::UnboundedReceiver<Request>), ServerError> {
+        connector_api::keys::check_chunk(&id)?;
+        let (server, requests) = ActionServer::start(
+            session,
+            ServerOptions {
+                keys: keys.clone(),
+                catalogue: (*forms).clone(),
+                store,
+                accept: None,
+                instance: Some(id.clone()),
+            },
+        )
+        .await?;
+        let alive = session
+            .liveliness()
+            .declare_token(keys.alive("ground", &id))
+            .await
+            .map_err(|e| ServerError::Zenoh(e.to_string()))?;
+        let resumed = server.unfinished();
+        let station = Arc::new(Station {
+            session: session.clone(),
+            keys,
+            forms,
+            id,
+            desk: Mutex::new(Desk::default()),
+            _server: server,
+            _alive: alive,
+        });
+        for h in resumed {
+            station.open(h, None).await;
+        }
+        Ok((station, requests))
+    }
+
+    /// The desk of open tasks.
+    pub fn desk(&self) -> MutexGuard<'_, Desk> {
+        self.desk.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// The forms served.
+    pub fn forms(&self) -> &Catalogue {
+        &self.forms
+    }
+
+    /// Handles tasks and withdrawals until the server stops; answers by `policy` where it
+    /// has a rule.
+    pub async fn serve(
+        self: Arc<Self>,
+        mut requests: mpsc::UnboundedReceiver<Request>,
+        policy: Option<Arc<Policy>>,
+    ) {
+        while let Some(r) = requests.recv().await {
+            match r {
+                Request::Goal(h) => self.open(h, policy.clone()).await,
+                Request::Cancel(h, reason) => {
+                    let closed = self.desk().close(&h.goal_id);
+                    if let Some(t) = closed {
+                        h.canceled(Fields::new()).await;
+                        let why = reason.unwrap_or_else(|| "withdrawn".to_owned());
+                        say(&format!("task {} closed: {why}", t.number));
+                    }
+                }
+            }
+        }
+    }
+
+    async fn open(self: &Arc<Self>, h: connector_zenoh::GoalHandle, policy: Option<Arc<Policy>>) {
+        h.executing().await;
+        let (number, line) = match self.desk().open(h.clone()) {
+            Some(t) => (t.number, t.line()),
+            None => return,
+        };
+        say(&format!("task {number} open: {line}"));
+        let Some(policy) = policy else { return };
+        match policy.decide(&h.action, &h.fields) {
+            Decision::Leave => {}
+            Decision::Silent => say(&format!(
+                "task {number} left to the model's timer (policy: silent)"
+            )),
+            Decision::Answer {
+                fields: Err(e), ..
+            } => say(&format!("task {number} not answered by policy: {e}")),
+            Decision::Answer {
+                delay,
+                fields: Ok(fields),
+            } => {
+                let me = Arc::clone(self);
+                tokio::spawn(async move {
+                    tokio::time::sleep(delay).await;
+                    if me.desk().get(number).is_some() {
+                        me.answer(number, fields, &policy.operator).await;
+                    }
+                });
+            }
+        }
+    }
+
+    /// Sends an answer to open task `number` and reports the verdict; `true` if applied.
+    pub async fn answer(&self, number: u32, fields: Fields, operator: &str) -> bool {
+        let Some((goal_id, action, handle)) = self
+            .desk()
+            .get(number)
+            .map(|t| (t.handle.goal_id.clone(), t.handle.action.clone(), t.handle.clone()))
+        else {
+            say(&format!("task {number} refused: no open task has this number"));
+            return false;
+        };
+        let answer = Answer {
+            goal_id: goal_id.clone(),
+            fields: fields.clone(),
+            operator: operator.to_owned(),
+            station: self.id.clone(),
+        };
+        let sent = connector_zenoh::send_answer(
+            &self.session,
+            &self.keys,
+            &self.forms.server,
+            &action,
+            &answer,
+            VERDICT_WAIT,
+        )
+        .await;
+        match sent {
+            Ok(r) if r.applied => {
+                self.desk().close(&goal_id);
+                handle.succeed(fields).await;
+                say(&format!(
+                    "task {number} answered: applied ({operator}@{})",
+                    self.id
+                ));
+                true
+            }
+            Ok(r) => {
+                let reason = r.reason.unwrap_or_else(|| "refused".to_owned());
+                say(&format!("task {number} refused: {reason}"));
+                false
+            }
+            Err(e) => {
+                say(&format!("task {number} refused: {e}"));
+                false
+            }
+        }
+    }
+}
