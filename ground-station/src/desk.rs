@@ -13,6 +13,10 @@ pub struct OpenTask {
     pub number: u32,
     /// The goal: id, action (task type) and fields.
     pub handle: GoalHandle,
+    /// This station's answer is with the executive; a withdrawal waits for its verdict.
+    pub answering: bool,
+    /// Withdrawn (and why) while our answer was with the executive.
+    pub withdrawn: Option<String>,
 }
 
 impl OpenTask {
@@ -78,11 +82,12 @@ impl Desk {
         self.next += 1;
         let number = self.next;
         self.numbers.insert(handle.goal_id.clone(), number);
-        Some(
-            self.open
-                .entry(number)
-                .or_insert(OpenTask { number, handle }),
-        )
+        Some(self.open.entry(number).or_insert(OpenTask {
+            number,
+            handle,
+            answering: false,
+            withdrawn: None,
+        }))
     }
 
     /// Closes the task with this goal id; the task, if it was open.
@@ -94,6 +99,17 @@ impl Desk {
     /// An open task by number.
     pub fn get(&self, number: u32) -> Option<&OpenTask> {
         self.open.get(&number)
+    }
+
+    /// An open task by number, to change.
+    pub fn get_mut(&mut self, number: u32) -> Option<&mut OpenTask> {
+        self.open.get_mut(&number)
+    }
+
+    /// An open task by goal id, to change.
+    pub fn by_goal(&mut self, goal_id: &str) -> Option<&mut OpenTask> {
+        let n = self.numbers.get(goal_id)?;
+        self.open.get_mut(n)
     }
 
     /// The number a goal has (open or closed).

@@ -123,7 +123,10 @@ mod tests {
     #[test]
     fn typed_answers_are_read_and_bad_ones_named() {
         let f = form();
-        let ok = parse_answer(&f, r#"approve=true comment="dig here, not there" site_id=3"#);
+        let ok = parse_answer(
+            &f,
+            r#"approve=true comment="dig here, not there" site_id=3"#,
+        );
         assert_eq!(
             Value::Object(ok.unwrap()),
             json!({"approve": true, "comment": "dig here, not there", "site_id": 3})
@@ -133,21 +136,37 @@ mod tests {
             "fine"
         );
         let err = |t: &str| parse_answer(&f, t).unwrap_err();
-        assert_eq!(err("approve=maybe"), "`approve` must be bool: `maybe` is not one");
+        assert_eq!(
+            err("approve=maybe"),
+            "`approve` must be bool: `maybe` is not one"
+        );
         assert_eq!(err("approve=1"), "`approve` must be bool, got an int");
         assert_eq!(err("comment=x"), "`approve` is missing");
-        assert_eq!(err("approve=true site_id=2.5"), "`site_id` must be int, got an f64");
+        assert_eq!(
+            err("approve=true site_id=2.5"),
+            "`site_id` must be int, got an f64"
+        );
         assert!(err("approve=true colour=red").starts_with("`colour` is not a field"));
-        assert_eq!(err("approve=true approve=false"), "`approve` is given twice");
+        assert_eq!(
+            err("approve=true approve=false"),
+            "`approve` is given twice"
+        );
         assert_eq!(err("approve"), "`approve` is not `field=value`");
-        assert_eq!(err(r#"approve=true comment="open"#), "a quote is not closed");
+        assert_eq!(
+            err(r#"approve=true comment="open"#),
+            "a quote is not closed"
+        );
     }
 
     #[test]
     fn forms_are_described_for_people() {
         assert_eq!(
             describe(&form()),
-            ["approve: bool", "comment: string (optional)", "site_id: int (optional)"]
+            [
+                "approve: bool",
+                "comment: string (optional)",
+                "site_id: int (optional)"
+            ]
         );
     }
 }

@@ -96,7 +96,9 @@ impl Policy {
         let mut rules = HashMap::new();
         for (task, r) in file.task {
             let Some(form) = forms.action(&task) else {
-                problems.push(format!("task `{task}`: no such form in the station's forms"));
+                problems.push(format!(
+                    "task `{task}`: no such form in the station's forms"
+                ));
                 continue;
             };
             for (k, v) in &r.fixed {
@@ -232,7 +234,10 @@ mod tests {
     fn load(text: &str) -> Result<Policy, PolicyError> {
         let dir = std::env::temp_dir().join(format!("policy-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join(format!("{:x}.toml", text.len() * 31 + text.bytes().map(usize::from).sum::<usize>()));
+        let path = dir.join(format!(
+            "{:x}.toml",
+            text.len() * 31 + text.bytes().map(usize::from).sum::<usize>()
+        ));
         std::fs::write(&path, text).unwrap();
         Policy::load(&path, forms())
     }

@@ -106,10 +106,21 @@ impl Station {
             match r {
                 Request::Goal(h) => self.open(h, policy.clone()).await,
                 Request::Cancel(h, reason) => {
-                    let closed = self.desk().close(&h.goal_id);
+                    let why = reason.unwrap_or_else(|| "withdrawn".to_owned());
+                    let closed = {
+                        let mut desk = self.desk();
+                        match desk.by_goal(&h.goal_id) {
+                            // Our own answer's verdict decides (it may be the winner).
+                            Some(t) if t.answering => {
+                                t.withdrawn = Some(why.clone());
+                                None
+                            }
+                            Some(_) => desk.close(&h.goal_id),
+                            None => None,
+                        }
+                    };
                     if let Some(t) = closed {
                         h.canceled(Fields::new()).await;
-                        let why = reason.unwrap_or_else(|| "withdrawn".to_owned());
                         say(&format!("task {} closed: {why}", t.number));
                     }
                 }
@@ -130,9 +141,9 @@ impl Station {
             Decision::Silent => say(&format!(
                 "task {number} left to the model's timer (policy: silent)"
             )),
-            Decision::Answer {
-                fields: Err(e), ..
-            } => say(&format!("task {number} not answered by policy: {e}")),
+            Decision::Answer { fields: Err(e), .. } => {
+                say(&format!("task {number} not answered by policy: {e}"))
+            }
             Decision::Answer {
                 delay,
                 fields: Ok(fields),
@@ -150,13 +161,24 @@ impl Station {
 
     /// Sends an answer to open task `number` and reports the verdict; `true` if applied.
     pub async fn answer(&self, number: u32, fields: Fields, operator: &str) -> bool {
-        let Some((goal_id, action, handle)) = self
-            .desk()
-            .get(number)
-            .map(|t| (t.handle.goal_id.clone(), t.handle.action.clone(), t.handle.clone()))
-        else {
-            say(&format!("task {number} refused: no open task has this number"));
-            return false;
+        let picked = match self.desk().get_mut(number) {
+            Some(t) if t.answering => Err("an answer to it is already with the executive"),
+            Some(t) => {
+                t.answering = true;
+                Ok((
+                    t.handle.goal_id.clone(),
+                    t.handle.action.clone(),
+                    t.handle.clone(),
+                ))
+            }
+            None => Err("no open task has this number"),
+        };
+        let (goal_id, action, handle) = match picked {
+            Ok(p) => p,
+            Err(why) => {
+                say(&format!("task {number} refused: {why}"));
+                return false;
+            }
         };
         let answer = Answer {
             goal_id: goal_id.clone(),
@@ -186,12 +208,33 @@ impl Station {
             Ok(r) => {
                 let reason = r.reason.unwrap_or_else(|| "refused".to_owned());
                 say(&format!("task {number} refused: {reason}"));
+                self.not_applied(number, &handle).await;
                 false
             }
             Err(e) => {
                 say(&format!("task {number} refused: {e}"));
+                self.not_applied(number, &handle).await;
                 false
             }
+        }
+    }
+
+    /// Our answer was not applied: the task is open again, unless it was withdrawn meanwhile.
+    async fn not_applied(&self, number: u32, handle: &connector_zenoh::GoalHandle) {
+        let withdrawn = {
+            let mut desk = self.desk();
+            let why = desk.get_mut(number).and_then(|t| {
+                t.answering = false;
+                t.withdrawn.take()
+            });
+            if why.is_some() {
+                desk.close(&handle.goal_id);
+            }
+            why
+        };
+        if let Some(why) = withdrawn {
+            handle.canceled(Fields::new()).await;
+            say(&format!("task {number} closed: {why}"));
         }
     }
 }

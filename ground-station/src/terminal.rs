@@ -94,7 +94,9 @@ fn show(station: &Station, n: u32) {
     say(&format!("  type      {}", t.handle.action));
     say(&format!("  goal      {}", t.handle.goal_id));
     if let Some(d) = t.deadline() {
-        say(&format!("  deadline  {d} (mission time; then the model decides)"));
+        say(&format!(
+            "  deadline  {d} (mission time; then the model decides)"
+        ));
     }
     let context = serde_json::to_string_pretty(t.context()).unwrap_or_default();
     say("  context");

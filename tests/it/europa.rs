@@ -44,10 +44,7 @@ impl Systems {
             hub,
             "--no-multicast-scouting",
         ];
-        Systems(
-            system("elap-sim", &args),
-            system("ground-station", &ground),
-        )
+        Systems(system("elap-sim", &args), system("ground-station", &ground))
     }
 }
 

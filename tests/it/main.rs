@@ -1,5 +1,5 @@
 //! Integration tier `it`: the loader and the engine against external corpora, the shipped
-//! missions, hostile input, the Zenoh activity protocol and the `trace` command, all in one
+//! missions, hostile input, the Zenoh activity protocol, ground stations and the `trace` command, all in one
 //! test binary.
 
 mod cli;
@@ -8,6 +8,7 @@ mod connectors;
 mod durability;
 mod engine;
 mod europa;
+mod ground;
 mod hostile;
 mod missions;
 mod protocol;

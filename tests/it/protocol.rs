@@ -515,7 +515,7 @@ pub(crate) fn tempdir(name: &str) -> std::path::PathBuf {
     d
 }
 
-async fn router(port: u16) -> Session {
+pub(crate) async fn router(port: u16) -> Session {
     let a = ZenohArgs {
         mode: Some("router".into()),
         ..args(&[endpoint(port)], &[])

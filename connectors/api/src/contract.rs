@@ -96,7 +96,9 @@ pub enum Report {
 /// The executive's verdict on an [`Report::Answer`]: `Ok` once the answer is committed,
 /// `Err(reason)` when it was refused (nothing changed). Given at most once.
 #[derive(Clone)]
-pub struct Verdict(Arc<Mutex<Option<oneshot::Sender<Result<(), String>>>>>);
+pub struct Verdict(Arc<Mutex<Option<VerdictSender>>>);
+
+type VerdictSender = oneshot::Sender<Result<(), String>>;
 
 impl Verdict {
     /// A verdict slot and the receiver the sender of the answer waits on.

@@ -250,7 +250,12 @@ mod tests {
             Some("ground.approve_site")
         );
         assert_eq!(
-            k.goal("ground", "ground.approve_site", Channel::Answer, "m-1.1.2.1"),
+            k.goal(
+                "ground",
+                "ground.approve_site",
+                Channel::Answer,
+                "m-1.1.2.1"
+            ),
             "trace/act/ground/ground.approve_site/answer/m-1.1.2.1"
         );
         assert_eq!(

@@ -48,12 +48,10 @@ pub async fn send_answer(
         .await
         .map_err(|_| AnswerError::NoExecutive(wait))?;
     match reply.result() {
-        Ok(sample) => wire::parse::<AnswerReply>(
-            "answer reply",
-            &key,
-            &sample.payload().to_bytes(),
-        )
-        .map_err(|e| AnswerError::Reply(e.to_string())),
+        Ok(sample) => {
+            wire::parse::<AnswerReply>("answer reply", &key, &sample.payload().to_bytes())
+                .map_err(|e| AnswerError::Reply(e.to_string()))
+        }
         Err(e) => {
             let text = String::from_utf8_lossy(&e.payload().to_bytes()).into_owned();
             if text == "Timeout" {

@@ -18,8 +18,8 @@ use std::time::Duration;
 
 use connector_api::contract::BoxFuture;
 use connector_api::wire::{
-    self, Answer, AnswerReply, CancelReply, CancelRequest, FeedbackMsg, Goal, GoalReply,
-    ResultMsg, StateReply, StatusMsg, Telemetry, codes,
+    self, Answer, AnswerReply, CancelReply, CancelRequest, FeedbackMsg, Goal, GoalReply, ResultMsg,
+    StateReply, StatusMsg, Telemetry, codes,
 };
 use connector_api::{
     Catalogue, Channel, Command, Connector, ConnectorConfig, ConnectorError, Keys, Report, Reports,
@@ -70,6 +70,8 @@ struct State {
     last_data: HashMap<String, Value>,
     /// Ground stations: why a user task is no longer open, for refusing late answers.
     closed: HashMap<String, String>,
+    /// Ground stations: answers being decided (their replies are sent before closing).
+    answering: Vec<tokio::task::JoinHandle<()>>,
 }
 
 impl State {
@@ -145,7 +147,10 @@ impl Shared {
     /// station's task closes only through an answer query, never through a published result.
     fn deliver(&self, r: ResultMsg) {
         if self.opts.config.answers {
-            return tracing::debug!(goal_id = r.goal_id, "ground result ignored: answers close tasks");
+            return tracing::debug!(
+                goal_id = r.goal_id,
+                "ground result ignored: answers close tasks"
+            );
         }
         let Some(flight) = self.state().flights.remove(&r.goal_id) else {
             return;
@@ -223,27 +228,38 @@ impl Shared {
             self.clone().retry_later(command);
             return;
         };
-        match reply.result() {
-            Ok(sample) => match wire::parse::<GoalReply>("goal reply", &key, &payload(sample)) {
-                Ok(r) => self.on_goal_reply(r),
-                Err(e) => {
-                    self.state().flights.remove(&command.goal_id);
-                    self.fail(&command.goal_id, codes::REJECTED, e.to_string());
+        let reply = match reply.result() {
+            Ok(sample) => wire::parse::<GoalReply>("goal reply", &key, &payload(sample))
+                .map_err(|e| e.to_string()),
+            Err(err) => Err(String::from_utf8_lossy(&err.payload().to_bytes()).into_owned()),
+        };
+        if self.opts.config.answers {
+            // Every station replies; the task is open if any station took it.
+            let mut replies_left = Vec::new();
+            while let Ok(more) = replies.recv_async().await {
+                if let Ok(sample) = more.result()
+                    && let Ok(r) = wire::parse::<GoalReply>("goal reply", &key, &payload(sample))
+                {
+                    replies_left.push(r);
                 }
-            },
-            Err(err) => {
-                let text = String::from_utf8_lossy(&err.payload().to_bytes()).into_owned();
-                if text == "Timeout" {
-                    tracing::warn!(key, "goal timed out; retrying");
-                    self.clone().retry_later(command);
-                } else {
-                    self.state().flights.remove(&command.goal_id);
-                    self.fail(
-                        &command.goal_id,
-                        codes::REJECTED,
-                        format!("`{}` refused the goal: {text}", self.server()),
-                    );
-                }
+            }
+            if let Some(taken) = replies_left.iter().find(|r| r.status != Status::Rejected) {
+                return self.on_goal_reply(taken.clone());
+            }
+        }
+        match reply {
+            Ok(r) => self.on_goal_reply(r),
+            Err(text) if text == "Timeout" => {
+                tracing::warn!(key, "goal timed out; retrying");
+                self.clone().retry_later(command);
+            }
+            Err(text) => {
+                self.state().flights.remove(&command.goal_id);
+                self.fail(
+                    &command.goal_id,
+                    codes::REJECTED,
+                    format!("`{}` refused the goal: {text}", self.server()),
+                );
             }
         }
     }
@@ -374,9 +390,9 @@ impl Shared {
         else {
             return;
         };
-        if let Ok(reply) = replies.recv_async().await
-            && let Ok(sample) = reply.result()
-        {
+        // Ground stations all reply; any other server once.
+        while let Ok(reply) = replies.recv_async().await {
+            let Ok(sample) = reply.result() else { continue };
             self.state().cancels.remove(&goal_id);
             match wire::parse::<CancelReply>("cancel reply", &key, &payload(sample)) {
                 Ok(r) => tracing::info!(goal_id, reply = ?r, "cancel answered"),
@@ -446,7 +462,9 @@ impl Shared {
             .ok()
             .and_then(|c| c.as_ref()?.action(&action).cloned());
         if let Some(Err(e)) = spec.map(|s| s.check_result(&a.fields)) {
-            return refused(format!("the answer does not fit the form of `{action}`: {e}"));
+            return refused(format!(
+                "the answer does not fit the form of `{action}`: {e}"
+            ));
         }
         let operator = format!("{}@{}", a.operator, a.station);
         let (verdict, decided) = Verdict::new();
@@ -464,9 +482,10 @@ impl Shared {
                     s.flights.remove(&goal_id);
                     s.closed.insert(goal_id.clone(), why.clone());
                 }
-                // Every other station drops the task (the winner's reply tells it first).
-                self.rt
-                    .spawn(Arc::clone(self).cancel(goal_id.clone(), action, Some(why)));
+                // Every other station drops the task, then the winner hears it won.
+                Arc::clone(self)
+                    .cancel(goal_id.clone(), action, Some(why))
+                    .await;
                 AnswerReply {
                     goal_id,
                     applied: true,
@@ -517,11 +536,17 @@ impl Shared {
                     self.rt.spawn(Arc::clone(self).reconcile(c));
                 }
                 for g in cancels {
-                    self.rt.spawn(Arc::clone(self).cancel(g, action.clone(), None));
+                    self.rt
+                        .spawn(Arc::clone(self).cancel(g, action.clone(), None));
                 }
             }
             SampleKind::Delete => {
-                tracing::warn!(connector = self.name(), action, key, "action no longer served");
+                tracing::warn!(
+                    connector = self.name(),
+                    action,
+                    key,
+                    "action no longer served"
+                );
                 if let Some(tokens) = s.alive.get_mut(&action) {
                     tokens.remove(key);
                 }
@@ -713,8 +738,10 @@ impl ZenohConnector {
                     .declare_queryable(ke)
                     .complete(true)
                     .callback(move |q| {
-                        let me = Arc::clone(&me);
-                        me.rt.clone().spawn(async move { me.on_answer(q).await });
+                        let handle = me.rt.spawn(Arc::clone(&me).on_answer(q));
+                        let mut s = me.state();
+                        s.answering.retain(|h| !h.is_finished());
+                        s.answering.push(handle);
                     })
                     .await
                     .map_err(z)?,
@@ -829,9 +856,11 @@ impl Connector for ZenohConnector {
         let alive = s.served(&action);
         drop(s);
         if alive {
-            self.shared
-                .rt
-                .spawn(Arc::clone(&self.shared).cancel(goal_id.to_owned(), action, reason));
+            self.shared.rt.spawn(Arc::clone(&self.shared).cancel(
+                goal_id.to_owned(),
+                action,
+                reason,
+            ));
         }
     }
 
@@ -860,6 +889,16 @@ impl Connector for ZenohConnector {
                 && let Err(e) = q.undeclare().await
             {
                 tracing::debug!(error = %e, "undeclare failed");
+            }
+            // Answers being decided still get their replies (the last answer of a mission ends
+            // it, and its station must hear that it was applied).
+            let answering = std::mem::take(&mut self.shared.state().answering);
+            let deadline = tokio::time::Instant::now() + self.shared.opts.query_timeout;
+            for h in answering {
+                if tokio::time::timeout_at(deadline, h).await.is_err() {
+                    tracing::warn!("an answer's reply was not sent before closing");
+                    break;
+                }
             }
             for s in self.subscribers.drain(..) {
                 if let Err(e) = s.undeclare().await {

@@ -504,13 +504,7 @@ impl ActionServer {
                 Some(i) => opts.keys.alive_action_by(&server, &a.name, i),
                 None => opts.keys.alive_action(&server, &a.name),
             };
-            tokens.push(
-                session
-                    .liveliness()
-                    .declare_token(token)
-                    .await
-                    .map_err(z)?,
-            );
+            tokens.push(session.liveliness().declare_token(token).await.map_err(z)?);
         }
         tracing::info!(
             server,

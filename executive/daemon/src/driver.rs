@@ -108,6 +108,8 @@ struct Flight {
     goal_id: String,
     resource: String,
     user: bool,
+    /// The last feedback (progress and fields), for monitors.
+    feedback: Option<serde_json::Value>,
 }
 
 /// FNV-1a: a stable digest of the model bytes, to recognise the mission a store belongs to.
@@ -501,6 +503,16 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
         d.apply_answers()?;
     }
     d.store.flush()?;
+    // Answers that arrived too late are refused, so their stations hear it before we leave.
+    reports.close();
+    while let Ok(r) = reports.try_recv() {
+        if let Report::Answer { verdict, .. } = r {
+            verdict.give(Err("the mission has ended".to_owned()));
+        }
+    }
+    for (_, _, verdict) in d.answers.drain(..) {
+        verdict.give(Err("the mission has ended".to_owned()));
+    }
     d.connectors.close().await;
     let outcomes = d
         .engine
@@ -552,6 +564,9 @@ impl Driver {
             } => {
                 let task = task_of(&self.goals, &goal_id)?;
                 let body = serde_json::json!({ "progress_pct": progress_pct, "fields": fields });
+                if let Some(f) = self.flights.get_mut(&task) {
+                    f.feedback = Some(body.clone());
+                }
                 self.note("feedback", task, &goal_id, body);
                 None
             }
@@ -751,8 +766,18 @@ impl Driver {
             .flights
             .iter()
             .map(|(task, f)| {
-                serde_json::json!({"task": task.to_string(), "goal": f.goal_id,
-                    "resource": f.resource, "user_task": f.user})
+                let node = self.engine.state().tokens.get(&task.token).map(|t| t.node);
+                let mut v = serde_json::json!({"task": task.to_string(), "goal": f.goal_id,
+                    "resource": f.resource, "user_task": f.user, "feedback": f.feedback,
+                    "element": node.map(|n| self.g.node(n).label())});
+                if f.user
+                    && let Some(n) = node
+                    && let Some(Value::Int(due)) =
+                        self.user_goal(*task, n, Vars::new()).get("deadline_ms")
+                {
+                    v["deadline_ms"] = serde_json::json!(due);
+                }
+                v
             })
             .collect();
         crate::monitor::snapshot(&self.mission, &self.engine, self.last_at, in_flight)
@@ -897,6 +922,7 @@ impl Driver {
                 goal_id,
                 resource: resource.to_owned(),
                 user,
+                feedback: None,
             },
         );
         let c = &mut self.connectors.list[route.connector];

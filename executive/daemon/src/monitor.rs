@@ -86,6 +86,21 @@ pub fn snapshot(mission: &str, engine: &Engine, mission_ms: i64, in_flight: Vec<
         .iter()
         .map(|(id, i)| json!({ "instance": id.0, "outcome": i.outcome }))
         .collect();
+    // The variables decisions read: those in sequence-flow conditions, as they are now.
+    let read: std::collections::BTreeSet<&str> = g
+        .flows
+        .iter()
+        .filter_map(|f| f.condition.as_ref())
+        .flat_map(|c| c.variables.iter().map(String::as_str))
+        .collect();
+    let mut decision_vars = BTreeMap::new();
+    for scope in s.scopes.values() {
+        for (k, v) in &scope.vars {
+            if read.contains(k.as_str()) {
+                decision_vars.insert(k.as_str(), v);
+            }
+        }
+    }
     json!({
         "mission": mission,
         "seq": s.last_seq,
@@ -93,7 +108,103 @@ pub fn snapshot(mission: &str, engine: &Engine, mission_ms: i64, in_flight: Vec<
         "instances": instances,
         "tokens": tokens,
         "in_flight": in_flight,
+        "decision_vars": decision_vars,
         "data": s.data,
+    })
+}
+
+/// The live view of a snapshot: where the mission is, what runs, what waits for the ground,
+/// and the values its decisions read.
+pub fn board(snapshot: &Value) -> String {
+    let mut out = String::new();
+    let mut line = |s: String| {
+        out.push_str(&s);
+        out.push('\n');
+    };
+    let at = snapshot["mission_ms"]
+        .as_i64()
+        .and_then(chrono::DateTime::from_timestamp_millis)
+        .map(|t| t.format("%Y-%m-%dT%H:%M:%SZ").to_string())
+        .unwrap_or_default();
+    line(format!(
+        "── {} · step {} · mission time {at}",
+        snapshot["mission"].as_str().unwrap_or("?"),
+        snapshot["seq"]
+    ));
+    for i in snapshot["instances"].as_array().into_iter().flatten() {
+        let status = match &i["outcome"] {
+            Value::Null => "running".to_owned(),
+            o => format!(
+                "ended: {}",
+                o.as_str().map_or_else(|| o.to_string(), str::to_owned)
+            ),
+        };
+        line(format!("   instance {}: {status}", i["instance"]));
+    }
+    let active: Vec<String> = snapshot["tokens"]
+        .as_object()
+        .into_iter()
+        .flatten()
+        .map(|(e, n)| format!("{e} ×{n}"))
+        .collect();
+    line(format!("   active: {}", active.join(", ")));
+    let flights = snapshot["in_flight"]
+        .as_array()
+        .cloned()
+        .unwrap_or_default();
+    for f in flights.iter().filter(|f| f["user_task"] != true) {
+        let progress = f["feedback"]["progress_pct"]
+            .as_f64()
+            .map(|p| format!(" {p:.0} %"))
+            .unwrap_or_default();
+        line(format!(
+            "   in flight: {}{progress} ({})",
+            f["resource"].as_str().unwrap_or("?"),
+            f["element"].as_str().unwrap_or("?")
+        ));
+    }
+    for f in flights.iter().filter(|f| f["user_task"] == true) {
+        let deadline = f["deadline_ms"]
+            .as_i64()
+            .and_then(chrono::DateTime::from_timestamp_millis)
+            .map(|t| format!(", deadline {}", t.format("%Y-%m-%dT%H:%M:%SZ")))
+            .unwrap_or_default();
+        line(format!(
+            "   open user task: {} ({}{deadline})",
+            f["element"].as_str().unwrap_or("?"),
+            f["goal"].as_str().unwrap_or("?")
+        ));
+    }
+    // System data is the newest value of a key a scope may also hold.
+    let values: BTreeMap<&String, &Value> = snapshot["decision_vars"]
+        .as_object()
+        .into_iter()
+        .flatten()
+        .chain(snapshot["data"].as_object().into_iter().flatten())
+        .collect();
+    let values: Vec<String> = values
+        .into_iter()
+        .map(|(k, v)| format!("{k}={}", short(v)))
+        .collect();
+    if !values.is_empty() {
+        line(format!("   decisions read: {}", values.join(", ")));
+    }
+    out
+}
+
+/// How often the readable view shows the board again (when something happened).
+const BOARD_EVERY: std::time::Duration = std::time::Duration::from_secs(2);
+
+/// Asks the executive for its present state.
+async fn state(session: &zenoh::Session, key: &str) -> anyhow::Result<Value> {
+    let replies = session.get(key).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    Ok(match replies.recv_async().await {
+        Ok(r) => r
+            .result()
+            .ok()
+            .and_then(|s| serde_json::from_slice(&s.payload().to_bytes()).ok())
+            .unwrap_or(Value::Null),
+        Err(_) => Value::Null,
     })
 }
 
@@ -108,8 +219,9 @@ pub async fn answer(query: Query, snapshot: Value) {
 }
 
 /// `trace monitor`: finds a running mission (or the one named), prints its present state, then
-/// every record line as it happens — readable, or raw JSON Lines with `jsonl`. Returns when the
-/// mission's executive goes away (or after `lines` record lines, for tools and tests).
+/// every record line as it happens — readable (with the state board again every few seconds
+/// while things happen), or raw JSON Lines with `jsonl`. Returns when the mission's executive
+/// goes away (or after `lines` record lines, for tools and tests; 0: the present state only).
 pub async fn watch(
     zenoh: &ZenohArgs,
     mission: Option<String>,
@@ -151,44 +263,35 @@ pub async fn watch(
         })
         .await
         .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let replies = session
-        .get(keys.exec_state(&mission))
-        .await
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let snapshot: Value = match replies.recv_async().await {
-        Ok(r) => r
-            .result()
-            .ok()
-            .and_then(|s| serde_json::from_slice(&s.payload().to_bytes()).ok())
-            .unwrap_or(Value::Null),
-        Err(_) => Value::Null,
-    };
+    let snapshot = state(&session, &keys.exec_state(&mission)).await?;
     let seq0 = snapshot["seq"].as_u64().unwrap_or(0);
     if jsonl {
         writeln!(out, "{}", json!({ "kind": "snapshot", "state": snapshot }))?;
     } else {
-        writeln!(out, "mission {mission} — now at step {seq0}")?;
-        for (element, n) in snapshot["tokens"].as_object().into_iter().flatten() {
-            writeln!(out, "  active: {element} ×{n}")?;
-        }
-        for f in snapshot["in_flight"].as_array().into_iter().flatten() {
-            writeln!(
-                out,
-                "  in flight: {} ({})",
-                f["resource"].as_str().unwrap_or("?"),
-                f["goal"].as_str().unwrap_or("?")
-            )?;
-        }
+        write!(out, "{}", board(&snapshot))?;
     }
     out.flush()?;
     let mut printed = 0;
-    loop {
+    // The readable view shows the board again every few seconds while lines arrive.
+    let mut refresh = tokio::time::interval(BOARD_EVERY);
+    refresh.tick().await;
+    let mut fresh = true;
+    while lines.is_none_or(|n| printed < n) {
         let line = tokio::select! {
             l = rx.recv() => l,
             a = alive_rx.recv() => match a {
                 Some((id, false)) if id == mission => None,
                 _ => continue,
             },
+            _ = refresh.tick(), if !jsonl => {
+                if !fresh {
+                    let now = state(&session, &keys.exec_state(&mission)).await?;
+                    write!(out, "{}", board(&now))?;
+                    out.flush()?;
+                    fresh = true;
+                }
+                continue;
+            }
         };
         let Some(line) = line else { break };
         let Ok(v) = serde_json::from_str::<Value>(&line) else {
@@ -211,12 +314,18 @@ pub async fn watch(
         }
         out.flush()?;
         printed += 1;
-        if lines.is_some_and(|n| printed >= n) {
-            break;
-        }
+        fresh = false;
     }
     session.close().await.map_err(|e| anyhow::anyhow!("{e}"))?;
     Ok(())
+}
+
+/// A value for people: numbers to two decimals.
+fn short(v: &Value) -> String {
+    match v.as_f64() {
+        Some(f) if v.is_f64() => format!("{f:.2}"),
+        _ => v.to_string(),
+    }
 }
 
 fn describe(v: &Value) -> String {
@@ -232,6 +341,37 @@ fn describe(v: &Value) -> String {
             v["message"].as_str().unwrap_or("")
         ),
         "completed" => v["task"].as_str().unwrap_or("").to_owned(),
+        "feedback" => format!(
+            "{} {}",
+            v["goal"].as_str().unwrap_or("?"),
+            v["progress_pct"]
+                .as_f64()
+                .map(|p| format!("{p:.0} %"))
+                .unwrap_or_default()
+        ),
+        "accepted" => v["goal"].as_str().unwrap_or("?").to_owned(),
+        "data" => format!(
+            "{}={}",
+            v["key"].as_str().unwrap_or("?"),
+            short(&v["value"])
+        ),
+        "took" => v["flow"].as_str().unwrap_or("").to_owned(),
+        "decided" => format!(
+            "{element}: read {}",
+            v["read"]
+                .as_object()
+                .into_iter()
+                .flatten()
+                .map(|(k, x)| format!("{k}={}", short(x)))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+        "user_task_answered" => format!(
+            "{} by {}: {}",
+            v["task"].as_str().unwrap_or("?"),
+            v["operator"].as_str().unwrap_or("?"),
+            v["answer"]
+        ),
         "thrown" | "caught" => format!(
             "{} {} {element}",
             v["what"].as_str().unwrap_or(""),

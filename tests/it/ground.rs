@@ -1,0 +1,582 @@
+//! Ground stations as separate processes answering a running mission's user tasks over Zenoh:
+//! every kind of bad answer refused with the reason and nothing applied, two stations racing
+//! (first valid answer wins, the other is told), and an operator answering at the terminal
+//! through a pseudo-terminal.
+
+use std::io::BufRead;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc;
+use std::time::Duration;
+
+use connector_api::wire::Answer;
+use connector_api::{Channel, Keys};
+use mission_tests::bin;
+use serde_json::{Value, json};
+
+use crate::protocol::{args, endpoint, port, router, tempdir};
+
+/// How long any one expected event may take before the test fails (a hang guard, not a
+/// timing assertion).
+const EVENT: Duration = Duration::from_secs(60);
+
+/// `n` user tasks in parallel (`ground.approve_site`, each showing one candidate site and
+/// guarded by a one-hour timer), then the end.
+fn mission(n: usize) -> String {
+    let mut tasks = String::new();
+    for i in 1..=n {
+        tasks.push_str(&format!(
+            r#"
+    <userTask id="approve{i}" name="Approve site {i}"><extensionElements><trace:task resource="ground.approve_site">
+      <trace:input target="candidates" source='[{{"site_id": {i}, "score": 0.9, "material": "ice"}}]' type="json"/>
+      <trace:output source="approve" target="ok{i}" type="bool"/></trace:task></extensionElements></userTask>
+    <boundaryEvent id="late{i}" attachedToRef="approve{i}"><timerEventDefinition><timeDuration xsi:type="tFormalExpression">PT1H</timeDuration></timerEventDefinition></boundaryEvent>
+    <endEvent id="timeout{i}"/>
+    <sequenceFlow id="a{i}" sourceRef="fork" targetRef="approve{i}"/>
+    <sequenceFlow id="b{i}" sourceRef="approve{i}" targetRef="join"/>
+    <sequenceFlow id="c{i}" sourceRef="late{i}" targetRef="timeout{i}"/>"#
+        ));
+    }
+    // One task needs no gateways (a gateway with one way in and one way out is invalid).
+    let (fork, join) = if n == 1 {
+        ("approve1", "approve1")
+    } else {
+        ("fork", "join")
+    };
+    let gateways = if n == 1 {
+        String::new()
+    } else {
+        r#"<parallelGateway id="fork"/><parallelGateway id="join"/>"#.to_owned()
+    };
+    let tasks = if n == 1 {
+        tasks
+            .replace(
+                r#"<sequenceFlow id="a1" sourceRef="fork" targetRef="approve1"/>"#,
+                "",
+            )
+            .replace(
+                r#"<sequenceFlow id="b1" sourceRef="approve1" targetRef="join"/>"#,
+                "",
+            )
+    } else {
+        tasks
+    };
+    format!(
+        r#"<?xml version="1.0" encoding="UTF-8"?>
+<definitions xmlns="http://www.omg.org/spec/BPMN/20100524/MODEL" xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance" xmlns:trace="urn:trace:bpmn:1.0" id="defs" targetNamespace="urn:ground">
+  <process id="ground" isExecutable="true">
+    <startEvent id="s"/>
+    {gateways}
+    <endEvent id="end"/>
+    <sequenceFlow id="f1" sourceRef="s" targetRef="{fork}"/>
+    <sequenceFlow id="f2" sourceRef="{join}" targetRef="end"/>{tasks}
+  </process>
+</definitions>"#
+    )
+}
+
+const CONNECTORS: &str = r#"
+[[connector]]
+name = "ground"
+kind = "zenoh"
+resources = ["ground.*"]
+answers = true
+grace_ms = 600000
+"#;
+
+/// A mission of `n` user tasks, ready to run in `dir`.
+fn setup(name: &str, n: usize) -> PathBuf {
+    let dir = tempdir(name);
+    std::fs::write(dir.join("mission.bpmn"), mission(n)).expect("mission");
+    std::fs::write(dir.join("connectors.toml"), CONNECTORS).expect("connectors");
+    dir
+}
+
+/// A running executive, killed if the test fails before it ends.
+struct Exec(Option<Child>);
+
+impl Drop for Exec {
+    fn drop(&mut self) {
+        if let Some(mut c) = self.0.take() {
+            let _ = (c.kill(), c.wait());
+        }
+    }
+}
+
+/// `trace run` on the mission in `dir` with these Zenoh endpoint flags.
+fn executive(dir: &Path, zenoh: &[&str]) -> Exec {
+    let child = Command::new(bin("trace"))
+        .arg("run")
+        .arg(dir.join("mission.bpmn"))
+        .arg("--store")
+        .arg(dir.join("store"))
+        .arg("--connectors")
+        .arg(dir.join("connectors.toml"))
+        .args(zenoh)
+        .arg("--no-multicast-scouting")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("trace run starts");
+    Exec(Some(child))
+}
+
+/// The executive's exit, waited for on a thread so a hang fails the test instead of CI.
+fn exits(mut exec: Exec) -> String {
+    let child = exec.0.take().expect("running");
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = tx.send(child.wait_with_output());
+    });
+    let out = rx
+        .recv_timeout(EVENT)
+        .expect("the mission ends")
+        .expect("trace run");
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(out.status.success(), "{stdout}");
+    stdout
+}
+
+/// A ground station answering by `policy` (TOML text), its output lines on a channel.
+struct Station {
+    child: Child,
+    lines: mpsc::Receiver<String>,
+    seen: Vec<String>,
+}
+
+impl Station {
+    fn start(dir: &Path, id: &str, policy: &str, zenoh: &[&str]) -> Station {
+        let file = dir.join(format!("{id}.toml"));
+        std::fs::write(&file, policy).expect("policy");
+        let mut child = Command::new(bin("ground-station"))
+            .arg("--policy")
+            .arg(&file)
+            .args(["--station", id, "--no-multicast-scouting"])
+            .args(zenoh)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .expect("ground-station starts");
+        let out = child.stdout.take().expect("stdout");
+        let (tx, lines) = mpsc::channel();
+        std::thread::spawn(move || {
+            for line in std::io::BufReader::new(out).lines().map_while(Result::ok) {
+                if tx.send(line).is_err() {
+                    break;
+                }
+            }
+        });
+        let mut s = Station {
+            child,
+            lines,
+            seen: Vec::new(),
+        };
+        s.expect(|l| l.starts_with("ready ground"));
+        s
+    }
+
+    /// Waits for a line matching `what`; returns it.
+    fn expect(&mut self, what: impl Fn(&str) -> bool) -> String {
+        loop {
+            let line = self
+                .lines
+                .recv_timeout(EVENT)
+                .unwrap_or_else(|e| panic!("{e}; station said so far: {:#?}", self.seen));
+            self.seen.push(line.clone());
+            if what(&line) {
+                return line;
+            }
+        }
+    }
+}
+
+impl Drop for Station {
+    fn drop(&mut self) {
+        let _ = (self.child.kill(), self.child.wait());
+    }
+}
+
+fn record(dir: &Path) -> Vec<Value> {
+    std::fs::read_to_string(dir.join("store/record.jsonl"))
+        .unwrap_or_default()
+        .lines()
+        .filter_map(|l| serde_json::from_str(l).ok())
+        .collect()
+}
+
+fn answered(dir: &Path) -> Vec<Value> {
+    record(dir)
+        .into_iter()
+        .filter(|v| v["kind"] == "user_task_answered")
+        .collect()
+}
+
+/// Waits until `session` sees a liveliness token on `key`.
+async fn seen(session: &zenoh::Session, key: &str) {
+    let (tx, rx) = tokio::sync::oneshot::channel();
+    let tx = std::sync::Mutex::new(Some(tx));
+    let _sub = session
+        .liveliness()
+        .declare_subscriber(key)
+        .history(true)
+        .callback(move |_| {
+            if let Some(tx) = tx.lock().ok().and_then(|mut t| t.take()) {
+                let _ = tx.send(());
+            }
+        })
+        .await
+        .expect("liveliness subscriber");
+    tokio::time::timeout(EVENT, rx)
+        .await
+        .unwrap_or_else(|_| panic!("{key} is not seen"))
+        .expect("seen");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn every_bad_answer_is_refused_with_its_reason_and_changes_nothing() {
+    // Two tasks: the second keeps the mission running after the first is answered.
+    let dir = setup("ground-bad", 2);
+    let hub = endpoint(port());
+    // This station's policy never answers: the test is the other station.
+    let mut station = Station::start(
+        &dir,
+        "quiet",
+        "[task.\"ground.approve_site\"]\nsilent = true\n",
+        &["-e", &hub],
+    );
+    let exec = executive(&dir, &["-l", &hub]);
+    let open = station.expect(|l| l.starts_with("task 1 open:"));
+    assert!(
+        open.contains(", ground.approve_site] deadline 20"),
+        "{open}"
+    );
+    station.expect(|l| l.starts_with("task 2 open:"));
+    station.expect(|l| l.contains("left to the model's timer"));
+
+    let session = args(&[], std::slice::from_ref(&hub))
+        .open(connector_zenoh::Role::Spoke)
+        .await
+        .expect("session");
+    let keys = Keys::default();
+    // This session talks to the executive and the station once it knows them (each declares
+    // its liveliness token after its queryables).
+    seen(&session, &keys.alive("exec", "*")).await;
+    seen(&session, &keys.alive("ground", "quiet")).await;
+    // The tasks' goal ids, from the station's goal table.
+    let replies = session
+        .get(keys.goal("ground", "ground.approve_site", Channel::State, "*"))
+        .await
+        .expect("state query");
+    let mut goals = Vec::new();
+    while let Ok(reply) = replies.recv_async().await {
+        let state: Value =
+            serde_json::from_slice(&reply.result().expect("state").payload().to_bytes())
+                .expect("json");
+        goals.push(state["goal_id"].as_str().expect("goal id").to_owned());
+    }
+    assert_eq!(goals.len(), 2, "{goals:?}");
+    let (goal_id, other) = (goals[0].clone(), goals[1].clone());
+    let mission = goal_id.split('.').next().expect("mission id").to_owned();
+
+    let send = |goal_id: &str, fields: Value, operator: &str| {
+        let answer = Answer {
+            goal_id: goal_id.to_owned(),
+            fields: fields.as_object().cloned().unwrap_or_default(),
+            operator: operator.to_owned(),
+            station: "desk-1".to_owned(),
+        };
+        let (session, keys) = (session.clone(), keys.clone());
+        async move {
+            connector_zenoh::send_answer(
+                &session,
+                &keys,
+                "ground",
+                "ground.approve_site",
+                &answer,
+                EVENT,
+            )
+            .await
+            .expect("a verdict")
+        }
+    };
+    // A monitor joining now shows both tasks waiting for the ground, with their deadlines.
+    let monitor = Command::new(bin("trace"))
+        .args([
+            "monitor",
+            "--lines",
+            "0",
+            "-e",
+            &hub,
+            "--no-multicast-scouting",
+        ])
+        .output()
+        .expect("monitor runs");
+    let board = String::from_utf8_lossy(&monitor.stdout).into_owned();
+    for i in [1, 2] {
+        assert!(
+            board.contains(&format!("open user task: Approve site {i} ({mission}.1.")),
+            "{board}"
+        );
+    }
+    assert_eq!(board.matches(", deadline 20").count(), 2, "{board}");
+    assert!(board.contains("instance 1: running"), "{board}");
+    let unknown = format!("{mission}.1.999.1");
+    for (goal, fields, operator, reason) in [
+        (
+            unknown.as_str(),
+            json!({"approve": true}),
+            "ana",
+            "no open user task has goal id",
+        ),
+        (&goal_id, json!({}), "ana", "`approve` is missing"),
+        (
+            &goal_id,
+            json!({"approve": "yes"}),
+            "ana",
+            "`approve` must be bool, got a string",
+        ),
+        (
+            &goal_id,
+            json!({"approve": true, "colour": "red"}),
+            "ana",
+            "`colour` is not a field",
+        ),
+        (
+            &goal_id,
+            json!({"approve": true, "comment": 7}),
+            "ana",
+            "`comment` must be string",
+        ),
+        (
+            &goal_id,
+            json!({"approve": true}),
+            " ",
+            "must name its operator",
+        ),
+    ] {
+        let r = send(goal, fields, operator).await;
+        assert!(!r.applied, "{goal}: applied");
+        let why = r.reason.expect("a reason");
+        assert!(why.contains(reason), "expected `{reason}` in `{why}`");
+    }
+    // Not even an answer: refused with the key named.
+    let key = keys.goal("ground", "ground.approve_site", Channel::Answer, &goal_id);
+    let replies = session
+        .get(&key)
+        .payload(b"{not json".to_vec())
+        .await
+        .expect("get");
+    let reply: Value = serde_json::from_slice(
+        &replies
+            .recv_async()
+            .await
+            .expect("reply")
+            .result()
+            .expect("a refusal is a reply")
+            .payload()
+            .to_bytes(),
+    )
+    .expect("json");
+    assert_eq!(reply["applied"], false);
+    assert!(
+        reply["reason"]
+            .as_str()
+            .is_some_and(|r| r.starts_with(&format!("malformed answer payload on {key}"))),
+        "{reply}"
+    );
+    assert!(
+        answered(&dir).is_empty(),
+        "a refused answer changed the mission"
+    );
+
+    // A valid answer is applied once; the same answer again is refused, naming who answered.
+    let r = send(
+        &goal_id,
+        json!({"approve": true, "comment": "ice, go"}),
+        "ana",
+    )
+    .await;
+    assert!(r.applied, "{r:?}");
+    let again = send(&goal_id, json!({"approve": false}), "ben").await;
+    assert_eq!(
+        again.reason.as_deref(),
+        Some(format!("user task `{goal_id}` is closed: answered by ana@desk-1").as_str())
+    );
+    // The other station is told.
+    station.expect(|l| l.ends_with(" closed: answered by ana@desk-1"));
+    assert!(send(&other, json!({"approve": false}), "ben").await.applied);
+    exits(exec);
+    let answers = answered(&dir);
+    assert_eq!(answers.len(), 2, "{answers:#?}");
+    assert_eq!(answers[0]["operator"], "ana@desk-1");
+    assert_eq!(
+        answers[0]["answer"],
+        json!({"approve": true, "comment": "ice, go"})
+    );
+    assert_eq!(answers[1]["operator"], "ben@desk-1");
+    session.close().await.expect("close");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn two_stations_race_and_the_first_valid_answer_wins() {
+    let n = 3;
+    let dir = setup("ground-race", n);
+    // Stations are clients of a router (as deployed); the executive joins once both are up,
+    // so every station sees every task.
+    let p = port();
+    let hub = endpoint(p);
+    let router = router(p).await;
+    let (up_tx, mut up) = tokio::sync::mpsc::unbounded_channel();
+    let _up = router
+        .liveliness()
+        .declare_subscriber(Keys::default().alive("ground", "*"))
+        .history(true)
+        .callback(move |s| {
+            let _ = up_tx.send(s.key_expr().to_string());
+        })
+        .await
+        .expect("liveliness subscriber");
+    let policy = |operator: &str, approve: bool| {
+        format!(
+            "operator = \"{operator}\"\n[task.\"ground.approve_site\"]\nfixed = {{ approve = {approve} }}\n"
+        )
+    };
+    let client = ["--mode", "client", "-e", &hub];
+    let mut a = Station::start(&dir, "alpha", &policy("amy", true), &client);
+    let mut b = Station::start(&dir, "bravo", &policy("bob", false), &client);
+    let mut seen = std::collections::BTreeSet::new();
+    while seen.len() < 2 {
+        let key = tokio::time::timeout(EVENT, up.recv())
+            .await
+            .expect("stations up");
+        seen.insert(key.expect("token"));
+    }
+    let exec = executive(&dir, &["-e", &hub]);
+    tokio::task::spawn_blocking(move || exits(exec))
+        .await
+        .expect("the mission ends");
+    // Exactly one answer per task, each consistent with the station that gave it.
+    let answers = answered(&dir);
+    assert_eq!(answers.len(), n, "{answers:#?}");
+    let mut wins = [0, 0];
+    for v in &answers {
+        match v["operator"].as_str() {
+            Some("amy@alpha") => {
+                assert_eq!(v["answer"]["approve"], true);
+                wins[0] += 1;
+            }
+            Some("bob@bravo") => {
+                assert_eq!(v["answer"]["approve"], false);
+                wins[1] += 1;
+            }
+            other => panic!("answer by {other:?}"),
+        }
+    }
+    // Each station saw every task and heard its outcome: its answer applied, or who won.
+    for (station, won, other) in [
+        (&mut a, wins[0], "bob@bravo"),
+        (&mut b, wins[1], "amy@alpha"),
+    ] {
+        let mut applied = 0;
+        let mut told = 0;
+        let mut decided = std::collections::BTreeSet::new();
+        while decided.len() < n {
+            let line = station.expect(|l| {
+                l.contains("answered: applied") || l.contains(&format!("answered by {other}"))
+            });
+            let number: u32 = line
+                .trim_start_matches("task ")
+                .split(' ')
+                .next()
+                .and_then(|n| n.parse().ok())
+                .expect("task number");
+            if decided.insert(number) {
+                if line.contains("applied") {
+                    applied += 1;
+                } else {
+                    told += 1;
+                }
+            }
+        }
+        assert_eq!((applied, told), (won, n - won), "{:#?}", station.seen);
+        let opened = station
+            .seen
+            .iter()
+            .filter(|l| l.contains(" open: "))
+            .count();
+        assert_eq!(opened, n, "{:#?}", station.seen);
+    }
+    router.close().await.expect("router closes");
+}
+
+#[test]
+fn an_operator_answers_at_the_terminal_with_typed_fields() {
+    let dir = setup("ground-tty", 1);
+    let hub = endpoint(port());
+    let mut cmd = Command::new(bin("ground-station"));
+    cmd.args([
+        "--interactive",
+        "--operator",
+        "ana",
+        "--station",
+        "console",
+        "-e",
+        &hub,
+        "--no-multicast-scouting",
+    ]);
+    let mut tty = rexpect::session::spawn_command(cmd, Some(EVENT.as_millis() as u64))
+        .expect("ground-station in a pseudo-terminal");
+    tty.exp_string("ready ground console").expect("ready");
+    tty.exp_string("ground> ").expect("prompt");
+    let exec = executive(&dir, &["-l", &hub]);
+    tty.exp_string("task 1 open: Approve site 1")
+        .expect("the task arrives");
+    tty.send_line("list").expect("list");
+    tty.exp_regex(r"1  Approve site 1 \[approve1, ground.approve_site\] deadline \d{4}-")
+        .expect("listed");
+    tty.send_line("show 1").expect("show");
+    for part in [
+        "element   approve1",
+        "\"material\": \"ice\"",
+        "approve: bool",
+        "comment: string (optional)",
+    ] {
+        tty.exp_string(part).expect(part);
+    }
+    for (typed, said) in [
+        (
+            "answer 1 approve=maybe",
+            "not sent: `approve` must be bool: `maybe` is not one",
+        ),
+        ("answer 1 comment=later", "not sent: `approve` is missing"),
+        (
+            "answer 1 approve=true colour=red",
+            "not sent: `colour` is not a field of this form",
+        ),
+        ("answer 4 approve=true", "task 4 is not open"),
+        ("answer one approve=true", "`one` is not a task number"),
+    ] {
+        tty.send_line(typed).expect("typed");
+        tty.exp_string(said).expect(said);
+    }
+    assert!(
+        answered(&dir).is_empty(),
+        "a refused answer changed the mission"
+    );
+    tty.send_line(r#"answer 1 approve=true comment="ice at 3 m""#)
+        .expect("typed");
+    tty.exp_string("task 1 answered: applied (ana@console)")
+        .expect("applied");
+    tty.send_line("list").expect("list");
+    tty.exp_string("no open tasks").expect("closed");
+    exits(exec);
+    let answers = answered(&dir);
+    assert_eq!(answers.len(), 1);
+    assert_eq!(answers[0]["operator"], "ana@console");
+    assert_eq!(
+        answers[0]["answer"],
+        json!({"approve": true, "comment": "ice at 3 m"})
+    );
+    tty.send_line("quit").expect("quit");
+    tty.exp_eof().expect("the station leaves");
+}
