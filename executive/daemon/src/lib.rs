@@ -23,3 +23,4 @@ pub mod record;
 pub mod script;
 pub mod timeline;
 pub mod validate;
+pub mod verify;

@@ -55,6 +55,10 @@ enum Command {
         #[command(flatten)]
         zenoh: connector_zenoh::ZenohArgs,
     },
+    /// Verify a mission model with Spin before it flies: no deadlock, safeness, no dead
+    /// activities, every run ends, no lost signal (exit 0 all hold, 1 violated, 2 incomplete
+    /// or not verifiable).
+    Verify(executive::verify::VerifyOptions),
     /// Write the execution record as a self-contained HTML timeline (opens offline).
     Timeline {
         /// The execution record (JSON Lines).
@@ -175,6 +179,21 @@ fn main() -> anyhow::Result<ExitCode> {
                 &mut stdout,
             ))?;
             Ok(ExitCode::SUCCESS)
+        }
+        Command::Verify(opts) => {
+            let report = match executive::verify::verify(&opts) {
+                Ok(r) => r,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return Ok(ExitCode::from(2));
+                }
+            };
+            if opts.json {
+                println!("{}", serde_json::to_string_pretty(&report)?);
+            } else {
+                executive::verify::print(&report, &mut std::io::stdout().lock())?;
+            }
+            return Ok(ExitCode::from(report.exit_code()));
         }
         Command::Timeline { record, output } => {
             let t = executive::timeline::write(&record, &output)

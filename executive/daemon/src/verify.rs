@@ -1,0 +1,177 @@
+//! `trace verify`: loads and validates a mission model, translates it to PROMELA, checks it with
+//! Spin, and prints every property with its verdict, states and time; a violation's
+//! counterexample is printed as BPMN steps and written as JSON beside the model's PROMELA.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use executive_verify::{Bounds, Limits, Outcome, Verdict};
+
+/// How to verify (the flags of `trace verify`).
+#[derive(Clone, Debug, clap::Args)]
+pub struct VerifyOptions {
+    /// The mission model.
+    pub mission: PathBuf,
+    /// Where the PROMELA model, pan's output, trails and counterexamples go (default:
+    /// `<mission>.verify/` beside the model).
+    #[arg(long)]
+    pub dir: Option<PathBuf>,
+    /// How often a cycle (a retry, a loop body) may repeat per scope activation.
+    #[arg(long, default_value_t = 2)]
+    pub loops: u8,
+    /// pan's maximum search depth.
+    #[arg(long, default_value_t = 1_000_000)]
+    pub depth: u64,
+    /// Print the report as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Why verification could not give verdicts.
+#[derive(Debug, thiserror::Error)]
+pub enum VerifyError {
+    /// The model file could not be read.
+    #[error("{0}")]
+    Read(String),
+    /// The model is invalid.
+    #[error("{path}: the mission model is invalid ({first}); run `trace validate` for every problem")]
+    Invalid {
+        /// The file.
+        path: String,
+        /// Its first error.
+        first: String,
+    },
+    /// Elements the translation does not cover.
+    #[error("{path}: cannot verify these elements:\n{}", .refusals.iter().map(|r| format!("  {r}")).collect::<Vec<_>>().join("\n"))]
+    Refused {
+        /// The file.
+        path: String,
+        /// Every refusal.
+        refusals: Vec<executive_verify::Refusal>,
+    },
+    /// Spin failed.
+    #[error(transparent)]
+    Spin(#[from] executive_verify::SpinError),
+}
+
+/// The result: every property, and where the work files are.
+#[derive(Debug, serde::Serialize)]
+pub struct Report {
+    /// The model.
+    pub mission: String,
+    /// Outcomes in order.
+    pub properties: Vec<Outcome>,
+    /// The work directory.
+    pub dir: PathBuf,
+}
+
+impl Report {
+    /// Exit status: 0 all hold, 1 something violated, 2 something incomplete.
+    pub fn exit_code(&self) -> u8 {
+        if self
+            .properties
+            .iter()
+            .any(|o| o.verdict == Verdict::Violated)
+        {
+            1
+        } else if self
+            .properties
+            .iter()
+            .any(|o| matches!(o.verdict, Verdict::Incomplete(_)))
+        {
+            2
+        } else {
+            0
+        }
+    }
+}
+
+/// Verifies a mission model.
+pub fn verify(opts: &VerifyOptions) -> Result<Report, VerifyError> {
+    let path = &opts.mission;
+    let loaded = crate::validate::load_file(path, &executive_model::Options::default())
+        .map_err(|e| VerifyError::Read(format!("{}: {e}", path.display())))?;
+    let Some(graph) = loaded.graph else {
+        let first = loaded
+            .diagnostics
+            .iter()
+            .find(|d| d.severity == executive_model::Severity::Error)
+            .map(|d| d.message.clone())
+            .unwrap_or_default();
+        return Err(VerifyError::Invalid {
+            path: path.display().to_string(),
+            first,
+        });
+    };
+    let t = executive_verify::translate(&graph, Bounds { loops: opts.loops }).map_err(|refusals| {
+        VerifyError::Refused {
+            path: path.display().to_string(),
+            refusals,
+        }
+    })?;
+    let dir = opts
+        .dir
+        .clone()
+        .unwrap_or_else(|| path.with_extension("verify"));
+    let limits = Limits {
+        depth: opts.depth,
+        ..Limits::default()
+    };
+    let properties = executive_verify::check(&t, &[], &dir, limits)?;
+    for o in &properties {
+        if !o.counterexample.is_empty() {
+            let file = dir.join(format!("{}.counterexample.json", o.name));
+            let _ = std::fs::write(
+                &file,
+                serde_json::to_string_pretty(o).unwrap_or_default(),
+            );
+        }
+    }
+    Ok(Report {
+        mission: path.display().to_string(),
+        properties,
+        dir,
+    })
+}
+
+/// Prints a report for people.
+pub fn print(report: &Report, out: &mut dyn Write) -> std::io::Result<()> {
+    writeln!(out, "verify {} (Spin)", report.mission)?;
+    for o in &report.properties {
+        let verdict = match &o.verdict {
+            Verdict::Holds => "holds".to_owned(),
+            Verdict::Violated => "VIOLATED".to_owned(),
+            Verdict::Incomplete(why) => format!("incomplete ({why})"),
+        };
+        writeln!(
+            out,
+            "  {verdict:<12} {:<20} {} states, {:.2} s — {}",
+            o.name, o.states, o.seconds, o.description
+        )?;
+        if let Some(d) = &o.detail {
+            writeln!(out, "               {d}")?;
+        }
+        if !o.counterexample.is_empty() {
+            writeln!(out, "               counterexample:")?;
+            for (i, s) in o.counterexample.iter().enumerate() {
+                let what = match &s.step {
+                    Some(st) => format!(
+                        "{}{} ({}) {}",
+                        st.path, st.element, st.name, st.phase
+                    ),
+                    None => s.marker.clone(),
+                };
+                let cycle = if s.cycle_start { "  <- cycle starts" } else { "" };
+                writeln!(out, "               {:>3}. {what}{cycle}", i + 1)?;
+            }
+            writeln!(
+                out,
+                "               (JSON: {})",
+                Path::new(&report.dir)
+                    .join(format!("{}.counterexample.json", o.name))
+                    .display()
+            )?;
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,309 @@
+//! `trace verify` with the real Spin: per construct, a small model with a known flaw (deadlock,
+//! dead activity, unsafe merge, lost signal) and its fixed version get exactly the expected
+//! verdicts and readable BPMN counterexamples; the Europa mission translates and verifies.
+
+use std::collections::BTreeMap;
+use std::process::Command;
+
+use mission_tests::{bin, repo};
+use serde_json::Value;
+
+use crate::protocol::tempdir;
+
+const HEAD: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
+<definitions xmlns="http://www.omg.org/spec/BPMN/20100524/MODEL" xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance" id="d" targetNamespace="urn:verify">"#;
+
+fn model(body: &str) -> String {
+    format!("{HEAD}\n{body}\n</definitions>")
+}
+
+/// An exclusive choice between two tasks, then `join` (a parallel join deadlocks; an exclusive
+/// merge is the fix).
+fn choice(join: &str) -> String {
+    model(&format!(
+        r#"<process id="p" isExecutable="true">
+    <startEvent id="s"/>
+    <exclusiveGateway id="choose" name="Choose tool" default="f3"/>
+    <task id="a" name="Drill"/>
+    <task id="b" name="Scoop"/>
+    <{join} id="join" name="Tool done"/>
+    <endEvent id="e"/>
+    <sequenceFlow id="f1" sourceRef="s" targetRef="choose"/>
+    <sequenceFlow id="f2" sourceRef="choose" targetRef="a"><conditionExpression xsi:type="tFormalExpression">hard</conditionExpression></sequenceFlow>
+    <sequenceFlow id="f3" sourceRef="choose" targetRef="b"/>
+    <sequenceFlow id="f4" sourceRef="a" targetRef="join"/>
+    <sequenceFlow id="f5" sourceRef="b" targetRef="join"/>
+    <sequenceFlow id="f6" sourceRef="join" targetRef="e"/>
+  </process>"#
+    ))
+}
+
+/// Two parallel branches merged by `join`, then one task (an exclusive merge is unsafe; a
+/// parallel join is the fix).
+fn branches(join: &str) -> String {
+    model(&format!(
+        r#"<process id="p" isExecutable="true">
+    <startEvent id="s"/>
+    <parallelGateway id="fork"/>
+    <task id="a" name="Image"/>
+    <task id="b" name="Sound"/>
+    <{join} id="merge" name="Merge"/>
+    <task id="c" name="Downlink"/>
+    <endEvent id="e"/>
+    <sequenceFlow id="f1" sourceRef="s" targetRef="fork"/>
+    <sequenceFlow id="f2" sourceRef="fork" targetRef="a"/>
+    <sequenceFlow id="f3" sourceRef="fork" targetRef="b"/>
+    <sequenceFlow id="f4" sourceRef="a" targetRef="merge"/>
+    <sequenceFlow id="f5" sourceRef="b" targetRef="merge"/>
+    <sequenceFlow id="f6" sourceRef="merge" targetRef="c"/>
+    <sequenceFlow id="f7" sourceRef="c" targetRef="e"/>
+  </process>"#
+    ))
+}
+
+/// A sub-process whose error boundary leads to Free Tool; inside, `task` (a script task cannot
+/// fail, so Free Tool is dead; a task the lander runs can).
+fn fault(script: bool) -> String {
+    let task = if script {
+        r#"<scriptTask id="t" name="Dig" scriptFormat="cel"><script>dug = true</script></scriptTask>"#
+    } else {
+        r#"<task id="t" name="Dig"/>"#
+    };
+    model(&format!(
+        r#"<error id="err" errorCode="TOOL_STUCK"/>
+  <process id="p" isExecutable="true">
+    <startEvent id="s"/>
+    <subProcess id="sp" name="Excavate">
+      <startEvent id="ss"/>
+      {task}
+      <endEvent id="se"/>
+      <sequenceFlow id="g1" sourceRef="ss" targetRef="t"/>
+      <sequenceFlow id="g2" sourceRef="t" targetRef="se"/>
+    </subProcess>
+    <boundaryEvent id="stuck" name="Tool stuck" attachedToRef="sp"><errorEventDefinition errorRef="err"/></boundaryEvent>
+    <task id="h" name="Free Tool"/>
+    <endEvent id="e1"/>
+    <endEvent id="e2"/>
+    <sequenceFlow id="f1" sourceRef="s" targetRef="sp"/>
+    <sequenceFlow id="f2" sourceRef="sp" targetRef="e1"/>
+    <sequenceFlow id="f3" sourceRef="stuck" targetRef="h"/>
+    <sequenceFlow id="f4" sourceRef="h" targetRef="e2"/>
+  </process>"#
+    ))
+}
+
+/// A battery monitor aborting the excavation: by a signal thrown from a parallel branch (lost
+/// when thrown before the excavation starts), or by a level-triggered conditional boundary.
+fn abort(by_signal: bool) -> String {
+    let (decl, monitor, boundary) = if by_signal {
+        (
+            r#"<signal id="sig" name="BatteryLow"/>"#,
+            r#"<intermediateThrowEvent id="throw" name="Battery low"><signalEventDefinition signalRef="sig"/></intermediateThrowEvent>
+    <endEvent id="me"/>
+    <sequenceFlow id="m1" sourceRef="fork" targetRef="throw"/>
+    <sequenceFlow id="m2" sourceRef="throw" targetRef="me"/>"#,
+            r#"<signalEventDefinition signalRef="sig"/>"#,
+        )
+    } else {
+        (
+            "",
+            "",
+            r#"<conditionalEventDefinition><condition xsi:type="tFormalExpression">battery_soc_pct &lt; 30.0</condition></conditionalEventDefinition>"#,
+        )
+    };
+    let (gateway, entry) = if by_signal {
+        (
+            r#"<parallelGateway id="fork"/>
+    <sequenceFlow id="f1" sourceRef="s" targetRef="fork"/>
+    <sequenceFlow id="f2" sourceRef="fork" targetRef="sp"/>"#,
+            "",
+        )
+    } else {
+        ("", r#"<sequenceFlow id="f1" sourceRef="s" targetRef="sp"/>"#)
+    };
+    model(&format!(
+        r#"{decl}
+  <process id="p" isExecutable="true">
+    <startEvent id="s"/>
+    {gateway}
+    <subProcess id="sp" name="Excavate">
+      <startEvent id="ss"/>
+      <task id="dig" name="Dig"/>
+      <endEvent id="se"/>
+      <sequenceFlow id="g1" sourceRef="ss" targetRef="dig"/>
+      <sequenceFlow id="g2" sourceRef="dig" targetRef="se"/>
+    </subProcess>
+    <boundaryEvent id="abort" name="Abort" attachedToRef="sp">{boundary}</boundaryEvent>
+    <task id="home" name="Stow Arm"/>
+    <endEvent id="e1"/>
+    <endEvent id="e2"/>
+    {monitor}
+    {entry}
+    <sequenceFlow id="f3" sourceRef="sp" targetRef="e1"/>
+    <sequenceFlow id="f4" sourceRef="abort" targetRef="home"/>
+    <sequenceFlow id="f5" sourceRef="home" targetRef="e2"/>
+  </process>"#
+    ))
+}
+
+/// `trace verify --json` on `text`; the exit code and each property's report by name.
+fn verify(name: &str, text: &str) -> (i32, BTreeMap<String, Value>) {
+    let dir = tempdir(&format!("verify-{name}"));
+    let file = dir.join(format!("{name}.bpmn"));
+    std::fs::write(&file, text).expect("model");
+    let out = Command::new(bin("trace"))
+        .arg("verify")
+        .arg(&file)
+        .arg("--json")
+        .output()
+        .expect("trace verify runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let report: Value = serde_json::from_str(&stdout).unwrap_or_else(|e| {
+        panic!("{name}: {e}: {stdout}{}", String::from_utf8_lossy(&out.stderr))
+    });
+    let props = report["properties"]
+        .as_array()
+        .expect("properties")
+        .iter()
+        .map(|p| (p["name"].as_str().expect("name").to_owned(), p.clone()))
+        .collect();
+    (out.status.code().unwrap_or(-1), props)
+}
+
+fn verdicts(props: &BTreeMap<String, Value>) -> BTreeMap<&str, &str> {
+    props
+        .iter()
+        .map(|(k, v)| (k.as_str(), v["verdict"].as_str().unwrap_or("?")))
+        .collect()
+}
+
+/// The counterexample as `element.phase` steps.
+fn steps(p: &Value) -> Vec<String> {
+    p["counterexample"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .map(|s| match s["step"].as_object() {
+            Some(st) => format!(
+                "{}.{}",
+                st["element"].as_str().unwrap_or("?"),
+                st["phase"].as_str().unwrap_or("?")
+            ),
+            None => s["marker"].as_str().unwrap_or("?").to_owned(),
+        })
+        .collect()
+}
+
+fn all_hold(name: &str, text: &str, expected: &[&str]) {
+    let (code, props) = verify(name, text);
+    let v = verdicts(&props);
+    assert_eq!(v.keys().copied().collect::<Vec<_>>(), expected, "{props:#?}");
+    assert!(v.values().all(|v| *v == "holds"), "{name}: {v:?}");
+    assert_eq!(code, 0);
+}
+
+const BUILT_IN: [&str; 4] = ["completes", "no_dead_activities", "no_deadlock", "safe"];
+
+#[test]
+fn a_deadlock_is_found_with_its_path_and_the_fix_holds() {
+    let (code, props) = verify("deadlock", &choice("parallelGateway"));
+    assert_eq!(code, 1);
+    let v = verdicts(&props);
+    assert_eq!(v["no_deadlock"], "violated");
+    assert_eq!(v["completes"], "violated");
+    assert_eq!(v["safe"], "holds");
+    assert_eq!(v["no_dead_activities"], "holds");
+    // The shortest story: one branch taken, its task done, stuck at the join.
+    let path = steps(&props["no_deadlock"]);
+    assert_eq!(path[0], "start");
+    assert!(
+        path == ["start", "choose.take[f2]", "a.start", "a.complete"]
+            || path == ["start", "choose.take[f3]", "b.start", "b.complete"],
+        "{path:?}"
+    );
+    all_hold("deadlock-fixed", &choice("exclusiveGateway"), &BUILT_IN);
+}
+
+#[test]
+fn a_dead_activity_is_named_and_the_fix_holds() {
+    let (code, props) = verify("dead", &fault(true));
+    assert_eq!(code, 1);
+    let v = verdicts(&props);
+    assert_eq!(v["no_dead_activities"], "violated");
+    assert_eq!(
+        props["no_dead_activities"]["detail"],
+        "never started: h (Free Tool)"
+    );
+    for p in ["no_deadlock", "safe", "completes"] {
+        assert_eq!(v[p], "holds", "{p}");
+    }
+    all_hold("dead-fixed", &fault(false), &BUILT_IN);
+}
+
+#[test]
+fn an_unsafe_merge_is_found_and_the_fix_holds() {
+    let (code, props) = verify("unsafe", &branches("exclusiveGateway"));
+    assert_eq!(code, 1);
+    let v = verdicts(&props);
+    assert_eq!(v["safe"], "violated");
+    assert_eq!(v["no_deadlock"], "holds");
+    // Both branches reach the merge before Downlink takes the first token.
+    let path = steps(&props["safe"]);
+    let merges = path.iter().filter(|s| s.starts_with("merge.")).count();
+    assert_eq!(merges, 2, "{path:?}");
+    assert!(!path.iter().any(|s| s == "c.start"), "{path:?}");
+    all_hold("unsafe-fixed", &branches("parallelGateway"), &BUILT_IN);
+}
+
+#[test]
+fn a_lost_signal_is_found_and_a_level_triggered_abort_holds() {
+    let (code, props) = verify("lost", &abort(true));
+    assert_eq!(code, 1);
+    let v = verdicts(&props);
+    assert_eq!(v["no_lost_signal"], "violated");
+    for p in BUILT_IN {
+        assert_eq!(v[p], "holds", "{p}");
+    }
+    // The signal goes out while the excavation is not listening (not started yet, or over).
+    let path = steps(&props["no_lost_signal"]);
+    let lost = path
+        .iter()
+        .position(|s| s == "LOST signal BatteryLow")
+        .expect("the loss is in the path");
+    let before = &path[..lost];
+    assert_eq!(before.last().map(String::as_str), Some("throw.pass"), "{path:?}");
+    let listening = before.contains(&"sp.activate".to_owned())
+        && !before.contains(&"sp.complete".to_owned());
+    assert!(!listening, "{path:?}");
+    all_hold("lost-fixed", &abort(false), &BUILT_IN);
+}
+
+/// The Europa mission verifies, except for one real hazard the checker found: the battery
+/// monitor's abort signal can be thrown while the science phase is not listening (before it
+/// starts, or after the mission deadline ended it), and is then lost.
+#[test]
+fn the_europa_mission_verifies() {
+    let out = Command::new(bin("trace"))
+        .arg("verify")
+        .arg(repo().join("deploy/missions/europa-bsm1.bpmn"))
+        .arg("--dir")
+        .arg(tempdir("verify-europa"))
+        .output()
+        .expect("trace verify runs");
+    let text = String::from_utf8_lossy(&out.stdout);
+    for p in ["no_deadlock", "safe", "no_dead_activities", "completes"] {
+        assert!(
+            text.lines().any(|l| l.contains(p) && l.trim_start().starts_with("holds")),
+            "{p}: {text}{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    assert!(
+        text.lines()
+            .any(|l| l.contains("no_lost_signal") && l.trim_start().starts_with("VIOLATED")),
+        "{text}"
+    );
+    assert!(text.contains("ThrowAbort (Battery Low Abort) pass"), "{text}");
+    assert!(text.contains("LOST signal BATTERY_LOW_ABORT"), "{text}");
+    assert_eq!(out.status.code(), Some(1));
+}
