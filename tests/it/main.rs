@@ -13,5 +13,5 @@ mod hostile;
 mod missions;
 mod protocol;
 mod tidy;
-mod verify;
 mod timeline;
+mod verify;

@@ -193,7 +193,7 @@ fn main() -> anyhow::Result<ExitCode> {
             } else {
                 executive::verify::print(&report, &mut std::io::stdout().lock())?;
             }
-            return Ok(ExitCode::from(report.exit_code()));
+            Ok(ExitCode::from(report.exit_code()))
         }
         Command::Timeline { record, output } => {
             let t = executive::timeline::write(&record, &output)

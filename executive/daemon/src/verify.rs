@@ -16,8 +16,9 @@ pub struct VerifyOptions {
     /// `<mission>.verify/` beside the model).
     #[arg(long)]
     pub dir: Option<PathBuf>,
-    /// How often a cycle (a retry, a loop body) may repeat per scope activation.
-    #[arg(long, default_value_t = 2)]
+    /// How often a cycle (a retry, a loop body) may repeat per scope activation (every branch
+    /// is still explored with 1; more repetitions multiply the states).
+    #[arg(long, default_value_t = 1)]
     pub loops: u8,
     /// pan's maximum search depth.
     #[arg(long, default_value_t = 1_000_000)]
@@ -34,7 +35,9 @@ pub enum VerifyError {
     #[error("{0}")]
     Read(String),
     /// The model is invalid.
-    #[error("{path}: the mission model is invalid ({first}); run `trace validate` for every problem")]
+    #[error(
+        "{path}: the mission model is invalid ({first}); run `trace validate` for every problem"
+    )]
     Invalid {
         /// The file.
         path: String,
@@ -103,12 +106,13 @@ pub fn verify(opts: &VerifyOptions) -> Result<Report, VerifyError> {
             first,
         });
     };
-    let t = executive_verify::translate(&graph, Bounds { loops: opts.loops }).map_err(|refusals| {
-        VerifyError::Refused {
-            path: path.display().to_string(),
-            refusals,
-        }
-    })?;
+    let t =
+        executive_verify::translate(&graph, Bounds { loops: opts.loops }).map_err(|refusals| {
+            VerifyError::Refused {
+                path: path.display().to_string(),
+                refusals,
+            }
+        })?;
     let dir = opts
         .dir
         .clone()
@@ -121,10 +125,7 @@ pub fn verify(opts: &VerifyOptions) -> Result<Report, VerifyError> {
     for o in &properties {
         if !o.counterexample.is_empty() {
             let file = dir.join(format!("{}.counterexample.json", o.name));
-            let _ = std::fs::write(
-                &file,
-                serde_json::to_string_pretty(o).unwrap_or_default(),
-            );
+            let _ = std::fs::write(&file, serde_json::to_string_pretty(o).unwrap_or_default());
         }
     }
     Ok(Report {
@@ -155,13 +156,14 @@ pub fn print(report: &Report, out: &mut dyn Write) -> std::io::Result<()> {
             writeln!(out, "               counterexample:")?;
             for (i, s) in o.counterexample.iter().enumerate() {
                 let what = match &s.step {
-                    Some(st) => format!(
-                        "{}{} ({}) {}",
-                        st.path, st.element, st.name, st.phase
-                    ),
+                    Some(st) => format!("{}{} ({}) {}", st.path, st.element, st.name, st.phase),
                     None => s.marker.clone(),
                 };
-                let cycle = if s.cycle_start { "  <- cycle starts" } else { "" };
+                let cycle = if s.cycle_start {
+                    "  <- cycle starts"
+                } else {
+                    ""
+                };
                 writeln!(out, "               {:>3}. {what}{cycle}", i + 1)?;
             }
             writeln!(

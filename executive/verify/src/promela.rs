@@ -38,7 +38,7 @@ pub struct Bounds {
 
 impl Default for Bounds {
     fn default() -> Self {
-        Bounds { loops: 2 }
+        Bounds { loops: 1 }
     }
 }
 
@@ -70,6 +70,19 @@ pub struct Translation {
     pub signals: bool,
     /// PROMELA line → the marker of the step written on it.
     pub lines: BTreeMap<usize, String>,
+}
+
+/// Marking a flow in the safety model: a second token is an assertion violation (unsafe).
+const SAFETY_PUT: &str = "#define PUT(f) assert(tok[f] == 0); tok[f] = 1";
+/// Marking a flow in the LTL model: a second token only raises `unsafe`, so claims are judged
+/// on their own.
+const LTL_PUT: &str = "#define PUT(f) if :: tok[f] > 0 -> unsafe = 1 :: else -> tok[f] = 1 fi";
+
+impl Translation {
+    /// The model for LTL claims (same lines, flows marked without assertions).
+    pub fn ltl_model(&self) -> String {
+        self.promela.replacen(SAFETY_PUT, LTL_PUT, 1)
+    }
 }
 
 /// A calling context: a primary process, or a called process inlined at one call site.
@@ -207,7 +220,8 @@ impl<'g> Tr<'g> {
             let set: BTreeSet<NodeId> = nodes.iter().copied().collect();
             for (i, f) in self.g.flows.iter().enumerate() {
                 if set.contains(&f.source) {
-                    self.flow_ix.insert((c, FlowId(i as u32)), self.flow_names.len());
+                    self.flow_ix
+                        .insert((c, FlowId(i as u32)), self.flow_names.len());
                     self.flow_names
                         .push(format!("{}{}", self.ctxs[c].path, f.id));
                 }
@@ -331,8 +345,7 @@ impl<'g> Tr<'g> {
             }
             if n.is_activity() {
                 if n.for_compensation || n.compensation_handler.is_some() {
-                    self.refusals
-                        .push(no("compensation is not translated"));
+                    self.refusals.push(no("compensation is not translated"));
                 } else if n.start_quantity != 1 || n.completion_quantity != 1 {
                     self.refusals.push(no(
                         "start or completion quantities other than 1 are not translated",
@@ -435,8 +448,7 @@ impl<'g> Tr<'g> {
     /// Bounds a choice that continues a cycle: at most `loops` times per scope activation.
     fn bound(&self, c: usize, decision: NodeId, alt: &mut Alt) {
         if let Some(k) = self.cnt_ix.get(&(c, decision)) {
-            alt.guard
-                .push(format!("reps[{k}] < {}", self.bounds.loops));
+            alt.guard.push(format!("reps[{k}] < {}", self.bounds.loops));
             alt.effect.push(format!("reps[{k}]++"));
         }
     }
@@ -518,8 +530,10 @@ impl<'g> Tr<'g> {
             _ => None,
         };
         if let Some((flows, acts, _)) = inner {
-            alt.effect.extend(flows.iter().map(|f| format!("tok[{f}] = 0")));
-            alt.effect.extend(acts.iter().map(|a| format!("act[{a}] = 0")));
+            alt.effect
+                .extend(flows.iter().map(|f| format!("tok[{f}] = 0")));
+            alt.effect
+                .extend(acts.iter().map(|a| format!("act[{a}] = 0")));
         }
         alt.effect.push(format!("act[{}] = 0", self.a(c, activity)));
     }
@@ -538,7 +552,8 @@ impl<'g> Tr<'g> {
     /// Starts a scope's body: counters reset, none starts' outgoing flows marked.
     fn start_body(&mut self, c: usize, s: Option<NodeId>, alt: &mut Alt) {
         let (_, _, cnts) = self.contents(c, s);
-        alt.effect.extend(cnts.iter().map(|k| format!("reps[{k}] = 0")));
+        alt.effect
+            .extend(cnts.iter().map(|k| format!("reps[{k}] = 0")));
         let starts: Vec<NodeId> = self
             .nodes(c)
             .into_iter()
@@ -613,8 +628,7 @@ impl<'g> Tr<'g> {
             EventDefinition::Escalation(Some(e)) => thrown.is_some_and(|x| {
                 x == *e
                     || (self.g.escalations[x.index()].code.is_some()
-                        && self.g.escalations[x.index()].code
-                            == self.g.escalations[e.index()].code)
+                        && self.g.escalations[x.index()].code == self.g.escalations[e.index()].code)
             }),
             _ => false,
         })
@@ -722,8 +736,10 @@ impl<'g> Tr<'g> {
                         Scope::Process(_) => None,
                     };
                     let (flows, acts, _) = self.contents(c, scope);
-                    alt.effect.extend(flows.iter().map(|f| format!("tok[{f}] = 0")));
-                    alt.effect.extend(acts.iter().map(|a| format!("act[{a}] = 0")));
+                    alt.effect
+                        .extend(flows.iter().map(|f| format!("tok[{f}] = 0")));
+                    alt.effect
+                        .extend(acts.iter().map(|a| format!("act[{a}] = 0")));
                     if scope.is_none() && self.ctxs[c].call.is_none() {
                         alt.effect.push("terminated = 1".to_owned());
                     }
@@ -841,8 +857,10 @@ impl<'g> Tr<'g> {
                 // arrive on the empty ones (nothing upstream of them is marked).
                 let m = self.marker(c, n, "join");
                 let mut alt = Alt::default();
-                let marked: Vec<String> =
-                    ins.iter().map(|f| format!("tok[{}] > 0", self.f(c, *f))).collect();
+                let marked: Vec<String> = ins
+                    .iter()
+                    .map(|f| format!("tok[{}] > 0", self.f(c, *f)))
+                    .collect();
                 alt.guard.push(format!("({})", marked.join(" || ")));
                 for f in ins {
                     let i = self.f(c, *f);
@@ -862,7 +880,9 @@ impl<'g> Tr<'g> {
                 self.push(&m, alt);
             }
             GatewayKind::Inclusive => {
-                let Some(fi) = ins.first().copied() else { return };
+                let Some(fi) = ins.first().copied() else {
+                    return;
+                };
                 for mask in 1u32..(1 << outs.len()) {
                     let chosen: Vec<FlowId> = outs
                         .iter()
@@ -938,6 +958,51 @@ impl<'g> Tr<'g> {
             _ => (None, None),
         };
         let body_ctx = child.unwrap_or(c);
+        let fails = match &node.kind {
+            NodeKind::Task(t) => !matches!(t.kind, TaskKind::User | TaskKind::Script),
+            NodeKind::CallActivity(ca) => matches!(ca.called, Some(Called::GlobalTask(_))),
+            _ => false,
+        };
+        let mut catchers = Vec::new();
+        if fails {
+            for b in &node.boundaries {
+                if let NodeKind::Boundary(be) = &self.g.node(*b).kind
+                    && be
+                        .triggers
+                        .iter()
+                        .any(|t| matches!(t, EventDefinition::Error { .. }))
+                {
+                    catchers.push((c, n, *b));
+                }
+            }
+            let mut probe = (c, n);
+            while let Some(found) = self.catcher(probe.0, probe.1, &|be| {
+                be.triggers
+                    .iter()
+                    .any(|t| matches!(t, EventDefinition::Error { .. }))
+            }) {
+                catchers.push(found);
+                probe = (found.0, found.1);
+            }
+        }
+        // A task nothing can interrupt is one step (start and completion folded: fewer
+        // interleavings, the same reachable markings between steps).
+        if body.is_none()
+            && node.boundaries.is_empty()
+            && node.looping.is_none()
+            && catchers.is_empty()
+        {
+            for f in ins {
+                let m = self.marker(c, n, "run");
+                let mut alt = Alt::default();
+                let i = self.f(c, *f);
+                alt.guard.push(format!("tok[{i}] > 0"));
+                alt.effect.push(format!("tok[{i}]--"));
+                self.put_all(c, outs, &mut alt);
+                self.push(&m, alt);
+            }
+            return;
+        }
         // Start (or activate).
         for f in ins {
             let phase = if body.is_some() { "activate" } else { "start" };
@@ -977,32 +1042,19 @@ impl<'g> Tr<'g> {
         self.put_all(c, outs, &mut alt);
         self.push(&m, alt);
         // A system's failure, caught by a boundary here or around.
-        let fails = match &node.kind {
-            NodeKind::Task(t) => !matches!(t.kind, TaskKind::User | TaskKind::Script),
-            NodeKind::CallActivity(ca) => matches!(ca.called, Some(Called::GlobalTask(_))),
-            _ => false,
-        };
-        if fails {
-            let mut catchers = Vec::new();
-            for b in &node.boundaries {
-                if let NodeKind::Boundary(be) = &self.g.node(*b).kind
-                    && be.triggers.iter().any(|t| matches!(t, EventDefinition::Error { .. }))
-                {
-                    catchers.push((c, n, *b));
-                }
-            }
-            let mut probe = (c, n);
-            while let Some(found) = self.catcher(probe.0, probe.1, &|be| {
-                be.triggers.iter().any(|t| matches!(t, EventDefinition::Error { .. }))
-            }) {
-                catchers.push(found);
-                probe = (found.0, found.1);
-            }
+        {
             for (cc, holder, b) in catchers {
                 let m = self.marker(c, n, &format!("fail[{}]", self.g.node(b).id));
                 let mut alt = Alt::default();
                 alt.guard.push(format!("act[{a}]"));
-                if self.reaches(self.g.node(b).outgoing.first().map_or(b, |f| self.g.flow(*f).target), holder) {
+                if self.reaches(
+                    self.g
+                        .node(b)
+                        .outgoing
+                        .first()
+                        .map_or(b, |f| self.g.flow(*f).target),
+                    holder,
+                ) {
                     self.bound(cc, b, &mut alt);
                 }
                 alt.effect.push(format!("act[{a}] = 0"));
@@ -1012,7 +1064,9 @@ impl<'g> Tr<'g> {
         }
         // Timers, messages and conditions on the boundary may fire while the activity runs.
         for b in node.boundaries.clone() {
-            let NodeKind::Boundary(be) = &self.g.node(b).kind else { continue };
+            let NodeKind::Boundary(be) = &self.g.node(b).kind else {
+                continue;
+            };
             let spontaneous = be.triggers.iter().any(|t| {
                 matches!(
                     t,
@@ -1027,7 +1081,14 @@ impl<'g> Tr<'g> {
             let m = self.marker(c, b, "fire");
             let mut alt = Alt::default();
             alt.guard.push(format!("act[{a}]"));
-            if self.reaches(self.g.node(b).outgoing.first().map_or(b, |f| self.g.flow(*f).target), n) {
+            if self.reaches(
+                self.g
+                    .node(b)
+                    .outgoing
+                    .first()
+                    .map_or(b, |f| self.g.flow(*f).target),
+                n,
+            ) {
                 self.bound(c, b, &mut alt);
             }
             self.cancel(c, n, &mut alt);
@@ -1042,7 +1103,10 @@ impl<'g> Tr<'g> {
         let nf = self.flow_names.len().max(1);
         let na = self.act_names.len().max(1);
         let nc = self.cnt_names.len().max(1);
-        let _ = writeln!(p, "/* Generated by trace verify from the BPMN model: one global marking, one atomic step per BPMN transition. */");
+        let _ = writeln!(
+            p,
+            "/* Generated by trace verify from the BPMN model: one global marking, one atomic step per BPMN transition. */"
+        );
         let _ = writeln!(p, "/* Flows (tok[]): */");
         for (i, f) in self.flow_names.iter().enumerate() {
             let _ = writeln!(p, "/*   {i:>4} {f} */");
@@ -1053,7 +1117,7 @@ impl<'g> Tr<'g> {
         }
         let _ = writeln!(p, "byte tok[{nf}];\nbool act[{na}];\nbyte reps[{nc}];");
         let _ = writeln!(p, "bool heard, lost, unsafe, failed, terminated, ended;");
-        let _ = writeln!(p, "#define PUT(f) tok[f]++; if :: tok[f] > 1 -> unsafe = 1 :: else -> skip fi");
+        let _ = writeln!(p, "{SAFETY_PUT}");
         let mut idle: Vec<String> = (0..self.flow_names.len())
             .map(|i| format!("tok[{i}] == 0"))
             .collect();
@@ -1068,7 +1132,15 @@ impl<'g> Tr<'g> {
             .map(|i| format!("tok[{i}] = 0"))
             .collect();
         clear.extend((0..self.act_names.len()).map(|i| format!("act[{i}] = 0")));
-        let _ = writeln!(p, "#define CLEAR_ALL {}", if clear.is_empty() { "skip".to_owned() } else { clear.join("; ") });
+        let _ = writeln!(
+            p,
+            "#define CLEAR_ALL {}",
+            if clear.is_empty() {
+                "skip".to_owned()
+            } else {
+                clear.join("; ")
+            }
+        );
         let _ = writeln!(p, "active proctype Mission() {{");
         // Initial marking: every primary process's none (or timer) starts.
         let mut init = Alt::default();
@@ -1085,16 +1157,15 @@ impl<'g> Tr<'g> {
         let _ = writeln!(p, "  do");
         let mut lines = BTreeMap::new();
         for a in &me.alts {
-            if let Some(m) = a
-                .split("@@BPMN ")
-                .nth(1)
-                .and_then(|r| r.split('\\').next())
-            {
+            if let Some(m) = a.split("@@BPMN ").nth(1).and_then(|r| r.split('\\').next()) {
                 lines.insert(p.lines().count() + 1, m.to_owned());
             }
             let _ = writeln!(p, "  {a}");
         }
-        let _ = writeln!(p, "  :: IDLE -> break\n  od;\n  ended = 1;\n  printf(\"@@BPMN ended\\n\")\n}}");
+        let _ = writeln!(
+            p,
+            "  :: IDLE -> break\n  od;\n  ended = 1;\n  printf(\"@@BPMN ended\\n\")\n}}"
+        );
         let activities = me
             .steps
             .values()
