@@ -292,9 +292,9 @@ fn a_lost_signal_is_found_and_a_level_triggered_abort_holds() {
     all_hold("lost-fixed", &abort(false), &BUILT_IN);
 }
 
-/// The Europa mission verifies, except for one real hazard the checker found: the battery
-/// monitor's abort signal can be thrown while the science phase is not listening (before it
-/// starts, or after the mission deadline ended it), and is then lost.
+/// The Europa mission verifies with its requirements file, except for one real hazard the
+/// checker found: the battery monitor's abort signal can be thrown before the science phase
+/// listens for it, is lost, and the excavation goes ahead after the abort.
 #[test]
 fn the_europa_mission_verifies() {
     let out = Command::new(bin("trace"))
@@ -305,7 +305,19 @@ fn the_europa_mission_verifies() {
         .output()
         .expect("trace verify runs");
     let text = String::from_utf8_lossy(&out.stdout);
-    for p in ["no_deadlock", "safe", "no_dead_activities", "completes"] {
+    assert!(
+        text.contains(" with "),
+        "the requirements beside the model are read: {text}"
+    );
+    for p in [
+        "no_deadlock",
+        "safe",
+        "no_dead_activities",
+        "completes",
+        "ends_through_communication",
+        "abort_leads_to_communication",
+        "science_needs_an_approved_site",
+    ] {
         assert!(
             text.lines()
                 .any(|l| l.contains(p) && l.trim_start().starts_with("holds")),
@@ -313,15 +325,87 @@ fn the_europa_mission_verifies() {
             String::from_utf8_lossy(&out.stderr)
         );
     }
-    assert!(
-        text.lines()
-            .any(|l| l.contains("no_lost_signal") && l.trim_start().starts_with("VIOLATED")),
-        "{text}"
-    );
-    assert!(
-        text.contains("ThrowAbort (Battery Low Abort) pass"),
-        "{text}"
-    );
-    assert!(text.contains("LOST signal BATTERY_LOW_ABORT"), "{text}");
+    for p in ["no_lost_signal", "no_excavation_after_abort"] {
+        assert!(
+            text.lines()
+                .any(|l| l.contains(p) && l.trim_start().starts_with("VIOLATED")),
+            "{p}: {text}"
+        );
+    }
+    // The hazard as a story: the abort is lost before the science starts, then material is
+    // removed.
+    let story = text
+        .split("no_excavation_after_abort")
+        .nth(1)
+        .and_then(|t| t.split("(JSON:").next())
+        .unwrap_or_default();
+    let at = |what: &str| {
+        story
+            .find(what)
+            .unwrap_or_else(|| panic!("{what}: {story}"))
+    };
+    assert!(at("ThrowAbort (Battery Low Abort) pass") < at("LOST signal BATTERY_LOW_ABORT"));
+    assert!(at("LOST signal BATTERY_LOW_ABORT") < at("ExcavateAndCollect"));
+    assert!(at("ExcavateAndCollect") < at("RemoveMaterial (Remove Material) start"));
     assert_eq!(out.status.code(), Some(1));
+}
+
+#[test]
+fn requirements_are_checked_and_bad_ones_refused_with_the_reason() {
+    let dir = tempdir("verify-req");
+    let file = dir.join("branches.bpmn");
+    std::fs::write(&file, branches("parallelGateway")).expect("model");
+    let req = |text: &str| {
+        std::fs::write(dir.join("branches.req.toml"), text).expect("requirements");
+        Command::new(bin("trace"))
+            .arg("verify")
+            .arg(&file)
+            .output()
+            .expect("trace verify runs")
+    };
+    let out = req(r#"
+[[requirement]]
+name = "downlinks_once"
+says = "The data goes down exactly once, after both measurements"
+check = 'count "Downlink" == 1 when completed'
+[[requirement]]
+name = "image_first"
+check = 'never (done "Downlink" and not done "Image")'
+[[requirement]]
+name = "sound_before_image"
+check = 'never (done "Image" and not done "Sound")'
+"#);
+    let text = String::from_utf8_lossy(&out.stdout);
+    for (name, verdict) in [
+        ("downlinks_once", "holds"),
+        ("image_first", "holds"),
+        ("sound_before_image", "VIOLATED"),
+    ] {
+        assert!(
+            text.lines()
+                .any(|l| l.contains(name) && l.trim_start().starts_with(verdict)),
+            "{name}: {text}"
+        );
+    }
+    assert_eq!(out.status.code(), Some(1));
+    let out = req(r#"
+[[requirement]]
+name = "x"
+check = 'eventually done "Nowhere"'
+[[requirement]]
+name = "y"
+check = 'count "Image" maybe'
+[[requirement]]
+name = "safe"
+check = 'eventually ended'
+"#);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2));
+    for part in [
+        "`x`: no element has the id or name \"Nowhere\"",
+        "`y`: `count` is compared with a number",
+        "`safe`: the name is already taken",
+    ] {
+        assert!(err.contains(part), "{part} in {err}");
+    }
 }

@@ -12,6 +12,9 @@ use executive_verify::{Bounds, Limits, Outcome, Verdict};
 pub struct VerifyOptions {
     /// The mission model.
     pub mission: PathBuf,
+    /// The mission's requirements (default: `<mission>.req.toml` beside the model, if there).
+    #[arg(long)]
+    pub requirements: Option<PathBuf>,
     /// Where the PROMELA model, pan's output, trails and counterexamples go (default:
     /// `<mission>.verify/` beside the model).
     #[arg(long)]
@@ -55,6 +58,9 @@ pub enum VerifyError {
     /// Spin failed.
     #[error(transparent)]
     Spin(#[from] executive_verify::SpinError),
+    /// The requirements file is unusable.
+    #[error(transparent)]
+    Requirements(#[from] executive_verify::RequirementsError),
 }
 
 /// The result: every property, and where the work files are.
@@ -62,6 +68,8 @@ pub enum VerifyError {
 pub struct Report {
     /// The model.
     pub mission: String,
+    /// The requirements file read, if any.
+    pub requirements: Option<PathBuf>,
     /// Outcomes in order.
     pub properties: Vec<Outcome>,
     /// The work directory.
@@ -106,13 +114,35 @@ pub fn verify(opts: &VerifyOptions) -> Result<Report, VerifyError> {
             first,
         });
     };
-    let t =
-        executive_verify::translate(&graph, Bounds { loops: opts.loops }).map_err(|refusals| {
-            VerifyError::Refused {
-                path: path.display().to_string(),
-                refusals,
+    let req_file = opts.requirements.clone().or_else(|| {
+        let beside = path.with_extension("req.toml");
+        beside.exists().then_some(beside)
+    });
+    let reqs = match &req_file {
+        Some(f) => executive_verify::requirements::load(f, &graph)?,
+        None => Vec::new(),
+    };
+    let (atoms, formulas) = executive_verify::requirements::shared_atoms(&reqs);
+    let t = executive_verify::translate(&graph, Bounds { loops: opts.loops }, &atoms).map_err(
+        |refusals| VerifyError::Refused {
+            path: path.display().to_string(),
+            refusals,
+        },
+    )?;
+    let ltls: Vec<executive_verify::Ltl> = reqs
+        .iter()
+        .map(|r| {
+            let mut formula = formulas[&r.name].clone();
+            for (k, expr) in t.atoms.iter().enumerate().rev() {
+                formula = formula.replace(&format!("@{k}"), expr);
             }
-        })?;
+            executive_verify::Ltl {
+                name: r.name.clone(),
+                description: r.says.clone(),
+                formula,
+            }
+        })
+        .collect();
     let dir = opts
         .dir
         .clone()
@@ -121,7 +151,7 @@ pub fn verify(opts: &VerifyOptions) -> Result<Report, VerifyError> {
         depth: opts.depth,
         ..Limits::default()
     };
-    let properties = executive_verify::check(&t, &[], &dir, limits)?;
+    let properties = executive_verify::check(&t, &ltls, &dir, limits)?;
     for o in &properties {
         if !o.counterexample.is_empty() {
             let file = dir.join(format!("{}.counterexample.json", o.name));
@@ -130,6 +160,7 @@ pub fn verify(opts: &VerifyOptions) -> Result<Report, VerifyError> {
     }
     Ok(Report {
         mission: path.display().to_string(),
+        requirements: req_file,
         properties,
         dir,
     })
@@ -137,7 +168,14 @@ pub fn verify(opts: &VerifyOptions) -> Result<Report, VerifyError> {
 
 /// Prints a report for people.
 pub fn print(report: &Report, out: &mut dyn Write) -> std::io::Result<()> {
-    writeln!(out, "verify {} (Spin)", report.mission)?;
+    match &report.requirements {
+        Some(r) => writeln!(out, "verify {} with {} (Spin)", report.mission, r.display())?,
+        None => writeln!(
+            out,
+            "verify {} (Spin; no requirements file)",
+            report.mission
+        )?,
+    }
     for o in &report.properties {
         let verdict = match &o.verdict {
             Verdict::Holds => "holds".to_owned(),

@@ -3,15 +3,18 @@
 //! Verifies a mission model before it flies (paper §1): the validated model is translated into
 //! PROMELA ([`promela`]) and checked with the Spin model checker ([`spin`]) for the built-in
 //! properties — no deadlock, safeness, no dead activities, every run ends, no lost signal — and
-//! for LTL requirements. Each verdict is `holds`, `violated` (with the counterexample as BPMN
+//! for the mission's LTL requirements ([`requirements`]: a small language over BPMN elements). Each verdict is `holds`, `violated` (with the counterexample as BPMN
 //! steps) or `incomplete` (a search bound was hit: never reported as holding).
 //!
 //! Spin is an external tool (Debian `spin`, plus a C compiler): it is what the TRACE lineage
 //! specifies as the LTL oracle. Dependencies: `executive-model` (the validated graph),
-//! `serde`/`serde_json` (the JSON report and counterexamples), `thiserror`.
+//! `serde`/`serde_json` (the JSON report and counterexamples), `toml` (the requirements file,
+//! like the other configuration files), `thiserror`.
 
 pub mod promela;
+pub mod requirements;
 pub mod spin;
 
 pub use promela::{Bounds, Refusal, Step, Translation, translate};
+pub use requirements::{Atom, Requirement, RequirementsError};
 pub use spin::{Limits, Ltl, Outcome, SpinError, TraceStep, Verdict, check};

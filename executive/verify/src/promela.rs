@@ -19,6 +19,8 @@ use executive_model::{
 };
 use serde::Serialize;
 
+use crate::requirements::Atom;
+
 /// An element the translation does not cover, and why.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, thiserror::Error)]
 #[error("`{element}`: {reason}")]
@@ -70,6 +72,8 @@ pub struct Translation {
     pub signals: bool,
     /// PROMELA line → the marker of the step written on it.
     pub lines: BTreeMap<usize, String>,
+    /// Per observed atom (in the order given), the PROMELA expression that reads it.
+    pub atoms: Vec<String>,
 }
 
 /// Marking a flow in the safety model: a second token is an assertion violation (unsafe).
@@ -114,10 +118,15 @@ struct Tr<'g> {
     steps: BTreeMap<String, Step>,
     refusals: Vec<Refusal>,
     lost_check: bool,
+    observe: Vec<Atom>,
 }
 
-/// Translates a validated model.
-pub fn translate(g: &ProcessGraph, bounds: Bounds) -> Result<Translation, Vec<Refusal>> {
+/// Translates a validated model, instrumented for the atoms requirements read.
+pub fn translate(
+    g: &ProcessGraph,
+    bounds: Bounds,
+    observe: &[Atom],
+) -> Result<Translation, Vec<Refusal>> {
     let mut t = Tr {
         g,
         bounds,
@@ -133,6 +142,7 @@ pub fn translate(g: &ProcessGraph, bounds: Bounds) -> Result<Translation, Vec<Re
         steps: BTreeMap::new(),
         refusals: Vec::new(),
         lost_check: false,
+        observe: observe.to_vec(),
     };
     for (i, n) in g.nodes.iter().enumerate() {
         let id = NodeId(i as u32);
@@ -421,7 +431,32 @@ impl<'g> Tr<'g> {
         m
     }
 
-    fn push(&mut self, marker: &str, alt: Alt) {
+    /// Effects that count an element's completion for the requirements that observe it.
+    fn observed(&self, element: &str, phase: &str) -> Vec<String> {
+        let completes = !(phase == "start"
+            || phase == "activate"
+            || phase == "arm"
+            || phase.starts_with("fail["));
+        self.observe
+            .iter()
+            .enumerate()
+            .filter_map(|(k, a)| match a {
+                Atom::Done(n) if completes && self.g.node(*n).id == element => {
+                    Some(format!("obs{k} = 1"))
+                }
+                Atom::Count(n, bound) if completes && self.g.node(*n).id == element => Some(
+                    format!("if :: obs{k} < {bound} -> obs{k}++ :: else -> skip fi"),
+                ),
+                _ => None,
+            })
+            .collect()
+    }
+
+    fn push(&mut self, marker: &str, mut alt: Alt) {
+        if let Some(st) = self.steps.get(marker) {
+            let more = self.observed(&st.element, &st.phase);
+            alt.effect.extend(more);
+        }
         let guard = if alt.guard.is_empty() {
             "true".to_owned()
         } else {
@@ -641,6 +676,8 @@ impl<'g> Tr<'g> {
         self.put_all(c, &outs, alt);
         let m = self.marker(c, b, "fire");
         alt.effect.push(format!("printf(\"@@BPMN {m}\\n\")"));
+        let id = self.g.node(b).id.clone();
+        alt.effect.extend(self.observed(&id, "fire"));
     }
 
     /// A signal thrown: every listener armed now hears it, in one step; none → lost.
@@ -648,6 +685,12 @@ impl<'g> Tr<'g> {
         let same = |d: &EventDefinition| matches!(d, EventDefinition::Signal(s) if *s == signal);
         let mut listeners = 0;
         alt.effect.push("heard = 0".to_owned());
+        let name = signal.map(|s| self.g.signals[s.index()].name.clone());
+        for (k, a) in self.observe.iter().enumerate() {
+            if matches!(a, Atom::Signal(x) if Some(x) == name.as_ref()) {
+                alt.effect.push(format!("sig{k} = 1"));
+            }
+        }
         for c in 0..self.ctxs.len() {
             for n in self.nodes(c) {
                 let node = self.g.node(n);
@@ -671,6 +714,7 @@ impl<'g> Tr<'g> {
                                 (format!("tok[{i}] > 0"), format!("tok[{i}]--"))
                             };
                             listeners += 1;
+                            fire.effect.extend(self.observed(&node.id, "hear"));
                             alt.effect.push(format!(
                                 "if :: {cond} -> printf(\"@@BPMN {m}\\n\"); {take}; {}; heard = 1 :: else -> skip fi",
                                 fire.effect.join("; ")
@@ -702,6 +746,16 @@ impl<'g> Tr<'g> {
         }
     }
 
+    /// Effects marking an error code as met (`None`: a catch-all, which may be any code).
+    fn error_observed(&self, code: Option<&str>) -> Vec<String> {
+        self.observe
+            .iter()
+            .enumerate()
+            .filter(|(_, a)| matches!(a, Atom::Error(x) if code.is_none_or(|c| c == x)))
+            .map(|(k, _)| format!("err{k} = 1"))
+            .collect()
+    }
+
     fn signal_listened(&self) -> bool {
         self.alts.iter().any(|a| a.contains("lost = 1"))
     }
@@ -715,6 +769,8 @@ impl<'g> Tr<'g> {
                 EventDefinition::Signal(s) => self.broadcast(*s, alt),
                 EventDefinition::Error { error, .. } => {
                     let e = *error;
+                    let code = e.and_then(|e| self.g.errors[e.index()].code.clone());
+                    alt.effect.extend(self.error_observed(code.as_deref()));
                     match self.catcher(c, n, &|be| self.error_matches(e, be)) {
                         Some((cc, holder, b)) => self.caught(cc, holder, b, alt),
                         None => alt.effect.push("failed = 1; CLEAR_ALL".to_owned()),
@@ -1058,6 +1114,17 @@ impl<'g> Tr<'g> {
                     self.bound(cc, b, &mut alt);
                 }
                 alt.effect.push(format!("act[{a}] = 0"));
+                let code = match &self.g.node(b).kind {
+                    NodeKind::Boundary(be) => be.triggers.iter().find_map(|t| match t {
+                        EventDefinition::Error { error, .. } => {
+                            Some(error.and_then(|e| self.g.errors[e.index()].code.clone()))
+                        }
+                        _ => None,
+                    }),
+                    _ => None,
+                }
+                .flatten();
+                alt.effect.extend(self.error_observed(code.as_deref()));
                 self.caught(cc, holder, b, &mut alt);
                 self.push(&m, alt);
             }
@@ -1117,6 +1184,40 @@ impl<'g> Tr<'g> {
         }
         let _ = writeln!(p, "byte tok[{nf}];\nbool act[{na}];\nbyte reps[{nc}];");
         let _ = writeln!(p, "bool heard, lost, unsafe, failed, terminated, ended;");
+        let mut atoms = Vec::new();
+        for (k, a) in self.observe.iter().enumerate() {
+            match a {
+                Atom::Done(_) => {
+                    let _ = writeln!(p, "bool obs{k};");
+                    atoms.push(format!("obs{k}"));
+                }
+                Atom::Count(..) => {
+                    let _ = writeln!(p, "byte obs{k};");
+                    atoms.push(format!("obs{k}"));
+                }
+                Atom::Signal(_) => {
+                    let _ = writeln!(p, "bool sig{k};");
+                    atoms.push(format!("sig{k}"));
+                }
+                Atom::Error(_) => {
+                    let _ = writeln!(p, "bool err{k};");
+                    atoms.push(format!("err{k}"));
+                }
+                Atom::Running(n) => {
+                    let slots: Vec<String> = self
+                        .act_ix
+                        .iter()
+                        .filter(|((_, m), _)| m == n)
+                        .map(|(_, i)| format!("act[{i}]"))
+                        .collect();
+                    atoms.push(if slots.is_empty() {
+                        "false".to_owned()
+                    } else {
+                        format!("({})", slots.join(" || "))
+                    });
+                }
+            }
+        }
         let _ = writeln!(p, "{SAFETY_PUT}");
         let mut idle: Vec<String> = (0..self.flow_names.len())
             .map(|i| format!("tok[{i}] == 0"))
@@ -1178,6 +1279,7 @@ impl<'g> Tr<'g> {
             activities,
             signals: me.lost_check,
             lines,
+            atoms,
         }
     }
 }

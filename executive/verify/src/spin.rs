@@ -239,12 +239,18 @@ fn dead_activities(text: &str, t: &Translation) -> Vec<String> {
             in_mission = line.starts_with("unreached in proctype Mission");
             continue;
         }
+        // A start step's first effect takes its incoming token: if that is unreached, so is
+        // the step (other statements on the line may be branches never taken).
+        let takes = line.contains("-1)\"");
         let number = line
             .trim()
             .strip_prefix("mission.pml:")
             .and_then(|r| r.split(',').next())
             .and_then(|n| n.parse::<usize>().ok());
-        if in_mission && let Some(m) = number.and_then(|n| t.lines.get(&n)) {
+        if in_mission
+            && takes
+            && let Some(m) = number.and_then(|n| t.lines.get(&n))
+        {
             unreached.insert(m.clone());
         }
     }
