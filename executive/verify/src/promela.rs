@@ -101,6 +101,9 @@ struct Ctx {
 struct Alt {
     guard: Vec<String>,
     effect: Vec<String>,
+    /// Something outside answers (a system, the ground, time): it happens only once nothing
+    /// inside can move, as the engine runs each step to quiescence.
+    outside: bool,
 }
 
 struct Tr<'g> {
@@ -119,6 +122,12 @@ struct Tr<'g> {
     refusals: Vec<Refusal>,
     lost_check: bool,
     observe: Vec<Atom>,
+    /// Tasks translated as one step (start and completion folded).
+    folded: BTreeSet<NodeId>,
+}
+
+fn me_signals(g: &ProcessGraph) -> usize {
+    g.signals.len() + 1
 }
 
 /// Translates a validated model, instrumented for the atoms requirements read.
@@ -143,6 +152,7 @@ pub fn translate(
         refusals: Vec::new(),
         lost_check: false,
         observe: observe.to_vec(),
+        folded: BTreeSet::new(),
     };
     for (i, n) in g.nodes.iter().enumerate() {
         let id = NodeId(i as u32);
@@ -250,7 +260,7 @@ impl<'g> Tr<'g> {
                 }
                 let decision = match &node.kind {
                     NodeKind::Gateway(_) | NodeKind::Boundary(_) => true,
-                    _ => node.looping.is_some(),
+                    _ => node.is_activity(),
                 };
                 if decision {
                     self.cnt_ix.insert((c, n), self.cnt_names.len());
@@ -453,6 +463,9 @@ impl<'g> Tr<'g> {
     }
 
     fn push(&mut self, marker: &str, mut alt: Alt) {
+        if alt.outside {
+            alt.guard.insert(0, "QUIET".to_owned());
+        }
         if let Some(st) = self.steps.get(marker) {
             let more = self.observed(&st.element, &st.phase);
             alt.effect.extend(more);
@@ -472,12 +485,111 @@ impl<'g> Tr<'g> {
 
     fn put(&self, c: usize, f: FlowId, alt: &mut Alt) {
         alt.effect.push(format!("PUT({})", self.f(c, f)));
+        let target = self.g.flow(f).target;
+        if matches!(self.g.node(target).kind, NodeKind::Catch(_)) {
+            alt.effect.extend(self.listening(target));
+        }
     }
 
     fn put_all(&self, c: usize, flows: &[FlowId], alt: &mut Alt) {
         for f in flows {
             self.put(c, *f, alt);
         }
+    }
+
+    /// The node's work is done outside the executive (a system, the ground): a task other
+    /// than a script task, or a call of a global task.
+    fn outside(&self, n: NodeId) -> bool {
+        match &self.g.node(n).kind {
+            NodeKind::Task(t) => t.kind != TaskKind::Script,
+            NodeKind::CallActivity(ca) => matches!(ca.called, Some(Called::GlobalTask(_))),
+            _ => false,
+        }
+    }
+
+    /// A token on a flow into `n` waits there (for an event, the other branches of a join,
+    /// or a system running a task folded into one step) rather than moving on in the step.
+    fn waits_at(&self, n: NodeId) -> bool {
+        let node = self.g.node(n);
+        match &node.kind {
+            NodeKind::Catch(_) => true,
+            NodeKind::Gateway(gw) => {
+                node.incoming.len() > 1
+                    && matches!(gw.kind, GatewayKind::Parallel | GatewayKind::Inclusive)
+            }
+            NodeKind::Task(_) => self.outside(n) && self.folded.contains(&n),
+            _ => false,
+        }
+    }
+
+    /// Nothing inside can move: every token waits, no scope is done but not yet left.
+    fn quiet(&self) -> String {
+        let mut parts = Vec::new();
+        for ((c, f), i) in &self.flow_ix {
+            if !self.waits_at(self.g.flow(*f).target) {
+                let _ = c;
+                parts.push(format!("tok[{i}] == 0"));
+            }
+        }
+        parts.sort();
+        for ((c, n), a) in &self.act_ix {
+            let scope = match &self.g.node(*n).kind {
+                NodeKind::SubProcess(_) => Some((*c, Some(*n))),
+                NodeKind::CallActivity(_) => self.child(*c, *n).map(|cc| (cc, None)),
+                _ => None,
+            };
+            if let Some((bc, s)) = scope {
+                parts.push(format!("!(act[{a}] && {})", self.idle_inside(bc, s)));
+            }
+        }
+        if parts.is_empty() {
+            "true".to_owned()
+        } else {
+            parts.join(" && ")
+        }
+    }
+
+    /// Checks run when `n` starts listening: a signal it catches that was thrown with nobody
+    /// listening was thrown too early, and is lost.
+    fn listening(&self, n: NodeId) -> Vec<String> {
+        let node = self.g.node(n);
+        let mut signals = Vec::new();
+        let mut add = |defs: &[EventDefinition]| {
+            for d in defs {
+                if let EventDefinition::Signal(s) = d {
+                    signals.push(*s);
+                }
+            }
+        };
+        match &node.kind {
+            NodeKind::Catch(ce) => add(&ce.triggers),
+            NodeKind::Gateway(_) => {
+                for f in &node.outgoing {
+                    if let NodeKind::Catch(ce) = &self.g.node(self.g.flow(*f).target).kind {
+                        add(&ce.triggers);
+                    }
+                }
+            }
+            _ => {
+                for b in &node.boundaries {
+                    if let NodeKind::Boundary(be) = &self.g.node(*b).kind {
+                        add(&be.triggers);
+                    }
+                }
+            }
+        }
+        signals
+            .into_iter()
+            .map(|s| {
+                let (k, name) = match s {
+                    Some(s) => (s.index(), self.g.signals[s.index()].name.clone()),
+                    None => (self.g.signals.len(), "(unnamed)".to_owned()),
+                };
+                format!(
+                    "if :: unheard[{k}] -> printf(\"@@LOST signal {name}\\n\"); lost = 1 :: else -> skip fi"
+                )
+            })
+            .collect()
     }
 
     /// Bounds a choice that continues a cycle: at most `loops` times per scope activation.
@@ -510,6 +622,13 @@ impl<'g> Tr<'g> {
             }
         }
         false
+    }
+
+    /// Does any of `flows` lead back to `to`?
+    fn leads_back(&self, flows: &[FlowId], to: NodeId) -> bool {
+        flows
+            .iter()
+            .any(|f| self.reaches(self.g.flow(*f).target, to))
     }
 
     fn within(&self, n: NodeId, s: NodeId) -> bool {
@@ -737,11 +856,12 @@ impl<'g> Tr<'g> {
             }
         }
         if listeners > 0 {
-            let name = signal.map_or("(unnamed)".to_owned(), |s| {
-                self.g.signals[s.index()].name.clone()
-            });
+            let (k, name) = match signal {
+                Some(s) => (s.index(), self.g.signals[s.index()].name.clone()),
+                None => (self.g.signals.len(), "(unnamed)".to_owned()),
+            };
             alt.effect.push(format!(
-                "if :: !heard -> printf(\"@@LOST signal {name}\\n\"); lost = 1 :: else -> skip fi"
+                "if :: !heard -> printf(\"@@UNHEARD signal {name}\\n\"); unheard[{k}] = 1 :: else -> skip fi"
             ));
         }
     }
@@ -757,7 +877,7 @@ impl<'g> Tr<'g> {
     }
 
     fn signal_listened(&self) -> bool {
-        self.alts.iter().any(|a| a.contains("lost = 1"))
+        self.alts.iter().any(|a| a.contains("unheard["))
     }
 
     /// What a throw (intermediate or end) does besides consuming its token; `false` when the
@@ -849,7 +969,10 @@ impl<'g> Tr<'g> {
                         continue; // heard only when a signal is thrown
                     }
                     let m = self.marker(c, n, "fire");
-                    let mut alt = Alt::default();
+                    let mut alt = Alt {
+                        outside: true,
+                        ..Alt::default()
+                    };
                     if gateway {
                         let a = self.a(c, from);
                         alt.guard.push(format!("act[{a}]"));
@@ -884,6 +1007,12 @@ impl<'g> Tr<'g> {
                 self.push(&m, alt);
             }
             GatewayKind::Exclusive | GatewayKind::Complex => {
+                // Branches that lead back here are bounded; when every branch does, one (the
+                // default, else the first) stays free so the choice can always be made.
+                let exit = outs.iter().any(|f| !cyclic(self, *f));
+                let free = (!exit)
+                    .then(|| self.g.node(n).default_flow.or(outs.first().copied()))
+                    .flatten();
                 for fi in ins {
                     for fo in outs {
                         let label = self.g.flow(*fo).id.clone();
@@ -892,7 +1021,7 @@ impl<'g> Tr<'g> {
                         let i = self.f(c, *fi);
                         alt.guard.push(format!("tok[{i}] > 0"));
                         alt.effect.push(format!("tok[{i}]--"));
-                        if outs.len() > 1 && cyclic(self, *fo) {
+                        if Some(*fo) != free && cyclic(self, *fo) {
                             self.bound(c, n, &mut alt);
                         }
                         self.put(c, *fo, &mut alt);
@@ -939,7 +1068,9 @@ impl<'g> Tr<'g> {
                 let Some(fi) = ins.first().copied() else {
                     return;
                 };
+                let exit = outs.iter().any(|f| !cyclic(self, *f));
                 for mask in 1u32..(1 << outs.len()) {
+                    let single = mask.count_ones() == 1 && mask & 1 == 1;
                     let chosen: Vec<FlowId> = outs
                         .iter()
                         .enumerate()
@@ -953,7 +1084,7 @@ impl<'g> Tr<'g> {
                     let i = self.f(c, fi);
                     alt.guard.push(format!("tok[{i}] > 0"));
                     alt.effect.push(format!("tok[{i}]--"));
-                    if chosen.iter().any(|f| cyclic(self, *f)) {
+                    if (exit || !single) && chosen.iter().any(|f| cyclic(self, *f)) {
                         self.bound(c, n, &mut alt);
                     }
                     self.put_all(c, &chosen, &mut alt);
@@ -968,6 +1099,7 @@ impl<'g> Tr<'g> {
                     alt.guard.push(format!("tok[{i}] > 0"));
                     alt.effect.push(format!("tok[{i}]--"));
                     alt.effect.push(format!("act[{}] = 1", self.a(c, n)));
+                    alt.effect.extend(self.listening(n));
                     self.push(&m, alt);
                 }
             }
@@ -1047,10 +1179,15 @@ impl<'g> Tr<'g> {
             && node.boundaries.is_empty()
             && node.looping.is_none()
             && catchers.is_empty()
+            && !self.observe.contains(&Atom::Running(n))
         {
+            self.folded.insert(n);
             for f in ins {
                 let m = self.marker(c, n, "run");
-                let mut alt = Alt::default();
+                let mut alt = Alt {
+                    outside: self.outside(n),
+                    ..Alt::default()
+                };
                 let i = self.f(c, *f);
                 alt.guard.push(format!("tok[{i}] > 0"));
                 alt.effect.push(format!("tok[{i}]--"));
@@ -1068,7 +1205,11 @@ impl<'g> Tr<'g> {
             alt.guard.push(format!("tok[{i}] > 0"));
             alt.effect.push(format!("tok[{i}]--"));
             alt.effect.push(format!("act[{a}] = 1"));
-            if let Some(k) = self.cnt_ix.get(&(c, n)) {
+            alt.effect.extend(self.listening(n));
+            // A loop's bodies are counted per start of the loop.
+            if node.looping.is_some()
+                && let Some(k) = self.cnt_ix.get(&(c, n))
+            {
                 alt.effect.push(format!("reps[{k}] = 0"));
             }
             if let Some(scope) = body {
@@ -1083,7 +1224,10 @@ impl<'g> Tr<'g> {
         };
         if node.looping.is_some() {
             let m = self.marker(c, n, "repeat");
-            let mut alt = Alt::default();
+            let mut alt = Alt {
+                outside: body.is_none() && self.outside(n),
+                ..Alt::default()
+            };
             alt.guard.push(done_guard.clone());
             self.bound(c, n, &mut alt);
             if let Some(scope) = body {
@@ -1091,8 +1235,40 @@ impl<'g> Tr<'g> {
             }
             self.push(&m, alt);
         }
+        // The ways out of a running activity (completion, a caught failure, a boundary event):
+        // those that lead back to it are bounded, except completion when every way leads
+        // back (so the activity can always end).
+        let spontaneous: Vec<NodeId> = node
+            .boundaries
+            .iter()
+            .copied()
+            .filter(|b| match &self.g.node(*b).kind {
+                NodeKind::Boundary(be) => be.triggers.iter().any(|t| {
+                    matches!(
+                        t,
+                        EventDefinition::Timer(_)
+                            | EventDefinition::Message(_)
+                            | EventDefinition::Conditional(_)
+                    )
+                }),
+                _ => false,
+            })
+            .collect();
+        let back = |t: &Self, b: NodeId, to: NodeId| t.leads_back(&t.g.node(b).outgoing, to);
+        let completes_back = self.leads_back(outs, n);
+        let exit = !completes_back
+            || catchers.iter().any(|(_, h, b)| !back(self, *b, *h))
+            || spontaneous.iter().any(|b| !back(self, *b, n));
+        let choices = !catchers.is_empty() || !spontaneous.is_empty();
         let m = self.marker(c, n, "complete");
-        let mut alt = Alt::default();
+        let mut alt = Alt {
+            outside: body.is_none() && self.outside(n),
+            ..Alt::default()
+        };
+        if choices && exit && completes_back {
+            // Another way out leaves the cycle.
+            self.bound(c, n, &mut alt);
+        }
         alt.guard.push(done_guard);
         alt.effect.push(format!("act[{a}] = 0"));
         self.put_all(c, outs, &mut alt);
@@ -1101,16 +1277,12 @@ impl<'g> Tr<'g> {
         {
             for (cc, holder, b) in catchers {
                 let m = self.marker(c, n, &format!("fail[{}]", self.g.node(b).id));
-                let mut alt = Alt::default();
+                let mut alt = Alt {
+                    outside: true,
+                    ..Alt::default()
+                };
                 alt.guard.push(format!("act[{a}]"));
-                if self.reaches(
-                    self.g
-                        .node(b)
-                        .outgoing
-                        .first()
-                        .map_or(b, |f| self.g.flow(*f).target),
-                    holder,
-                ) {
+                if back(self, b, holder) {
                     self.bound(cc, b, &mut alt);
                 }
                 alt.effect.push(format!("act[{a}] = 0"));
@@ -1130,32 +1302,14 @@ impl<'g> Tr<'g> {
             }
         }
         // Timers, messages and conditions on the boundary may fire while the activity runs.
-        for b in node.boundaries.clone() {
-            let NodeKind::Boundary(be) = &self.g.node(b).kind else {
-                continue;
-            };
-            let spontaneous = be.triggers.iter().any(|t| {
-                matches!(
-                    t,
-                    EventDefinition::Timer(_)
-                        | EventDefinition::Message(_)
-                        | EventDefinition::Conditional(_)
-                )
-            });
-            if !spontaneous {
-                continue;
-            }
+        for b in spontaneous {
             let m = self.marker(c, b, "fire");
-            let mut alt = Alt::default();
+            let mut alt = Alt {
+                outside: true,
+                ..Alt::default()
+            };
             alt.guard.push(format!("act[{a}]"));
-            if self.reaches(
-                self.g
-                    .node(b)
-                    .outgoing
-                    .first()
-                    .map_or(b, |f| self.g.flow(*f).target),
-                n,
-            ) {
+            if back(self, b, n) {
                 self.bound(c, b, &mut alt);
             }
             self.cancel(c, n, &mut alt);
@@ -1184,6 +1338,8 @@ impl<'g> Tr<'g> {
         }
         let _ = writeln!(p, "byte tok[{nf}];\nbool act[{na}];\nbyte reps[{nc}];");
         let _ = writeln!(p, "bool heard, lost, unsafe, failed, terminated, ended;");
+        let _ = writeln!(p, "bool unheard[{}];", me_signals(self.g));
+        let _ = writeln!(p, "#define QUIET ({})", self.quiet());
         let mut atoms = Vec::new();
         for (k, a) in self.observe.iter().enumerate() {
             match a {
