@@ -433,3 +433,125 @@ check = 'eventually ended'
         assert!(err.contains(part), "{part} in {err}");
     }
 }
+
+/// The differential test: on every visible betsy model the translator takes, Spin (on the
+/// PROMELA translation) and the native exploration (on the engine itself) are compared. The
+/// translation may over-approximate — it lets internal moves of one step interleave, and loops
+/// repeat — so Spin may find more, never less: every deadlock or unsafe run the engine has,
+/// Spin has; every end event the engine reaches, Spin reaches; every activity Spin calls dead,
+/// the engine never starts. Where they differ at all, the model is listed with how.
+#[test]
+fn spin_and_the_engine_agree_on_the_betsy_models() {
+    use executive_verify::{Bounds, Limits, Verdict};
+    let root = mission_tests::conformance("betsy");
+    let options = executive_model::Options {
+        script_connector: true,
+        ..executive_model::Options::default()
+    };
+    let work = tempdir("verify-betsy");
+    let (mut compared, mut agree, mut refused, mut needs_data) = (0, 0, 0, 0);
+    let mut differences = Vec::new();
+    let mut unsound = Vec::new();
+    for t in mission_tests::json_array(&root.join("expectations.json")) {
+        let (group, name) = (t["group"].as_str().unwrap(), t["name"].as_str().unwrap());
+        let path = root.join(group).join(format!("{name}.bpmn"));
+        let loaded = executive::validate::load_file(&path, &options).expect("readable");
+        let Some(graph) = loaded.graph else { continue };
+        let Ok(tr) = executive_verify::translate(&graph, Bounds::default(), &[]) else {
+            refused += 1;
+            continue;
+        };
+        let graph = std::sync::Arc::new(graph);
+        let native = executive_verify::explore(std::sync::Arc::clone(&graph), 200_000);
+        if native.needs_data.is_some() || !native.complete {
+            needs_data += 1;
+            continue;
+        }
+        let spin = executive_verify::check(&tr, &[], &work.join(name), Limits::default())
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        let verdict = |p: &str| {
+            spin.properties
+                .iter()
+                .find(|o| o.name == p)
+                .map(|o| o.verdict.clone())
+                .expect("a built-in property")
+        };
+        compared += 1;
+        let spin_deadlock = verdict("no_deadlock") == Verdict::Violated;
+        let spin_unsafe = verdict("safe") == Verdict::Violated;
+        let spin_dead: std::collections::BTreeSet<String> = spin
+            .properties
+            .iter()
+            .find(|o| o.name == "no_dead_activities")
+            .and_then(|o| o.detail.clone())
+            .map(|d| {
+                d.trim_start_matches("never started: ")
+                    .split(", ")
+                    .map(|s| {
+                        let key = s.split(" (").next().unwrap_or(s);
+                        key.rsplit('/').next().unwrap_or(key).to_owned()
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+        let native_dead: std::collections::BTreeSet<String> =
+            native.dead_activities.iter().cloned().collect();
+        let mut how = Vec::new();
+        if native.deadlock.is_some() != spin_deadlock {
+            how.push(format!(
+                "deadlock: engine {} Spin {spin_deadlock}",
+                native.deadlock.is_some()
+            ));
+            if native.deadlock.is_some() {
+                unsound.push(format!(
+                    "{group}/{name}: the engine deadlocks, Spin says no"
+                ));
+            }
+        }
+        if native.unsafe_run.is_some() != spin_unsafe {
+            how.push(format!(
+                "unsafe: engine {} Spin {spin_unsafe}",
+                native.unsafe_run.is_some()
+            ));
+            if native.unsafe_run.is_some() {
+                unsound.push(format!(
+                    "{group}/{name}: the engine is unsafe, Spin says safe"
+                ));
+            }
+        }
+        if native_dead != spin_dead {
+            how.push(format!("dead: engine {native_dead:?} Spin {spin_dead:?}"));
+            if !spin_dead.is_subset(&native_dead) {
+                unsound.push(format!(
+                    "{group}/{name}: Spin calls {:?} dead, the engine starts them",
+                    spin_dead.difference(&native_dead).collect::<Vec<_>>()
+                ));
+            }
+        }
+        if native.ends != spin.ends {
+            how.push(format!(
+                "ends: engine {:?} Spin {:?}",
+                native.ends, spin.ends
+            ));
+            if !native.ends.is_subset(&spin.ends) {
+                unsound.push(format!(
+                    "{group}/{name}: the engine reaches {:?}, Spin does not",
+                    native.ends.difference(&spin.ends).collect::<Vec<_>>()
+                ));
+            }
+        }
+        if how.is_empty() {
+            agree += 1;
+        } else {
+            differences.push(format!("{group}/{name}: {}", how.join("; ")));
+        }
+    }
+    println!(
+        "differential: {compared} betsy models compared, {agree} agree exactly; {refused} not translated, {needs_data} not explorable without data"
+    );
+    for d in &differences {
+        println!("  over-approximated by Spin: {d}");
+    }
+    assert!(unsound.is_empty(), "{}", unsound.join("\n"));
+    assert!(compared >= 30, "only {compared} models compared");
+}

@@ -29,6 +29,9 @@ pub struct VerifyOptions {
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
+    /// Also explore the executive's own engine (no translation) and compare its verdicts.
+    #[arg(long)]
+    pub native: bool,
 }
 
 /// Why verification could not give verdicts.
@@ -74,6 +77,10 @@ pub struct Report {
     pub properties: Vec<Outcome>,
     /// The work directory.
     pub dir: PathBuf,
+    /// End events some run reaches, according to Spin.
+    pub ends: std::collections::BTreeSet<String>,
+    /// The native exploration, when asked for.
+    pub native: Option<executive_verify::Exploration>,
 }
 
 impl Report {
@@ -151,7 +158,11 @@ pub fn verify(opts: &VerifyOptions) -> Result<Report, VerifyError> {
         depth: opts.depth,
         ..Limits::default()
     };
-    let properties = executive_verify::check(&t, &ltls, &dir, limits)?;
+    let checked = executive_verify::check(&t, &ltls, &dir, limits)?;
+    let properties = checked.properties;
+    let native = opts
+        .native
+        .then(|| executive_verify::explore(std::sync::Arc::new(graph), 2_000_000));
     for o in &properties {
         if !o.counterexample.is_empty() {
             let file = dir.join(format!("{}.counterexample.json", o.name));
@@ -163,6 +174,8 @@ pub fn verify(opts: &VerifyOptions) -> Result<Report, VerifyError> {
         requirements: req_file,
         properties,
         dir,
+        ends: checked.ends,
+        native,
     })
 }
 
@@ -175,6 +188,42 @@ pub fn print(report: &Report, out: &mut dyn Write) -> std::io::Result<()> {
             "verify {} (Spin; no requirements file)",
             report.mission
         )?,
+    }
+    if let Some(n) = &report.native {
+        writeln!(
+            out,
+            "native exploration of the engine: {} states{}",
+            n.states,
+            if n.complete { "" } else { " (incomplete)" }
+        )?;
+        if let Some(why) = &n.needs_data {
+            writeln!(out, "  cannot explore without data: {why}")?;
+        }
+        let verdict = |bad: bool| if bad { "VIOLATED" } else { "holds" };
+        writeln!(out, "  {:<12} no_deadlock", verdict(n.deadlock.is_some()))?;
+        if let Some(p) = &n.deadlock {
+            writeln!(out, "               {}", p.join(" → "))?;
+        }
+        writeln!(out, "  {:<12} safe", verdict(n.unsafe_run.is_some()))?;
+        if let Some(p) = &n.unsafe_run {
+            writeln!(out, "               {}", p.join(" → "))?;
+        }
+        writeln!(
+            out,
+            "  {:<12} no_dead_activities{}",
+            verdict(!n.dead_activities.is_empty()),
+            if n.dead_activities.is_empty() {
+                String::new()
+            } else {
+                format!(" (never started: {})", n.dead_activities.join(", "))
+            }
+        )?;
+        writeln!(
+            out,
+            "  end events reached: {} (Spin: {})",
+            n.ends.iter().cloned().collect::<Vec<_>>().join(", "),
+            report.ends.iter().cloned().collect::<Vec<_>>().join(", ")
+        )?;
     }
     for o in &report.properties {
         let verdict = match &o.verdict {

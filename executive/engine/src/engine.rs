@@ -19,6 +19,10 @@ pub struct Game {
     /// Tasks that wait to be completed from outside (dispatched); every other task completes
     /// at once.
     pub hold: std::collections::BTreeSet<NodeId>,
+    /// Every diverging gateway waits for its branches to be chosen from outside
+    /// ([`Event::BranchTaken`]), one token at a time (model exploration); a task's result
+    /// carries no data.
+    pub decide: bool,
 }
 
 /// The BPMN token engine over one validated model.
@@ -166,6 +170,22 @@ impl Engine {
                 };
                 check_answer(g, tok.node, *task, answer)
             }
+            Event::BranchTaken { token, flows } => {
+                let node = match s.tokens.get(token) {
+                    Some(t) if t.at == At::Deciding => g.node(t.node),
+                    _ => return Err(Rejected::NotDeciding(*token)),
+                };
+                let exclusive = matches!(&node.kind,
+                    NodeKind::Gateway(gw) if gw.kind == executive_model::GatewayKind::Exclusive);
+                let fits = !flows.is_empty()
+                    && flows.iter().all(|f| node.outgoing.contains(f))
+                    && (!exclusive || flows.len() == 1);
+                if fits {
+                    Ok(())
+                } else {
+                    Err(Rejected::NotDeciding(*token))
+                }
+            }
             Event::TimerFired { timer } => match s.waits.get(&timer.wait).map(|w| &w.on) {
                 Some(On::Timer { key, .. }) if key == timer => Ok(()),
                 _ => Err(Rejected::UnknownTimer(*timer)),
@@ -271,6 +291,9 @@ fn apply(run: &mut Run<'_>, event: Event) {
             if let Some(tok) = run.s.tokens.get_mut(&t) {
                 tok.at = At::Ready;
             }
+            if run.game.is_some_and(|g| g.decide) {
+                return run.complete_activity(t);
+            }
             match run.apply_outputs(t, &output) {
                 Ok(()) => run.complete_activity(t),
                 Err(e) => {
@@ -319,6 +342,12 @@ fn apply(run: &mut Run<'_>, event: Event) {
                 Ok(()) => run.complete_activity(t),
                 Err(e) => run.incident(t, e),
             }
+        }
+        Event::BranchTaken { token, flows } => {
+            if let Some(tok) = run.s.tokens.get_mut(&token) {
+                tok.at = At::Ready;
+            }
+            run.leave_gateway(token, &flows);
         }
         Event::TimerFired { timer } => {
             let Some(w) = run.s.waits.get(&timer.wait) else {

@@ -16,6 +16,26 @@ impl Run<'_> {
         let g = self.g;
         let node = self.s.tokens[&t].node;
         let n = g.node(node);
+        let decides = self.game.is_some_and(|g| g.decide)
+            && n.outgoing.len() > 1
+            && matches!(
+                gw.kind,
+                GatewayKind::Exclusive | GatewayKind::Inclusive | GatewayKind::Complex
+            )
+            && (gw.kind == GatewayKind::Exclusive || n.incoming.len() <= 1);
+        if decides {
+            if let Some(tok) = self.s.tokens.get_mut(&t) {
+                tok.at = At::Deciding;
+            }
+            return;
+        }
+        if self.game.is_some_and(|g| g.decide)
+            && n.outgoing.len() == 1
+            && gw.kind == GatewayKind::Exclusive
+        {
+            let out = n.outgoing.clone();
+            return self.leave_gateway(t, &out);
+        }
         match gw.kind {
             GatewayKind::Exclusive => match self.choose(t, node, false) {
                 Ok(flows) => self.leave_gateway(t, &flows),
@@ -41,7 +61,7 @@ impl Run<'_> {
         }
     }
 
-    fn leave_gateway(&mut self, t: TokenId, flows: &[FlowId]) {
+    pub(crate) fn leave_gateway(&mut self, t: TokenId, flows: &[FlowId]) {
         if self.trace_moves {
             let tok = &self.s.tokens[&t];
             let (instance, node) = (tok.instance, tok.node);

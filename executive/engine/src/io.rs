@@ -144,6 +144,14 @@ pub enum Event {
         /// The subscription.
         wait: WaitId,
     },
+    /// Token games with [`crate::Game::decide`]: the branches a token waiting at a diverging
+    /// gateway takes (exactly one at an exclusive gateway).
+    BranchTaken {
+        /// The token at the gateway.
+        token: TokenId,
+        /// The outgoing flows it takes.
+        flows: Vec<executive_model::FlowId>,
+    },
     /// Cancel an instance: every in-flight task is cancelled and the instance ends.
     CancelRequested {
         /// Which instance.
@@ -447,6 +455,9 @@ pub enum Rejected {
         /// The element id given.
         start: String,
     },
+    /// No token waits at a gateway for this choice of branches.
+    #[error("token {0:?} does not wait for these branches")]
+    NotDeciding(TokenId),
     /// No subscription has this id.
     #[error("no subscription {0:?} is waiting")]
     UnknownWait(WaitId),

@@ -29,7 +29,7 @@ impl Run<'_> {
                 ..
             }) => {
                 self.set_loop(t, state);
-                if *test_before {
+                if *test_before && !self.decides() {
                     match self.loop_condition(t, condition.as_ref(), 0) {
                         Ok(true) => {}
                         Ok(false) => return self.loop_done(t),
@@ -39,7 +39,10 @@ impl Run<'_> {
                 self.start_body(t);
             }
             Some(Looping::MultiInstance(mi)) => {
-                if let Some(c) = &mi.input_collection {
+                if self.decides() {
+                    // Exploring without data: one body.
+                    state.total = Some(1);
+                } else if let Some(c) = &mi.input_collection {
                     match self.eval(scope, c, &mut Vars::new()) {
                         Ok(Value::List(items)) => {
                             state.total = Some(items.len() as u64);
@@ -184,7 +187,7 @@ impl Run<'_> {
             Some(Looping::Standard {
                 maximum, condition, ..
             }) => {
-                if maximum.is_some_and(|m| completed >= m) {
+                if maximum.is_some_and(|m| completed >= m) || self.decides() {
                     return self.loop_done(t);
                 }
                 match self.loop_condition(t, condition.as_ref(), completed) {
@@ -246,6 +249,7 @@ impl Run<'_> {
                     self.behavior_event(t);
                 }
                 let done_by_condition = match &mi.completion {
+                    Some(_) if self.decides() => false,
                     Some(c) => {
                         match crate::eval::condition(c, &|n| with_body(self, n), &mut Vars::new()) {
                             Ok(b) => b,

@@ -264,7 +264,9 @@ impl Run<'_> {
             }
             NodeKind::CallActivity(call) => match &call.called {
                 Some(executive_model::Called::Process(p)) => {
-                    let vars = self.call_inputs(t, scope, call.binding.as_ref());
+                    // Exploring without data: the caller's variables pass as they are.
+                    let binding = call.binding.as_ref().filter(|_| !self.decides());
+                    let vars = self.call_inputs(t, scope, binding);
                     let child = self.open_scope(t, ScopeKind::Process(*p), vars);
                     self.start_process_scope(child, *p, None);
                 }
@@ -533,8 +535,16 @@ impl Run<'_> {
             .unwrap_or_default()
     }
 
+    /// Exploring a model without data ([`crate::Game::decide`]): no mapping is evaluated.
+    pub(crate) fn decides(&self) -> bool {
+        self.game.is_some_and(|g| g.decide)
+    }
+
     /// Applies a task's result: declared outputs, or every field when none is declared.
     pub(crate) fn apply_outputs(&mut self, t: TokenId, output: &Vars) -> Result<(), String> {
+        if self.decides() {
+            return Ok(());
+        }
         let g = self.g;
         let tok = &self.s.tokens[&t];
         let (scope, node) = (tok.scope, tok.node);

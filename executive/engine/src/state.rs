@@ -163,6 +163,8 @@ pub enum At {
     Compensating,
     /// Stuck; the reason is an incident of the instance.
     Incident,
+    /// At a diverging gateway, waiting for its branches to be chosen (token games only).
+    Deciding,
 }
 
 /// The progress of a standard loop or a multi-instance activity.

@@ -6,15 +6,21 @@
 //! for the mission's LTL requirements ([`requirements`]: a small language over BPMN elements). Each verdict is `holds`, `violated` (with the counterexample as BPMN
 //! steps) or `incomplete` (a search bound was hit: never reported as holding).
 //!
+//! [`explore`] checks the same properties on the executive's own engine, with no translation,
+//! so the two can be compared (the differential test).
+//!
 //! Spin is an external tool (Debian `spin`, plus a C compiler): it is what the TRACE lineage
 //! specifies as the LTL oracle. Dependencies: `executive-model` (the validated graph),
+//! `executive-engine` (explored natively in token-game mode),
 //! `serde`/`serde_json` (the JSON report and counterexamples), `toml` (the requirements file,
 //! like the other configuration files), `thiserror`.
 
+pub mod explore;
 pub mod promela;
 pub mod requirements;
 pub mod spin;
 
+pub use explore::{Exploration, explore};
 pub use promela::{Bounds, Refusal, Step, Translation, translate};
 pub use requirements::{Atom, Requirement, RequirementsError};
-pub use spin::{Limits, Ltl, Outcome, SpinError, TraceStep, Verdict, check};
+pub use spin::{Checked, Limits, Ltl, Outcome, SpinError, TraceStep, Verdict, check};

@@ -306,13 +306,18 @@ impl<'g> Tr<'g> {
                     .iter()
                     .find(|d| matches!(d, EventDefinition::Compensate { .. } | EventDefinition::Link(_)))
                     .map(|d| no(&format!("{} on a throw event is not translated", d.element_name()))),
+                NodeKind::Catch(c) if c.parallel_multiple => Some(no(
+                    "parallel-multiple catch events (every trigger needed) are not translated",
+                )),
                 NodeKind::Catch(c) => c
                     .triggers
                     .iter()
                     .find(|d| matches!(d, EventDefinition::Link(_) | EventDefinition::Error { .. } | EventDefinition::Escalation(_) | EventDefinition::Compensate { .. }))
                     .map(|d| no(&format!("{} on a catch event is not translated", d.element_name()))),
                 NodeKind::Boundary(b) => {
-                    if !b.interrupting {
+                    if b.parallel_multiple {
+                        Some(no("parallel-multiple boundary events are not translated"))
+                    } else if !b.interrupting {
                         Some(no("non-interrupting boundary events are not translated yet"))
                     } else if b.triggers.iter().any(|d| {
                         matches!(d, EventDefinition::Compensate { .. } | EventDefinition::Cancel)
@@ -369,6 +374,12 @@ impl<'g> Tr<'g> {
                 } else if n.start_quantity != 1 || n.completion_quantity != 1 {
                     self.refusals.push(no(
                         "start or completion quantities other than 1 are not translated",
+                    ));
+                } else if let Some(Looping::MultiInstance(mi)) = &n.looping
+                    && mi.behavior != executive_model::MiBehavior::All
+                {
+                    self.refusals.push(no(
+                        "multi-instance behaviours that throw events (None, One, Complex) are not translated",
                     ));
                 } else if let Some(Looping::MultiInstance(mi)) = &n.looping
                     && !mi.sequential
@@ -502,7 +513,14 @@ impl<'g> Tr<'g> {
     fn outside(&self, n: NodeId) -> bool {
         match &self.g.node(n).kind {
             NodeKind::Task(t) => t.kind != TaskKind::Script,
-            NodeKind::CallActivity(ca) => matches!(ca.called, Some(Called::GlobalTask(_))),
+            NodeKind::CallActivity(ca) => match &ca.called {
+                Some(Called::GlobalTask(id)) => self
+                    .g
+                    .global_tasks
+                    .get(id)
+                    .is_some_and(|t| t.kind != TaskKind::Script),
+                _ => false,
+            },
             _ => false,
         }
     }
@@ -517,7 +535,9 @@ impl<'g> Tr<'g> {
                 node.incoming.len() > 1
                     && matches!(gw.kind, GatewayKind::Parallel | GatewayKind::Inclusive)
             }
-            NodeKind::Task(_) => self.outside(n) && self.folded.contains(&n),
+            NodeKind::Task(_) | NodeKind::CallActivity(_) => {
+                self.outside(n) && self.folded.contains(&n)
+            }
             _ => false,
         }
     }
@@ -1148,7 +1168,7 @@ impl<'g> Tr<'g> {
         let body_ctx = child.unwrap_or(c);
         let fails = match &node.kind {
             NodeKind::Task(t) => !matches!(t.kind, TaskKind::User | TaskKind::Script),
-            NodeKind::CallActivity(ca) => matches!(ca.called, Some(Called::GlobalTask(_))),
+            NodeKind::CallActivity(_) => self.outside(n),
             _ => false,
         };
         let mut catchers = Vec::new();
@@ -1339,7 +1359,12 @@ impl<'g> Tr<'g> {
         let _ = writeln!(p, "byte tok[{nf}];\nbool act[{na}];\nbyte reps[{nc}];");
         let _ = writeln!(p, "bool heard, lost, unsafe, failed, terminated, ended;");
         let _ = writeln!(p, "bool unheard[{}];", me_signals(self.g));
-        let _ = writeln!(p, "#define QUIET ({})", self.quiet());
+        // The executive starts the primary processes one after another, each running until it
+        // waits, before anything from outside is heard.
+        let primaries = self.ctxs.iter().filter(|c| c.call.is_none()).count();
+        let _ = writeln!(p, "byte started = 1;");
+        let _ = writeln!(p, "#define MOVED ({})", self.quiet());
+        let _ = writeln!(p, "#define QUIET (started == {primaries} && MOVED)");
         let mut atoms = Vec::new();
         for (k, a) in self.observe.iter().enumerate() {
             match a {
@@ -1399,18 +1424,28 @@ impl<'g> Tr<'g> {
             }
         );
         let _ = writeln!(p, "active proctype Mission() {{");
-        // Initial marking: every primary process's none (or timer) starts.
-        let mut init = Alt::default();
+        // Initial marking: the first primary process's none (or timer) starts; the next ones
+        // start in turn once everything before them waits.
         let mut me = self;
-        for c in 0..me.ctxs.len() {
-            if me.ctxs[c].call.is_none() {
-                me.start_body(c, None, &mut init);
+        let firsts: Vec<usize> = (0..me.ctxs.len())
+            .filter(|c| me.ctxs[*c].call.is_none())
+            .collect();
+        let mut later = Vec::new();
+        for (k, c) in firsts.iter().enumerate() {
+            let mut init = Alt::default();
+            me.start_body(*c, None, &mut init);
+            let e = init.effect.join("; ");
+            let e = if e.is_empty() { "skip".to_owned() } else { e };
+            if k == 0 {
+                let _ = writeln!(p, "  atomic {{ printf(\"@@BPMN start\\n\"); {e} }};");
+            } else {
+                let id = me.g.process(me.ctxs[*c].process).id.clone();
+                later.push(format!(
+                    ":: atomic {{ started == {k} && MOVED -> printf(\"@@BPMN start {id}\\n\"); started++; {e} }}"
+                ));
             }
         }
-        let _ = writeln!(p, "  atomic {{ printf(\"@@BPMN start\\n\"); {} }};", {
-            let e = init.effect.join("; ");
-            if e.is_empty() { "skip".to_owned() } else { e }
-        });
+        me.alts.extend(later);
         let _ = writeln!(p, "  do");
         let mut lines = BTreeMap::new();
         for a in &me.alts {
@@ -1421,7 +1456,7 @@ impl<'g> Tr<'g> {
         }
         let _ = writeln!(
             p,
-            "  :: IDLE -> break\n  od;\n  ended = 1;\n  printf(\"@@BPMN ended\\n\")\n}}"
+            "  :: started == {primaries} && IDLE -> break\n  od;\n  ended = 1;\n  printf(\"@@BPMN ended\\n\")\n}}"
         );
         let activities = me
             .steps

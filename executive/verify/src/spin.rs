@@ -229,9 +229,9 @@ fn replay(dir: &Path, trail: &str, t: &Translation) -> Result<Vec<TraceStep>, Sp
     Ok(steps)
 }
 
-/// The activities no run starts, from pan's list of unreached statements (by PROMELA line:
-/// every step is written on a line of its own).
-fn dead_activities(text: &str, t: &Translation) -> Vec<String> {
+/// The steps no run takes, from pan's list of unreached statements (by PROMELA line: every
+/// step is written on a line of its own).
+fn unreached(text: &str, t: &Translation) -> std::collections::BTreeSet<String> {
     let mut unreached = std::collections::BTreeSet::new();
     let mut in_mission = false;
     for line in text.lines() {
@@ -254,6 +254,11 @@ fn dead_activities(text: &str, t: &Translation) -> Vec<String> {
             unreached.insert(m.clone());
         }
     }
+    unreached
+}
+
+/// The activities no run starts.
+fn dead_activities(unreached: &std::collections::BTreeSet<String>, t: &Translation) -> Vec<String> {
     let mut dead = Vec::new();
     for (key, name) in &t.activities {
         let starts: Vec<&String> = t
@@ -304,7 +309,7 @@ pub fn check(
     requirements: &[Ltl],
     dir: &Path,
     limits: Limits,
-) -> Result<Vec<Outcome>, SpinError> {
+) -> Result<Checked, SpinError> {
     let (sdir, ldir) = (dir.join("safety"), dir.join("ltl"));
     for d in [&sdir, &ldir] {
         std::fs::create_dir_all(d).map_err(|e| SpinError::Io(format!("{}: {e}", d.display())))?;
@@ -340,9 +345,19 @@ pub fn check(
         let claims = claims_search(t, &ltls, &ldir, limits);
         (safety.join(), claims)
     });
-    let mut out = safety.map_err(|_| SpinError::Io("the safety search panicked".into()))??;
-    out.extend(claims?);
-    Ok(out)
+    let (mut properties, ends) =
+        safety.map_err(|_| SpinError::Io("the safety search panicked".into()))??;
+    properties.extend(claims?);
+    Ok(Checked { properties, ends })
+}
+
+/// What Spin found.
+#[derive(Clone, Debug, Serialize)]
+pub struct Checked {
+    /// Every property, built-in ones first.
+    pub properties: Vec<Outcome>,
+    /// End events some run reaches (element ids).
+    pub ends: std::collections::BTreeSet<String>,
 }
 
 fn outcome(name: &str, description: &str, r: &PanRun, violated: bool) -> Outcome {
@@ -364,7 +379,11 @@ fn outcome(name: &str, description: &str, r: &PanRun, violated: bool) -> Outcome
 
 /// No deadlock, safeness and no dead activities from one exhaustive search that continues
 /// past errors (each error's trail kept).
-fn safety_search(t: &Translation, sdir: &Path, limits: Limits) -> Result<Vec<Outcome>, SpinError> {
+fn safety_search(
+    t: &Translation,
+    sdir: &Path,
+    limits: Limits,
+) -> Result<(Vec<Outcome>, std::collections::BTreeSet<String>), SpinError> {
     must(sdir, "spin", &["-a", "mission.pml"])?;
     must(
         sdir,
@@ -407,7 +426,8 @@ fn safety_search(t: &Translation, sdir: &Path, limits: Limits) -> Result<Vec<Out
         }
         out.push(o);
     }
-    let dead = dead_activities(&r.text, t);
+    let skipped = unreached(&r.text, t);
+    let dead = dead_activities(&skipped, t);
     let mut o = outcome(
         "no_dead_activities",
         "every activity is started in some run",
@@ -418,7 +438,14 @@ fn safety_search(t: &Translation, sdir: &Path, limits: Limits) -> Result<Vec<Out
         o.detail = Some(format!("never started: {}", dead.join(", ")));
     }
     out.push(o);
-    Ok(out)
+    // End events some run reaches.
+    let ends = t
+        .steps
+        .iter()
+        .filter(|(m, st)| st.phase == "end" && !skipped.contains(*m))
+        .map(|(_, st)| st.element.clone())
+        .collect();
+    Ok((out, ends))
 }
 
 /// One search per LTL claim.

@@ -1,0 +1,379 @@
+//! Native exploration: the executive's own engine, driven through every interleaving of what the
+//! outside can do — each task in flight completes or fails with each error code something
+//! catches, each armed timer, message or condition fires, each diverging gateway takes each of
+//! its branches — under the same abstractions as the PROMELA translation (no data; conditions
+//! chosen; timers untimed), with no translation in between. It checks the built-in properties
+//! on the engine's real semantics and gives the end events each run can reach, so the Spin
+//! verdicts can be cross-checked against it (the differential test).
+//!
+//! States are compared by their shape — which elements hold tokens (and by which flow they
+//! came), in which scopes, what waits — not by ids, so loops converge.
+
+use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
+use std::sync::Arc;
+
+use executive_engine::{
+    Action, At, Engine, Entry, Event, Input, On, Outcome, State, TaskKey, Vars,
+};
+use executive_model::{
+    Called, EventDefinition, GatewayKind, NodeId, NodeKind, ProcessGraph, Scope, TaskKind,
+};
+use serde::Serialize;
+
+/// What the exploration found.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Exploration {
+    /// Distinct states (by shape).
+    pub states: usize,
+    /// Every reachable state was explored (no bound hit).
+    pub complete: bool,
+    /// A run that gets stuck, as the inputs that lead there.
+    pub deadlock: Option<Vec<String>>,
+    /// A run that puts two tokens on one sequence flow.
+    pub unsafe_run: Option<Vec<String>>,
+    /// Activities no run starts (element ids).
+    pub dead_activities: Vec<String>,
+    /// End events some run reaches (element ids).
+    pub ends: BTreeSet<String>,
+    /// Why the engine could not be explored without data (an incident), if so.
+    pub needs_data: Option<String>,
+}
+
+/// One state in the search: the engine state and how it was reached.
+struct Node {
+    state: State,
+    parent: Option<(usize, String)>,
+}
+
+fn outside(g: &ProcessGraph, n: NodeId) -> bool {
+    match &g.node(n).kind {
+        NodeKind::Task(t) => t.kind != TaskKind::Script,
+        NodeKind::CallActivity(ca) => matches!(ca.called, Some(Called::GlobalTask(_))),
+        _ => false,
+    }
+}
+
+/// The shape of a state: tokens by (scope path, node, flow in, what they do), waits by node,
+/// instance outcomes.
+fn shape(g: &ProcessGraph, s: &State) -> String {
+    let path = |mut scope: Option<executive_engine::ScopeId>| {
+        let mut p = Vec::new();
+        while let Some(id) = scope {
+            let Some(sc) = s.scopes.get(&id) else { break };
+            p.push(match sc.kind {
+                executive_engine::ScopeKind::Process(pid) => g.process(pid).id.clone(),
+                executive_engine::ScopeKind::SubProcess(n)
+                | executive_engine::ScopeKind::Body(n) => g.node(n).id.clone(),
+            });
+            p.push(
+                sc.owner
+                    .and_then(|o| s.tokens.get(&o))
+                    .map(|t| g.node(t.node).id.clone())
+                    .unwrap_or_default(),
+            );
+            scope = sc.parent;
+        }
+        p.join("/")
+    };
+    let mut tokens: Vec<String> = s
+        .tokens
+        .values()
+        .map(|t| {
+            let at = match &t.at {
+                At::Task(_) => "task".to_owned(),
+                At::UserTask(_) => "user".to_owned(),
+                At::Scope(_) => "scope".to_owned(),
+                At::Looping(l) => format!("loop{}:{}", l.started, l.completed),
+                other => format!("{other:?}"),
+            };
+            format!(
+                "{}|{}|{:?}|{at}",
+                path(Some(t.scope)),
+                g.node(t.node).id,
+                t.via.map(|f| f.0)
+            )
+        })
+        .collect();
+    tokens.sort();
+    let mut waits: Vec<String> = s
+        .waits
+        .values()
+        .map(|w| format!("{}|{}", g.node(w.node).id, path(Some(w.scope))))
+        .collect();
+    waits.sort();
+    let outcomes: Vec<String> = s
+        .instances
+        .values()
+        .map(|i| format!("{:?}", i.outcome.as_ref().map(std::mem::discriminant)))
+        .collect();
+    format!("{tokens:?}{waits:?}{outcomes:?}")
+}
+
+/// The error codes a failing task might raise: one per code some boundary catches, plus one no
+/// boundary names (for catch-all boundaries).
+fn codes(g: &ProcessGraph) -> Vec<String> {
+    let mut out = BTreeSet::new();
+    let mut catch_all = false;
+    for n in &g.nodes {
+        if let NodeKind::Boundary(b) = &n.kind {
+            for t in &b.triggers {
+                match t {
+                    EventDefinition::Error { error: Some(e), .. } => {
+                        match &g.errors[e.index()].code {
+                            Some(c) => {
+                                out.insert(c.clone());
+                            }
+                            None => catch_all = true,
+                        }
+                    }
+                    EventDefinition::Error { error: None, .. } => catch_all = true,
+                    _ => {}
+                }
+            }
+        }
+    }
+    if catch_all {
+        out.insert("UNNAMED_FAILURE".to_owned());
+    }
+    out.into_iter().collect()
+}
+
+/// What the outside can do in a state.
+fn inputs(g: &ProcessGraph, s: &State, codes: &[String]) -> Vec<(String, Event)> {
+    let mut out = Vec::new();
+    for (id, t) in &s.tokens {
+        let label = g.node(t.node).id.clone();
+        match &t.at {
+            At::Task(key) | At::UserTask(key) => {
+                let key: TaskKey = *key;
+                out.push((
+                    format!("{label}.complete"),
+                    Event::TaskCompleted {
+                        task: key,
+                        output: Vars::new(),
+                    },
+                ));
+                if !matches!(&g.node(t.node).kind, NodeKind::Task(task) if task.kind == TaskKind::User)
+                {
+                    for c in codes {
+                        out.push((
+                            format!("{label}.fail[{c}]"),
+                            Event::TaskFailed {
+                                task: key,
+                                code: c.clone(),
+                                message: String::new(),
+                            },
+                        ));
+                    }
+                }
+            }
+            At::Deciding => {
+                let n = g.node(t.node);
+                let exclusive =
+                    matches!(&n.kind, NodeKind::Gateway(gw) if gw.kind == GatewayKind::Exclusive);
+                let count = n.outgoing.len().min(6);
+                for mask in 1u32..(1 << count) {
+                    if exclusive && mask.count_ones() != 1 {
+                        continue;
+                    }
+                    let flows: Vec<_> = (0..count)
+                        .filter(|k| mask & (1 << k) != 0)
+                        .map(|k| n.outgoing[k])
+                        .collect();
+                    let names: Vec<&str> = flows.iter().map(|f| g.flow(*f).id.as_str()).collect();
+                    out.push((
+                        format!("{label}.take[{}]", names.join("+")),
+                        Event::BranchTaken { token: *id, flows },
+                    ));
+                }
+            }
+            _ => {}
+        }
+    }
+    for (wid, w) in &s.waits {
+        let fires = matches!(
+            w.on,
+            On::Timer { .. } | On::Message(..) | On::Condition { .. } | On::Manual
+        );
+        if fires {
+            out.push((
+                format!("{}.fire", g.node(w.node).id),
+                Event::WaitTriggered { wait: *wid },
+            ));
+        }
+    }
+    out
+}
+
+fn path_of(nodes: &[Node], mut at: usize) -> Vec<String> {
+    let mut steps = Vec::new();
+    while let Some((parent, label)) = &nodes[at].parent {
+        steps.push(label.clone());
+        at = *parent;
+    }
+    steps.reverse();
+    steps
+}
+
+/// Explores the engine on `g` up to `max_states` distinct states.
+pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
+    let hold: BTreeSet<NodeId> = (0..g.nodes.len() as u32)
+        .map(NodeId)
+        .filter(|n| outside(&g, *n))
+        .collect();
+    let engine = |state: State| {
+        let mut e = Engine::restore(Arc::clone(&g), state);
+        let game = e.game();
+        game.decide = true;
+        game.hold = hold.clone();
+        e
+    };
+    let codes = codes(&g);
+    let mut entered: BTreeSet<NodeId> = BTreeSet::new();
+    let note = |actions: &[Action], entered: &mut BTreeSet<NodeId>| {
+        for a in actions {
+            if let Action::Record(r) = a
+                && let Entry::Entered { node, .. } = &r.entry
+            {
+                entered.insert(*node);
+            }
+        }
+    };
+    let mut out = Exploration {
+        complete: true,
+        ..Exploration::default()
+    };
+    // The mission starts: every primary process.
+    let mut e = engine(State::default());
+    for p in g.primary_processes() {
+        let seq = e.state().last_seq + 1;
+        match e.step(Input {
+            seq,
+            at: 0,
+            event: Event::InstanceStarted {
+                process: g.process(p).id.clone(),
+                vars: Vars::new(),
+                start: None,
+            },
+        }) {
+            Ok(actions) => note(&actions, &mut entered),
+            Err(r) => {
+                out.needs_data = Some(format!("the mission does not start: {r}"));
+                return out;
+            }
+        }
+    }
+    let mut nodes = vec![Node {
+        state: e.state().clone(),
+        parent: None,
+    }];
+    let mut seen: HashMap<String, usize> = HashMap::new();
+    seen.insert(shape(&g, &nodes[0].state), 0);
+    let mut queue = VecDeque::from([0usize]);
+    while let Some(at) = queue.pop_front() {
+        let state = nodes[at].state.clone();
+        if let Some((n, why)) = state
+            .instances
+            .values()
+            .flat_map(|i| i.incidents.iter())
+            .next()
+        {
+            out.needs_data = Some(format!("`{}`: {why}", g.node(*n).id));
+            out.complete = false;
+            break;
+        }
+        // Two tokens that came by the same flow to the same element of the same scope.
+        let mut by_flow = BTreeMap::new();
+        for t in state.tokens.values() {
+            if let Some(f) = t.via
+                && !matches!(t.at, At::Joining)
+                && by_flow.insert((t.scope, t.node, f), ()).is_some()
+                && out.unsafe_run.is_none()
+            {
+                out.unsafe_run = Some(path_of(&nodes, at));
+            }
+        }
+        let running = state.instances.values().any(|i| i.outcome.is_none());
+        let next = inputs(&g, &state, &codes);
+        if next.is_empty() {
+            if running && out.deadlock.is_none() {
+                out.deadlock = Some(path_of(&nodes, at));
+            }
+            continue;
+        }
+        for (label, event) in next {
+            let mut e = engine(state.clone());
+            let seq = state.last_seq + 1;
+            let Ok(actions) = e.step(Input { seq, at: 0, event }) else {
+                continue;
+            };
+            let after = e.state();
+            // The translation fails tasks only with codes something catches.
+            let failed = after
+                .instances
+                .values()
+                .any(|i| matches!(i.outcome, Some(Outcome::Failed { .. })))
+                && !state
+                    .instances
+                    .values()
+                    .any(|i| matches!(i.outcome, Some(Outcome::Failed { .. })));
+            if failed && label.contains(".fail[") {
+                continue;
+            }
+            note(&actions, &mut entered);
+            let key = shape(&g, after);
+            if seen.contains_key(&key) {
+                continue;
+            }
+            if nodes.len() >= max_states {
+                out.complete = false;
+                continue;
+            }
+            seen.insert(key, nodes.len());
+            nodes.push(Node {
+                state: after.clone(),
+                parent: Some((at, label)),
+            });
+            queue.push_back(nodes.len() - 1);
+        }
+    }
+    out.states = nodes.len();
+    // Activities of the processes that run (primary or called), never entered.
+    let mut running: BTreeSet<executive_model::ProcessId> =
+        g.primary_processes().into_iter().collect();
+    let mut grew = true;
+    while grew {
+        grew = false;
+        for n in &g.nodes {
+            if let NodeKind::CallActivity(ca) = &n.kind
+                && let Some(Called::Process(p)) = &ca.called
+                && running.contains(&process_of(&g, n.scope))
+                && running.insert(*p)
+            {
+                grew = true;
+            }
+        }
+    }
+    for (i, n) in g.nodes.iter().enumerate() {
+        let id = NodeId(i as u32);
+        if !running.contains(&g.process_of(id)) {
+            continue;
+        }
+        if n.is_activity() && !entered.contains(&id) {
+            out.dead_activities.push(n.id.clone());
+        }
+        if matches!(n.kind, NodeKind::End(_)) && entered.contains(&id) {
+            out.ends.insert(n.id.clone());
+        }
+    }
+    out
+}
+
+fn process_of(g: &ProcessGraph, mut scope: Scope) -> executive_model::ProcessId {
+    loop {
+        match scope {
+            Scope::Process(p) => return p,
+            Scope::SubProcess(n) => scope = g.node(n).scope,
+        }
+    }
+}
