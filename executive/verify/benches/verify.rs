@@ -1,0 +1,206 @@
+//! Verification benchmark: the Europa mission with all its requirements, and scaling as
+//! concurrent excavation sub-processes are added (1–4), for Spin (translate, generate, compile,
+//! search) and the native engine exploration side by side, in the same run.
+//!
+//! `cargo bench -p executive-verify --bench verify` (needs `spin` and `gcc`).
+
+use std::path::Path;
+use std::sync::Arc;
+use std::time::Instant;
+
+use executive_verify::{Bounds, Limits, Ltl};
+
+fn load(text: &str) -> executive_model::ProcessGraph {
+    executive_model::load(text.as_bytes())
+        .graph
+        .expect("the benchmark model is valid")
+}
+
+/// `r` excavation sub-processes in parallel (dig with a stuck-tool retry and a slump check),
+/// and a battery monitor whose abort signal interrupts each of them.
+fn rovers(r: usize) -> String {
+    let mut body = String::new();
+    let mut flows = String::new();
+    for i in 1..=r {
+        body.push_str(&format!(
+            r#"
+    <subProcess id="dig{i}" name="Excavation {i}">
+      <startEvent id="s{i}"/>
+      <task id="approach{i}" name="Approach {i}"/>
+      <exclusiveGateway id="retry{i}"/>
+      <task id="remove{i}" name="Remove Material {i}"/>
+      <boundaryEvent id="stuck{i}" attachedToRef="remove{i}"><errorEventDefinition errorRef="err"/></boundaryEvent>
+      <task id="unstick{i}" name="Unstick {i}"/>
+      <exclusiveGateway id="slump{i}" default="ok{i}"/>
+      <task id="stow{i}" name="Stow {i}"/>
+      <endEvent id="e{i}"/>
+      <sequenceFlow id="a{i}" sourceRef="s{i}" targetRef="approach{i}"/>
+      <sequenceFlow id="b{i}" sourceRef="approach{i}" targetRef="retry{i}"/>
+      <sequenceFlow id="c{i}" sourceRef="retry{i}" targetRef="remove{i}"/>
+      <sequenceFlow id="d{i}" sourceRef="remove{i}" targetRef="slump{i}"/>
+      <sequenceFlow id="again{i}" sourceRef="slump{i}" targetRef="retry{i}"><conditionExpression xsi:type="tFormalExpression">slumped</conditionExpression></sequenceFlow>
+      <sequenceFlow id="ok{i}" sourceRef="slump{i}" targetRef="stow{i}"/>
+      <sequenceFlow id="u{i}" sourceRef="stuck{i}" targetRef="unstick{i}"/>
+      <sequenceFlow id="v{i}" sourceRef="unstick{i}" targetRef="retry{i}"/>
+      <sequenceFlow id="w{i}" sourceRef="stow{i}" targetRef="e{i}"/>
+    </subProcess>
+    <boundaryEvent id="abort{i}" attachedToRef="dig{i}"><signalEventDefinition signalRef="low"/></boundaryEvent>
+    <task id="safe{i}" name="Safe {i}"/>"#
+        ));
+        flows.push_str(&format!(
+            r#"
+    <sequenceFlow id="f{i}" sourceRef="fork" targetRef="dig{i}"/>
+    <sequenceFlow id="g{i}" sourceRef="dig{i}" targetRef="join"/>
+    <sequenceFlow id="h{i}" sourceRef="abort{i}" targetRef="safe{i}"/>
+    <sequenceFlow id="k{i}" sourceRef="safe{i}" targetRef="join"/>"#
+        ));
+    }
+    format!(
+        r#"<?xml version="1.0" encoding="UTF-8"?>
+<definitions xmlns="http://www.omg.org/spec/BPMN/20100524/MODEL" xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance" id="d" targetNamespace="urn:bench">
+  <error id="err" errorCode="TOOL_STUCK"/>
+  <signal id="low" name="BatteryLow"/>
+  <process id="rovers" isExecutable="true">
+    <startEvent id="start"/>
+    <parallelGateway id="fork"/>
+    <exclusiveGateway id="join"/>
+    <task id="read" name="Read Battery"/>
+    <exclusiveGateway id="low_q" default="fine"/>
+    <intermediateThrowEvent id="throw"><signalEventDefinition signalRef="low"/></intermediateThrowEvent>
+    <endEvent id="monitor_end"/>
+    <endEvent id="end"><terminateEventDefinition/></endEvent>{body}
+    <sequenceFlow id="f0" sourceRef="start" targetRef="fork"/>
+    <sequenceFlow id="m1" sourceRef="fork" targetRef="read"/>
+    <sequenceFlow id="m2" sourceRef="read" targetRef="low_q"/>
+    <sequenceFlow id="m3" sourceRef="low_q" targetRef="throw"><conditionExpression xsi:type="tFormalExpression">battery_soc_pct &lt; 30.0</conditionExpression></sequenceFlow>
+    <sequenceFlow id="fine" sourceRef="low_q" targetRef="monitor_end"/>
+    <sequenceFlow id="m4" sourceRef="throw" targetRef="monitor_end"/>
+    <sequenceFlow id="j" sourceRef="join" targetRef="end"/>{flows}
+  </process>
+</definitions>"#
+    )
+}
+
+struct Run {
+    states: u64,
+    seconds: f64,
+    verdicts: String,
+}
+
+fn spin(g: &executive_model::ProcessGraph, ltls: &[Ltl], dir: &Path) -> Run {
+    let t0 = Instant::now();
+    let t = executive_verify::translate(g, Bounds::default(), &[]).expect("translates");
+    let checked = executive_verify::check(&t, ltls, dir, Limits::default()).expect("spin runs");
+    let seconds = t0.elapsed().as_secs_f64();
+    let states = checked.properties.iter().map(|o| o.states).max().unwrap_or(0);
+    let bad: Vec<&str> = checked
+        .properties
+        .iter()
+        .filter(|o| o.verdict != executive_verify::Verdict::Holds)
+        .map(|o| o.name.as_str())
+        .collect();
+    Run {
+        states,
+        seconds,
+        verdicts: if bad.is_empty() {
+            format!("all {} hold", checked.properties.len())
+        } else {
+            format!("not holding: {}", bad.join(", "))
+        },
+    }
+}
+
+fn native(g: executive_model::ProcessGraph) -> Run {
+    let t0 = Instant::now();
+    let e = executive_verify::explore(Arc::new(g), 5_000_000);
+    let seconds = t0.elapsed().as_secs_f64();
+    let mut bad = Vec::new();
+    if e.deadlock.is_some() {
+        bad.push("no_deadlock");
+    }
+    if e.unsafe_run.is_some() {
+        bad.push("safe");
+    }
+    if !e.dead_activities.is_empty() {
+        bad.push("no_dead_activities");
+    }
+    if !e.complete {
+        bad.push("(incomplete)");
+    }
+    Run {
+        states: e.states as u64,
+        seconds,
+        verdicts: if bad.is_empty() {
+            "built-ins hold".to_owned()
+        } else {
+            format!("not holding: {}", bad.join(", "))
+        },
+    }
+}
+
+fn main() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let work = std::env::temp_dir().join(format!("verify-bench-{}", std::process::id()));
+    let europa = std::fs::read_to_string(root.join("deploy/missions/europa-bsm1.bpmn"))
+        .expect("Europa model");
+    let g = load(&europa);
+    let reqs = executive_verify::requirements::load(
+        &root.join("deploy/missions/europa-bsm1.req.toml"),
+        &g,
+    )
+    .expect("requirements");
+    let (atoms, formulas) = executive_verify::requirements::shared_atoms(&reqs);
+    let t0 = Instant::now();
+    let t = executive_verify::translate(&g, Bounds::default(), &atoms).expect("translates");
+    let ltls: Vec<Ltl> = reqs
+        .iter()
+        .map(|r| {
+            let mut f = formulas[&r.name].clone();
+            for (k, e) in t.atoms.iter().enumerate().rev() {
+                f = f.replace(&format!("@{k}"), e);
+            }
+            Ltl {
+                name: r.name.clone(),
+                description: r.says.clone(),
+                formula: f,
+            }
+        })
+        .collect();
+    let checked = executive_verify::check(&t, &ltls, &work.join("europa"), Limits::default())
+        .expect("spin runs");
+    let spin_s = t0.elapsed().as_secs_f64();
+    let holding = checked
+        .properties
+        .iter()
+        .filter(|o| o.verdict == executive_verify::Verdict::Holds)
+        .count();
+    let most = checked.properties.iter().map(|o| o.states).max().unwrap_or(0);
+    let n = native(load(&europa));
+    println!("Europa BSM-1 with its requirements ({} properties):", checked.properties.len());
+    println!(
+        "  Spin   {spin_s:>6.2} s wall (translate, spin -a, gcc, every pan run), largest search {most} states; {holding} of {} hold",
+        checked.properties.len()
+    );
+    println!(
+        "  native {:>6.2} s, {} states; {}",
+        n.seconds, n.states, n.verdicts
+    );
+    println!("\nScaling: concurrent excavation sub-processes (built-in properties):");
+    println!("  R | Spin states | Spin s | native states | native s | Spin/native time");
+    for r in 1..=4 {
+        let text = rovers(r);
+        let s = spin(&load(&text), &[], &work.join(format!("r{r}")));
+        let n = native(load(&text));
+        println!(
+            "  {r} | {:>11} | {:>6.2} | {:>13} | {:>8.2} | {:>6.1}x   (Spin: {}; native: {})",
+            s.states,
+            s.seconds,
+            n.states,
+            n.seconds,
+            s.seconds / n.seconds.max(1e-6),
+            s.verdicts,
+            n.verdicts
+        );
+    }
+    let _ = std::fs::remove_dir_all(&work);
+}
