@@ -372,6 +372,38 @@ fn a_flaw_seeded_into_europa_is_found_with_a_readable_counterexample() {
         !path.iter().any(|s| s.starts_with("CommunicateUntilDeath")),
         "{path:?}"
     );
+    // The same story as an execution record, drawn by the timeline viewer.
+    let work = std::env::temp_dir().join(format!(
+        "trace-it-verify-europa-seeded-{}/europa-seeded.verify",
+        std::process::id()
+    ));
+    let record = work.join("no_deadlock.counterexample.jsonl");
+    let page = work.join("no_deadlock.html");
+    let out = Command::new(bin("trace"))
+        .arg("timeline")
+        .arg(&record)
+        .arg("-o")
+        .arg(&page)
+        .output()
+        .expect("trace timeline runs");
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{said}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let bars: usize = said
+        .split(" bars")
+        .next()
+        .and_then(|t| t.rsplit(' ').next())
+        .and_then(|n| n.parse().ok())
+        .expect("a bar count");
+    assert!(bars >= 5, "{said}");
+    let html = std::fs::read_to_string(&page).expect("page");
+    assert!(
+        html.contains("Excavate and Collect Samples"),
+        "the science phase is drawn"
+    );
 }
 
 #[test]
@@ -554,4 +586,23 @@ fn spin_and_the_engine_agree_on_the_betsy_models() {
     }
     assert!(unsound.is_empty(), "{}", unsound.join("\n"));
     assert!(compared >= 30, "only {compared} models compared");
+}
+
+#[test]
+fn a_missing_spin_is_named_with_how_to_install_it() {
+    let dir = tempdir("verify-nospin");
+    let file = dir.join("m.bpmn");
+    std::fs::write(&file, choice("exclusiveGateway")).expect("model");
+    let out = Command::new(bin("trace"))
+        .arg("verify")
+        .arg(&file)
+        .env("PATH", dir.join("empty"))
+        .output()
+        .expect("trace verify runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("`spin` was not found: install it (Debian: `apt-get install spin gcc`)"),
+        "{err}"
+    );
 }

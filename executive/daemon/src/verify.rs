@@ -160,13 +160,16 @@ pub fn verify(opts: &VerifyOptions) -> Result<Report, VerifyError> {
     };
     let checked = executive_verify::check(&t, &ltls, &dir, limits)?;
     let properties = checked.properties;
+    let graph = std::sync::Arc::new(graph);
     let native = opts
         .native
-        .then(|| executive_verify::explore(std::sync::Arc::new(graph), 2_000_000));
+        .then(|| executive_verify::explore(std::sync::Arc::clone(&graph), 2_000_000));
     for o in &properties {
         if !o.counterexample.is_empty() {
             let file = dir.join(format!("{}.counterexample.json", o.name));
             let _ = std::fs::write(&file, serde_json::to_string_pretty(o).unwrap_or_default());
+            let record = dir.join(format!("{}.counterexample.jsonl", o.name));
+            let _ = std::fs::write(&record, as_record(&o.counterexample, &graph));
         }
     }
     Ok(Report {
@@ -177,6 +180,113 @@ pub fn verify(opts: &VerifyOptions) -> Result<Report, VerifyError> {
         ends: checked.ends,
         native,
     })
+}
+
+/// A counterexample as an execution record (one minute of mission time per step), so
+/// `trace timeline` draws it like a flown mission: activities as bars, boundaries and lost
+/// signals as markers.
+pub fn as_record(
+    steps: &[executive_verify::TraceStep],
+    g: &executive_model::ProcessGraph,
+) -> String {
+    use executive_model::NodeKind;
+    use serde_json::json;
+    let mut out = String::new();
+    let mut tokens = std::collections::BTreeMap::new();
+    for (i, s) in steps.iter().enumerate() {
+        let at = i as i64 * 60_000;
+        // Record lines are told apart by (seq, idx): one step's lines get their own indices.
+        let mut idx = 0;
+        let mut line = |extra: serde_json::Value, at: i64| {
+            let mut v = json!({"v": 1, "seq": i + 1, "idx": idx, "mission_ms": at});
+            idx += 1;
+            if let (Some(o), Some(e)) = (v.as_object_mut(), extra.as_object()) {
+                o.extend(e.clone());
+            }
+            out.push_str(&v.to_string());
+            out.push('\n');
+        };
+        let Some(st) = &s.step else {
+            if let Some(sig) = s.marker.strip_prefix("LOST ") {
+                line(
+                    json!({"kind": "caught", "what": "lost signal", "name": sig,
+                    "element": {"id": "", "name": format!("lost {sig}"), "type": "boundaryEvent"}}),
+                    at,
+                );
+            }
+            continue;
+        };
+        let Some(node) = g.node_by_id(&st.element).map(|n| g.node(n)) else {
+            continue;
+        };
+        let element = json!({"id": st.element, "name": st.name,
+            "type": node.kind.element_name()});
+        let key = format!("{}{}", st.path, st.element);
+        let resource = match &node.kind {
+            NodeKind::Task(t) => t.binding.as_ref().and_then(|b| b.resource.clone()),
+            _ => None,
+        }
+        .unwrap_or_else(|| format!("model.{}", st.element));
+        let scope = matches!(
+            node.kind,
+            NodeKind::SubProcess(_) | NodeKind::CallActivity(_)
+        );
+        let dispatched = json!({"kind": "dispatched", "task": key,
+            "resource": resource, "element": element});
+        match st.phase.as_str() {
+            "activate" => {
+                let token = tokens.len() as i64 + 1;
+                tokens.insert(key, token);
+                line(
+                    json!({"kind": "entered", "token": token, "element": element}),
+                    at,
+                );
+            }
+            "complete" if scope => {
+                if let Some(token) = tokens.remove(&key) {
+                    line(
+                        json!({"kind": "left", "token": token, "element": element}),
+                        at,
+                    );
+                }
+            }
+            "start" => line(dispatched, at),
+            "complete" => line(json!({"kind": "completed", "task": key}), at),
+            "run" => {
+                line(dispatched, at);
+                line(json!({"kind": "completed", "task": key}), at + 30_000);
+            }
+            p if p.starts_with("fail[") => line(
+                json!({"kind": "failed", "task": key,
+                "code": p.trim_start_matches("fail[").trim_end_matches(']'),
+                "message": "a failure the model catches"}),
+                at,
+            ),
+            "fire" => {
+                let NodeKind::Boundary(be) = &node.kind else {
+                    continue;
+                };
+                line(
+                    json!({"kind": "caught", "what": "boundary", "name": st.name,
+                    "element": element}),
+                    at,
+                );
+                // An interrupted scope ends here.
+                let holder = g.node(be.attached_to);
+                let key = format!("{}{}", st.path, holder.id);
+                if let Some(token) = tokens.remove(&key) {
+                    line(
+                        json!({"kind": "withdrawn", "token": token,
+                        "element": {"id": holder.id, "name": holder.label(),
+                            "type": holder.kind.element_name()}}),
+                        at,
+                    );
+                }
+            }
+            _ => {}
+        }
+    }
+    out
 }
 
 /// Prints a report for people.
@@ -253,12 +363,12 @@ pub fn print(report: &Report, out: &mut dyn Write) -> std::io::Result<()> {
                 };
                 writeln!(out, "               {:>3}. {what}{cycle}", i + 1)?;
             }
+            let file = Path::new(&report.dir).join(format!("{}.counterexample", o.name));
             writeln!(
                 out,
-                "               (JSON: {})",
-                Path::new(&report.dir)
-                    .join(format!("{}.counterexample.json", o.name))
-                    .display()
+                "               (JSON: {}.json; as a record for `trace timeline`: {}.jsonl)",
+                file.display(),
+                file.display()
             )?;
         }
     }

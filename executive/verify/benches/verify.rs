@@ -92,7 +92,12 @@ fn spin(g: &executive_model::ProcessGraph, ltls: &[Ltl], dir: &Path) -> Run {
     let t = executive_verify::translate(g, Bounds::default(), &[]).expect("translates");
     let checked = executive_verify::check(&t, ltls, dir, Limits::default()).expect("spin runs");
     let seconds = t0.elapsed().as_secs_f64();
-    let states = checked.properties.iter().map(|o| o.states).max().unwrap_or(0);
+    let states = checked
+        .properties
+        .iter()
+        .map(|o| o.states)
+        .max()
+        .unwrap_or(0);
     let bad: Vec<&str> = checked
         .properties
         .iter()
@@ -174,9 +179,17 @@ fn main() {
         .iter()
         .filter(|o| o.verdict == executive_verify::Verdict::Holds)
         .count();
-    let most = checked.properties.iter().map(|o| o.states).max().unwrap_or(0);
+    let most = checked
+        .properties
+        .iter()
+        .map(|o| o.states)
+        .max()
+        .unwrap_or(0);
     let n = native(load(&europa));
-    println!("Europa BSM-1 with its requirements ({} properties):", checked.properties.len());
+    println!(
+        "Europa BSM-1 with its requirements ({} properties):",
+        checked.properties.len()
+    );
     println!(
         "  Spin   {spin_s:>6.2} s wall (translate, spin -a, gcc, every pan run), largest search {most} states; {holding} of {} hold",
         checked.properties.len()
