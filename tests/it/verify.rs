@@ -317,6 +317,7 @@ fn the_europa_mission_verifies() {
         "abort_leads_to_communication",
         "no_excavation_after_abort",
         "science_needs_an_approved_site",
+        "five_samples_unless_cut_short",
     ] {
         assert!(
             text.lines()
@@ -489,7 +490,9 @@ fn spin_and_the_engine_agree_on_the_betsy_models() {
         let path = root.join(group).join(format!("{name}.bpmn"));
         let loaded = executive::validate::load_file(&path, &options).expect("readable");
         let Some(graph) = loaded.graph else { continue };
-        let Ok(tr) = executive_verify::translate(&graph, Bounds::default(), &[]) else {
+        let Ok(tr) =
+            executive_verify::translate(&graph, Bounds::default(), &[], &Default::default())
+        else {
             refused += 1;
             continue;
         };

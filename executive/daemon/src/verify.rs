@@ -125,17 +125,22 @@ pub fn verify(opts: &VerifyOptions) -> Result<Report, VerifyError> {
         let beside = path.with_extension("req.toml");
         beside.exists().then_some(beside)
     });
-    let reqs = match &req_file {
+    let loaded = match &req_file {
         Some(f) => executive_verify::requirements::load(f, &graph)?,
-        None => Vec::new(),
+        None => Default::default(),
     };
+    let reqs = loaded.requirements;
     let (atoms, formulas) = executive_verify::requirements::shared_atoms(&reqs);
-    let t = executive_verify::translate(&graph, Bounds { loops: opts.loops }, &atoms).map_err(
-        |refusals| VerifyError::Refused {
-            path: path.display().to_string(),
-            refusals,
-        },
-    )?;
+    let t = executive_verify::translate(
+        &graph,
+        Bounds { loops: opts.loops },
+        &atoms,
+        &loaded.variables,
+    )
+    .map_err(|refusals| VerifyError::Refused {
+        path: path.display().to_string(),
+        refusals,
+    })?;
     let ltls: Vec<executive_verify::Ltl> = reqs
         .iter()
         .map(|r| {

@@ -89,7 +89,8 @@ struct Run {
 
 fn spin(g: &executive_model::ProcessGraph, ltls: &[Ltl], dir: &Path) -> Run {
     let t0 = Instant::now();
-    let t = executive_verify::translate(g, Bounds::default(), &[]).expect("translates");
+    let t = executive_verify::translate(g, Bounds::default(), &[], &Default::default())
+        .expect("translates");
     let checked = executive_verify::check(&t, ltls, dir, Limits::default()).expect("spin runs");
     let seconds = t0.elapsed().as_secs_f64();
     let states = checked
@@ -149,14 +150,16 @@ fn main() {
     let europa = std::fs::read_to_string(root.join("deploy/missions/europa-bsm1.bpmn"))
         .expect("Europa model");
     let g = load(&europa);
-    let reqs = executive_verify::requirements::load(
+    let loaded = executive_verify::requirements::load(
         &root.join("deploy/missions/europa-bsm1.req.toml"),
         &g,
     )
     .expect("requirements");
+    let reqs = loaded.requirements;
     let (atoms, formulas) = executive_verify::requirements::shared_atoms(&reqs);
     let t0 = Instant::now();
-    let t = executive_verify::translate(&g, Bounds::default(), &atoms).expect("translates");
+    let t = executive_verify::translate(&g, Bounds::default(), &atoms, &loaded.variables)
+        .expect("translates");
     let ltls: Vec<Ltl> = reqs
         .iter()
         .map(|r| {

@@ -15,6 +15,7 @@
 //! `serde`/`serde_json` (the JSON report and counterexamples), `toml` (the requirements file,
 //! like the other configuration files), `thiserror`.
 
+pub mod data;
 pub mod explore;
 pub mod promela;
 pub mod requirements;

@@ -124,17 +124,21 @@ struct Tr<'g> {
     observe: Vec<Atom>,
     /// Tasks translated as one step (start and completion folded).
     folded: BTreeSet<NodeId>,
+    /// Declared bounded variables.
+    vars: crate::data::Variables,
 }
 
 fn me_signals(g: &ProcessGraph) -> usize {
     g.signals.len() + 1
 }
 
-/// Translates a validated model, instrumented for the atoms requirements read.
+/// Translates a validated model, instrumented for the atoms requirements read, with the
+/// declared bounded variables kept exactly.
 pub fn translate(
     g: &ProcessGraph,
     bounds: Bounds,
     observe: &[Atom],
+    vars: &crate::data::Variables,
 ) -> Result<Translation, Vec<Refusal>> {
     let mut t = Tr {
         g,
@@ -153,6 +157,7 @@ pub fn translate(
         lost_check: false,
         observe: observe.to_vec(),
         folded: BTreeSet::new(),
+        vars: vars.clone(),
     };
     for (i, n) in g.nodes.iter().enumerate() {
         let id = NodeId(i as u32);
@@ -644,6 +649,73 @@ impl<'g> Tr<'g> {
         false
     }
 
+    /// An exclusive split decided by declared data: each outgoing flow with its exact guard
+    /// (the first condition that holds, in order; the default when none does). `None` when a
+    /// condition reads anything undeclared.
+    fn data_guards(&self, n: NodeId) -> Option<Vec<(FlowId, String)>> {
+        let node = self.g.node(n);
+        if node.outgoing.len() < 2 || self.vars.is_empty() {
+            return None;
+        }
+        let mut earlier: Vec<String> = Vec::new();
+        let mut out = Vec::new();
+        for f in &node.outgoing {
+            if Some(*f) == node.default_flow {
+                continue;
+            }
+            let cond = match &self.g.flow(*f).condition {
+                Some(c) => crate::data::expression(&c.text, &self.vars)?,
+                None => "true".to_owned(),
+            };
+            let mut guard: Vec<String> = earlier.iter().map(|e| format!("!{e}")).collect();
+            guard.push(cond.clone());
+            out.push((*f, format!("({})", guard.join(" && "))));
+            earlier.push(cond);
+        }
+        if let Some(d) = node.default_flow {
+            let none: Vec<String> = earlier.iter().map(|e| format!("!{e}")).collect();
+            out.push((
+                d,
+                if none.is_empty() {
+                    "true".to_owned()
+                } else {
+                    format!("({})", none.join(" && "))
+                },
+            ));
+        }
+        Some(out)
+    }
+
+    /// What completing `n` does to declared data: script assignments (exact where they
+    /// translate, else any value of the range) and task outputs (any value).
+    fn data_effects(&self, n: NodeId) -> Vec<String> {
+        let mut out = Vec::new();
+        if self.vars.is_empty() {
+            return out;
+        }
+        if let NodeKind::Task(t) = &self.g.node(n).kind {
+            if let Some(assignments) = t.script.as_ref().and_then(|s| s.assignments.as_ref()) {
+                for (name, e) in assignments {
+                    if let Some(k) = self.vars.get(name) {
+                        out.extend(crate::data::assign(
+                            name,
+                            k,
+                            crate::data::expression(&e.text, &self.vars),
+                        ));
+                    }
+                }
+            }
+            if let Some(b) = &t.binding {
+                for o in &b.outputs {
+                    if let Some(k) = self.vars.get(&o.target) {
+                        out.extend(crate::data::assign(&o.target, k, None));
+                    }
+                }
+            }
+        }
+        out
+    }
+
     /// Does any of `flows` lead back to `to`?
     fn leads_back(&self, flows: &[FlowId], to: NodeId) -> bool {
         flows
@@ -1026,6 +1098,24 @@ impl<'g> Tr<'g> {
                 self.put_all(c, outs, &mut alt);
                 self.push(&m, alt);
             }
+            GatewayKind::Exclusive if self.data_guards(n).is_some() => {
+                // Decided by declared data, as the engine does: the first condition that
+                // holds (in document order), else the default flow. Data bounds the cycles.
+                let guards = self.data_guards(n).unwrap_or_default();
+                for fi in ins {
+                    for (fo, guard) in &guards {
+                        let label = self.g.flow(*fo).id.clone();
+                        let m = self.marker(c, n, &format!("take[{label}]"));
+                        let mut alt = Alt::default();
+                        let i = self.f(c, *fi);
+                        alt.guard.push(format!("tok[{i}] > 0"));
+                        alt.guard.push(guard.clone());
+                        alt.effect.push(format!("tok[{i}]--"));
+                        self.put(c, *fo, &mut alt);
+                        self.push(&m, alt);
+                    }
+                }
+            }
             GatewayKind::Exclusive | GatewayKind::Complex => {
                 // Branches that lead back here are bounded; when every branch does, one (the
                 // default, else the first) stays free so the choice can always be made.
@@ -1211,6 +1301,7 @@ impl<'g> Tr<'g> {
                 let i = self.f(c, *f);
                 alt.guard.push(format!("tok[{i}] > 0"));
                 alt.effect.push(format!("tok[{i}]--"));
+                alt.effect.extend(self.data_effects(n));
                 self.put_all(c, outs, &mut alt);
                 self.push(&m, alt);
             }
@@ -1291,6 +1382,7 @@ impl<'g> Tr<'g> {
         }
         alt.guard.push(done_guard);
         alt.effect.push(format!("act[{a}] = 0"));
+        alt.effect.extend(self.data_effects(n));
         self.put_all(c, outs, &mut alt);
         self.push(&m, alt);
         // A system's failure, caught by a boundary here or around.
@@ -1359,6 +1451,7 @@ impl<'g> Tr<'g> {
         let _ = writeln!(p, "byte tok[{nf}];\nbool act[{na}];\nbyte reps[{nc}];");
         let _ = writeln!(p, "bool heard, lost, unsafe, failed, terminated, ended;");
         let _ = writeln!(p, "bool unheard[{}];", me_signals(self.g));
+        p.push_str(&crate::data::declarations(&self.vars));
         // The executive starts the primary processes one after another, each running until it
         // waits, before anything from outside is heard.
         let primaries = self.ctxs.iter().filter(|c| c.call.is_none()).count();

@@ -8,6 +8,14 @@
 //! check = 'after signal "BATTERY_LOW_ABORT" eventually done "Communicate Until Death"'
 //! ```
 //!
+//! Bounded variables make the conditions and scripts that use them exact instead of abstract
+//! (`data.rs`):
+//!
+//! ```toml
+//! [variables]
+//! samples_analyzed = "0..5"
+//! ```
+//!
 //! Forms: `eventually E`, `always E`, `never E`, `after A eventually|always|never E`,
 //! `E when completed` (at the mission's end, unless it failed), `E when C` (at the end, if C).
 //! Expressions: `done "X"` (X — an element id or name — completed or was passed at least once),
@@ -65,7 +73,18 @@ pub struct RequirementsError {
 #[serde(deny_unknown_fields)]
 struct File {
     #[serde(default)]
+    variables: BTreeMap<String, String>,
+    #[serde(default)]
     requirement: Vec<Entry>,
+}
+
+/// A requirements file, compiled.
+#[derive(Clone, Debug, Default)]
+pub struct Loaded {
+    /// The requirements, in file order.
+    pub requirements: Vec<Requirement>,
+    /// The bounded data variables declared for the translation.
+    pub variables: crate::data::Variables,
 }
 
 #[derive(Deserialize)]
@@ -87,7 +106,7 @@ const RESERVED: [&str; 6] = [
 ];
 
 /// Reads and compiles a requirements file against the model.
-pub fn load(path: &Path, g: &ProcessGraph) -> Result<Vec<Requirement>, RequirementsError> {
+pub fn load(path: &Path, g: &ProcessGraph) -> Result<Loaded, RequirementsError> {
     let bad = |reason: String| RequirementsError {
         path: path.display().to_string(),
         reason,
@@ -95,6 +114,24 @@ pub fn load(path: &Path, g: &ProcessGraph) -> Result<Vec<Requirement>, Requireme
     let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
     let file: File = toml::from_str(&text).map_err(|e| bad(e.to_string()))?;
     let mut problems = Vec::new();
+    let mut variables = crate::data::Variables::new();
+    for (name, decl) in &file.variables {
+        let ident = name
+            .chars()
+            .next()
+            .is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+            && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+        if !ident {
+            problems.push(format!("variable `{name}`: not a variable name"));
+            continue;
+        }
+        match crate::data::kind(decl) {
+            Ok(k) => {
+                variables.insert(name.clone(), k);
+            }
+            Err(why) => problems.push(format!("variable `{name}`: {why}")),
+        }
+    }
     let mut out = Vec::new();
     for e in file.requirement {
         let named_ok = !e.name.is_empty()
@@ -133,7 +170,10 @@ pub fn load(path: &Path, g: &ProcessGraph) -> Result<Vec<Requirement>, Requireme
         }
     }
     if problems.is_empty() {
-        Ok(out)
+        Ok(Loaded {
+            requirements: out,
+            variables,
+        })
     } else {
         Err(bad(problems.join("\n")))
     }
