@@ -609,3 +609,46 @@ fn a_missing_spin_is_named_with_how_to_install_it() {
         "{err}"
     );
 }
+
+/// Timers armed together fire in the order of their durations: behind a 1 h boundary, a 2 h
+/// boundary on the same task never fires — for Spin and for the engine alike.
+#[test]
+fn timers_armed_together_fire_shortest_first() {
+    let text = model(
+        r#"<process id="p" isExecutable="true">
+    <startEvent id="s"/>
+    <task id="dig" name="Dig"/>
+    <boundaryEvent id="hour" attachedToRef="dig"><timerEventDefinition><timeDuration xsi:type="tFormalExpression">PT1H</timeDuration></timerEventDefinition></boundaryEvent>
+    <boundaryEvent id="two" attachedToRef="dig"><timerEventDefinition><timeDuration xsi:type="tFormalExpression">PT2H</timeDuration></timerEventDefinition></boundaryEvent>
+    <task id="short" name="Short"/>
+    <task id="long" name="Long"/>
+    <endEvent id="e1"/><endEvent id="e2"/><endEvent id="e3"/>
+    <sequenceFlow id="f1" sourceRef="s" targetRef="dig"/>
+    <sequenceFlow id="f2" sourceRef="dig" targetRef="e1"/>
+    <sequenceFlow id="f3" sourceRef="hour" targetRef="short"/>
+    <sequenceFlow id="f4" sourceRef="short" targetRef="e2"/>
+    <sequenceFlow id="f5" sourceRef="two" targetRef="long"/>
+    <sequenceFlow id="f6" sourceRef="long" targetRef="e3"/>
+  </process>"#,
+    );
+    let dir = tempdir("verify-timers");
+    let file = dir.join("timers.bpmn");
+    std::fs::write(&file, text).expect("model");
+    let out = Command::new(bin("trace"))
+        .args(["verify", "--native", "--json"])
+        .arg(&file)
+        .output()
+        .expect("trace verify runs");
+    let report: Value = serde_json::from_slice(&out.stdout).expect("json");
+    let dead = report["properties"]
+        .as_array()
+        .expect("properties")
+        .iter()
+        .find(|p| p["name"] == "no_dead_activities")
+        .expect("dead activities");
+    assert_eq!(dead["detail"], "never started: long (Long)", "{report:#}");
+    assert_eq!(
+        report["native"]["dead_activities"],
+        serde_json::json!(["long"])
+    );
+}

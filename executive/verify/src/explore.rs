@@ -191,10 +191,20 @@ fn inputs(g: &ProcessGraph, s: &State, codes: &[String]) -> Vec<(String, Event)>
         }
     }
     for (wid, w) in &s.waits {
-        let fires = matches!(
-            w.on,
-            On::Timer { .. } | On::Message(..) | On::Condition { .. } | On::Manual
-        );
+        // Timers armed together (on one activity, behind one gateway) fire by their deadlines.
+        let later = match w.on {
+            On::Timer { due, .. } => s.waits.values().any(|o| {
+                o.token.is_some()
+                    && o.token == w.token
+                    && matches!(o.on, On::Timer { due: other, .. } if other < due)
+            }),
+            _ => false,
+        };
+        let fires = !later
+            && matches!(
+                w.on,
+                On::Timer { .. } | On::Message(..) | On::Condition { .. } | On::Manual
+            );
         if fires {
             out.push((
                 format!("{}.fire", g.node(w.node).id),

@@ -128,6 +128,24 @@ struct Tr<'g> {
     vars: crate::data::Variables,
 }
 
+/// The length of a node's timer, when it is a fixed duration.
+pub(crate) fn fixed_duration(node: &executive_model::Node) -> Option<u64> {
+    let defs: &[EventDefinition] = match &node.kind {
+        NodeKind::Boundary(b) => &b.triggers,
+        NodeKind::Catch(c) => &c.triggers,
+        _ => return None,
+    };
+    defs.iter().find_map(|d| match d {
+        EventDefinition::Timer(t) => match &t.value {
+            executive_model::timer::TimerValue::Fixed(
+                executive_model::timer::TimerSpec::Duration(d),
+            ) => Some(d.approx_millis()),
+            _ => None,
+        },
+        _ => None,
+    })
+}
+
 fn me_signals(g: &ProcessGraph) -> usize {
     g.signals.len() + 1
 }
@@ -1060,6 +1078,16 @@ impl<'g> Tr<'g> {
                     if signal_only {
                         continue; // heard only when a signal is thrown
                     }
+                    // Behind an event-based gateway, the shortest of its timers fires first.
+                    if gateway
+                        && let Some(d) = fixed_duration(self.g.node(n))
+                        && self.g.node(from).outgoing.iter().any(|o| {
+                            fixed_duration(self.g.node(self.g.flow(*o).target))
+                                .is_some_and(|other| other < d)
+                        })
+                    {
+                        continue;
+                    }
                     let m = self.marker(c, n, "fire");
                     let mut alt = Alt {
                         outside: true,
@@ -1414,7 +1442,18 @@ impl<'g> Tr<'g> {
             }
         }
         // Timers, messages and conditions on the boundary may fire while the activity runs.
+        // Timers armed together fire in the order of their durations: a longer one on the same
+        // activity never fires while a shorter interrupting one is armed with it.
+        let shortest = spontaneous
+            .iter()
+            .filter_map(|b| fixed_duration(self.g.node(*b)))
+            .min();
         for b in spontaneous {
+            if let (Some(d), Some(min)) = (fixed_duration(self.g.node(b)), shortest)
+                && d > min
+            {
+                continue;
+            }
             let m = self.marker(c, b, "fire");
             let mut alt = Alt {
                 outside: true,
