@@ -1,0 +1,539 @@
+//! BPMN → PROMELA: one global token marking (`tok[]` per sequence flow, `act[]` per running
+//! activity or armed event-based gateway) and one guarded atomic step per BPMN transition, each
+//! starting with a `@@BPMN <element>` marker so a Spin trail reads back as BPMN steps
+//! (`../shared/design/verification.md` §2, scheme A).
+//!
+//! Abstractions: conditions are nondeterministic choices; timers, messages and conditional events
+//! may fire whenever they are armed; a service task may fail with any error some boundary around
+//! it catches. Every choice that continues a cycle (a gateway branch or a boundary that leads back
+//! to where it came from) is bounded per scope activation, so every run is finite. Called
+//! processes are inlined per call site. What the translation does not cover is refused with the
+//! element named — never dropped.
+
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::fmt::Write;
+
+use executive_model::{
+    BoundaryEvent, Called, EventDefinition, FlowId, GatewayKind, Looping, NodeId, NodeKind,
+    ProcessGraph, ProcessId, Scope, SubProcessKind, TaskKind,
+};
+use serde::Serialize;
+
+use crate::requirements::Atom;
+
+mod emit;
+mod events;
+mod nodes;
+mod refusals;
+
+/// An element the translation does not cover, and why.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, thiserror::Error)]
+#[error("`{element}`: {reason}")]
+pub struct Refusal {
+    /// The BPMN element id.
+    pub element: String,
+    /// Why it is not translated.
+    pub reason: String,
+}
+
+/// Bounds of the abstraction.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Bounds {
+    /// How often a cycle-continuing choice (or a loop body) may repeat per scope activation.
+    pub loops: u8,
+}
+
+impl Default for Bounds {
+    fn default() -> Self {
+        Bounds { loops: 1 }
+    }
+}
+
+/// What a step marker stands for.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct Step {
+    /// The BPMN element id.
+    pub element: String,
+    /// Its name (or id).
+    pub name: String,
+    /// The call activities it runs under (`ExcavateCall/`), empty at top level.
+    pub path: String,
+    /// What happened: `start`, `complete`, `fire`, `take`, `activate`, `end`, …
+    pub phase: String,
+    /// The element is an activity (task, sub-process, call activity).
+    pub activity: bool,
+}
+
+/// The PROMELA model and how to read its markers back.
+#[derive(Clone, Debug)]
+pub struct Translation {
+    /// The PROMELA text.
+    pub promela: String,
+    /// Marker → step.
+    pub steps: BTreeMap<String, Step>,
+    /// Every activity occurrence (`path` + element id) with its name.
+    pub activities: BTreeMap<String, String>,
+    /// The model throws a signal that something catches (the lost-signal check applies).
+    pub signals: bool,
+    /// PROMELA line → the marker of the step written on it.
+    pub lines: BTreeMap<usize, String>,
+    /// Per observed atom (in the order given), the PROMELA expression that reads it.
+    pub atoms: Vec<String>,
+}
+
+/// Marking a flow in the safety model: a second token is an assertion violation (unsafe).
+const SAFETY_PUT: &str = "#define PUT(f) assert(tok[f] == 0); tok[f] = 1";
+/// Marking a flow in the LTL model: a second token only raises `unsafe`, so claims are judged
+/// on their own.
+const LTL_PUT: &str = "#define PUT(f) if :: tok[f] > 0 -> unsafe = 1 :: else -> tok[f] = 1 fi";
+
+impl Translation {
+    /// The model for LTL claims (same lines, flows marked without assertions).
+    pub fn ltl_model(&self) -> String {
+        self.promela.replacen(SAFETY_PUT, LTL_PUT, 1)
+    }
+}
+
+/// A calling context: a primary process, or a called process inlined at one call site.
+struct Ctx {
+    process: ProcessId,
+    call: Option<(usize, NodeId)>,
+    path: String,
+}
+
+/// One guarded step.
+#[derive(Default)]
+struct Alt {
+    guard: Vec<String>,
+    effect: Vec<String>,
+    /// Something outside answers (a system, the ground, time): it happens only once nothing
+    /// inside can move, as the engine runs each step to quiescence.
+    outside: bool,
+}
+
+struct Tr<'g> {
+    g: &'g ProcessGraph,
+    bounds: Bounds,
+    ctxs: Vec<Ctx>,
+    nodes_of: HashMap<ProcessId, Vec<NodeId>>,
+    flow_ix: HashMap<(usize, FlowId), usize>,
+    flow_names: Vec<String>,
+    act_ix: HashMap<(usize, NodeId), usize>,
+    act_names: Vec<String>,
+    cnt_ix: HashMap<(usize, NodeId), usize>,
+    cnt_names: Vec<String>,
+    alts: Vec<String>,
+    steps: BTreeMap<String, Step>,
+    refusals: Vec<Refusal>,
+    lost_check: bool,
+    observe: Vec<Atom>,
+    /// Tasks translated as one step (start and completion folded).
+    folded: BTreeSet<NodeId>,
+    /// Declared bounded variables.
+    vars: crate::data::Variables,
+}
+
+/// The length of a node's timer, when it is a fixed duration.
+pub(crate) fn fixed_duration(node: &executive_model::Node) -> Option<u64> {
+    let defs: &[EventDefinition] = match &node.kind {
+        NodeKind::Boundary(b) => &b.triggers,
+        NodeKind::Catch(c) => &c.triggers,
+        _ => return None,
+    };
+    defs.iter().find_map(|d| match d {
+        EventDefinition::Timer(t) => match &t.value {
+            executive_model::timer::TimerValue::Fixed(
+                executive_model::timer::TimerSpec::Duration(d),
+            ) => Some(d.approx_millis()),
+            _ => None,
+        },
+        _ => None,
+    })
+}
+
+/// One `unheard` flag per signal, and one for unnamed signals.
+fn signal_slots(g: &ProcessGraph) -> usize {
+    g.signals.len() + 1
+}
+
+/// Translates a validated model, instrumented for the atoms requirements read, with the
+/// declared bounded variables kept exactly.
+pub fn translate(
+    g: &ProcessGraph,
+    bounds: Bounds,
+    observe: &[Atom],
+    vars: &crate::data::Variables,
+) -> Result<Translation, Vec<Refusal>> {
+    let mut t = Tr {
+        g,
+        bounds,
+        ctxs: Vec::new(),
+        nodes_of: HashMap::new(),
+        flow_ix: HashMap::new(),
+        flow_names: Vec::new(),
+        act_ix: HashMap::new(),
+        act_names: Vec::new(),
+        cnt_ix: HashMap::new(),
+        cnt_names: Vec::new(),
+        alts: Vec::new(),
+        steps: BTreeMap::new(),
+        refusals: Vec::new(),
+        lost_check: false,
+        observe: observe.to_vec(),
+        folded: BTreeSet::new(),
+        vars: vars.clone(),
+    };
+    for id in (0..g.nodes.len() as u32).map(NodeId) {
+        t.nodes_of.entry(g.process_of(id)).or_default().push(id);
+    }
+    t.contexts();
+    t.slots();
+    t.refuse_unsupported();
+    if !t.refusals.is_empty() {
+        return Err(t.refusals);
+    }
+    for c in 0..t.ctxs.len() {
+        for n in t.nodes(c) {
+            t.node(c, n);
+        }
+    }
+    t.lost_check = t.signal_listened();
+    if !t.refusals.is_empty() {
+        return Err(t.refusals);
+    }
+    Ok(t.finish())
+}
+
+fn refusal(element: &str, reason: impl Into<String>) -> Refusal {
+    Refusal {
+        element: element.to_owned(),
+        reason: reason.into(),
+    }
+}
+
+impl<'g> Tr<'g> {
+    fn nodes(&self, c: usize) -> Vec<NodeId> {
+        self.nodes_of
+            .get(&self.ctxs[c].process)
+            .cloned()
+            .unwrap_or_default()
+    }
+
+    /// Primary processes, then one context per call site (recursion refused).
+    fn contexts(&mut self) {
+        for p in self.g.primary_processes() {
+            self.ctxs.push(Ctx {
+                process: p,
+                call: None,
+                path: String::new(),
+            });
+        }
+        let mut i = 0;
+        while i < self.ctxs.len() {
+            for n in self.nodes(i) {
+                let node = self.g.node(n);
+                if let NodeKind::CallActivity(ca) = &node.kind
+                    && let Some(Called::Process(p)) = &ca.called
+                {
+                    let mut chain = Some(i);
+                    let mut recursive = false;
+                    while let Some(k) = chain {
+                        recursive |= self.ctxs[k].process == *p;
+                        chain = self.ctxs[k].call.map(|(pc, _)| pc);
+                    }
+                    if recursive {
+                        self.refusals.push(refusal(
+                            &node.id,
+                            "a recursive call cannot be inlined (bound the recursion in the model)",
+                        ));
+                        continue;
+                    }
+                    let path = format!("{}{}/", self.ctxs[i].path, node.id);
+                    self.ctxs.push(Ctx {
+                        process: *p,
+                        call: Some((i, n)),
+                        path,
+                    });
+                }
+            }
+            i += 1;
+        }
+    }
+
+    /// Indices for flows, activity slots and cycle counters in every context.
+    fn slots(&mut self) {
+        for c in 0..self.ctxs.len() {
+            let nodes = self.nodes(c);
+            let set: BTreeSet<NodeId> = nodes.iter().copied().collect();
+            for (i, f) in self.g.flows.iter().enumerate() {
+                if set.contains(&f.source) {
+                    self.flow_ix
+                        .insert((c, FlowId(i as u32)), self.flow_names.len());
+                    self.flow_names
+                        .push(format!("{}{}", self.ctxs[c].path, f.id));
+                }
+            }
+            for &n in &nodes {
+                let node = self.g.node(n);
+                let slot = match &node.kind {
+                    NodeKind::Task(_) | NodeKind::SubProcess(_) | NodeKind::CallActivity(_) => true,
+                    NodeKind::Gateway(gw) => matches!(gw.kind, GatewayKind::EventBased { .. }),
+                    _ => false,
+                };
+                if slot {
+                    self.act_ix.insert((c, n), self.act_names.len());
+                    self.act_names
+                        .push(format!("{}{}", self.ctxs[c].path, node.id));
+                }
+                let decision = match &node.kind {
+                    NodeKind::Gateway(_) | NodeKind::Boundary(_) => true,
+                    _ => node.is_activity(),
+                };
+                if decision {
+                    self.cnt_ix.insert((c, n), self.cnt_names.len());
+                    self.cnt_names
+                        .push(format!("{}{}", self.ctxs[c].path, node.id));
+                }
+            }
+        }
+    }
+
+    fn f(&self, c: usize, f: FlowId) -> usize {
+        self.flow_ix[&(c, f)]
+    }
+
+    fn a(&self, c: usize, n: NodeId) -> usize {
+        self.act_ix[&(c, n)]
+    }
+
+    fn marker(&mut self, c: usize, n: NodeId, phase: &str) -> String {
+        let node = self.g.node(n);
+        let path = self.ctxs[c].path.clone();
+        let m = if phase.is_empty() {
+            format!("{path}{}", node.id)
+        } else {
+            format!("{path}{}.{phase}", node.id)
+        };
+        self.steps.entry(m.clone()).or_insert(Step {
+            element: node.id.clone(),
+            name: node.label().to_owned(),
+            path,
+            phase: if phase.is_empty() {
+                "pass".to_owned()
+            } else {
+                phase.to_owned()
+            },
+            activity: node.is_activity(),
+        });
+        m
+    }
+
+    /// Effects that count an element's completion for the requirements that observe it.
+    fn observed(&self, element: &str, phase: &str) -> Vec<String> {
+        let completes = !(phase == "start"
+            || phase == "activate"
+            || phase == "arm"
+            || phase.starts_with("fail["));
+        self.observe
+            .iter()
+            .enumerate()
+            .filter_map(|(k, a)| match a {
+                Atom::Done(n) if completes && self.g.node(*n).id == element => {
+                    Some(format!("obs{k} = 1"))
+                }
+                Atom::Count(n, bound) if completes && self.g.node(*n).id == element => Some(
+                    format!("if :: obs{k} < {bound} -> obs{k}++ :: else -> skip fi"),
+                ),
+                _ => None,
+            })
+            .collect()
+    }
+
+    fn push(&mut self, marker: &str, mut alt: Alt) {
+        if alt.outside {
+            alt.guard.insert(0, "QUIET".to_owned());
+        }
+        if let Some(st) = self.steps.get(marker) {
+            let more = self.observed(&st.element, &st.phase);
+            alt.effect.extend(more);
+        }
+        let guard = if alt.guard.is_empty() {
+            "true".to_owned()
+        } else {
+            alt.guard.join(" && ")
+        };
+        let mut line = format!(":: atomic {{ {guard} -> printf(\"@@BPMN {marker}\\n\")");
+        for e in alt.effect {
+            let _ = write!(line, "; {e}");
+        }
+        line.push_str(" }");
+        self.alts.push(line);
+    }
+
+    fn put(&self, c: usize, f: FlowId, alt: &mut Alt) {
+        alt.effect.push(format!("PUT({})", self.f(c, f)));
+        let target = self.g.flow(f).target;
+        if matches!(self.g.node(target).kind, NodeKind::Catch(_)) {
+            alt.effect.extend(self.listening(target));
+        }
+    }
+
+    fn put_all(&self, c: usize, flows: &[FlowId], alt: &mut Alt) {
+        for f in flows {
+            self.put(c, *f, alt);
+        }
+    }
+
+    /// The node's work is done outside the executive (a system, the ground): a task other
+    /// than a script task, or a call of a global task.
+    fn outside(&self, n: NodeId) -> bool {
+        match &self.g.node(n).kind {
+            NodeKind::Task(t) => t.kind != TaskKind::Script,
+            NodeKind::CallActivity(ca) => match &ca.called {
+                Some(Called::GlobalTask(id)) => self
+                    .g
+                    .global_tasks
+                    .get(id)
+                    .is_some_and(|t| t.kind != TaskKind::Script),
+                _ => false,
+            },
+            _ => false,
+        }
+    }
+
+    /// Bounds a choice that continues a cycle: at most `loops` times per scope activation.
+    fn bound(&self, c: usize, decision: NodeId, alt: &mut Alt) {
+        if let Some(k) = self.cnt_ix.get(&(c, decision)) {
+            alt.guard.push(format!("reps[{k}] < {}", self.bounds.loops));
+            alt.effect.push(format!("reps[{k}]++"));
+        }
+    }
+
+    /// Can `from` reach `to` along sequence flows and attached boundaries (same process)?
+    fn reaches(&self, from: NodeId, to: NodeId) -> bool {
+        let mut seen = BTreeSet::new();
+        let mut stack = vec![from];
+        while let Some(n) = stack.pop() {
+            if n == to {
+                return true;
+            }
+            if !seen.insert(n) {
+                continue;
+            }
+            let node = self.g.node(n);
+            stack.extend(node.outgoing.iter().map(|f| self.g.flow(*f).target));
+            stack.extend(node.boundaries.iter().copied());
+            // Leaving a sub-process continues after it.
+            if let Scope::SubProcess(s) = node.scope
+                && matches!(node.kind, NodeKind::End(_))
+            {
+                stack.push(s);
+            }
+        }
+        false
+    }
+
+    /// Does any of `flows` lead back to `to`?
+    fn leads_back(&self, flows: &[FlowId], to: NodeId) -> bool {
+        flows
+            .iter()
+            .any(|f| self.reaches(self.g.flow(*f).target, to))
+    }
+
+    fn within(&self, n: NodeId, s: NodeId) -> bool {
+        let mut scope = self.g.node(n).scope;
+        loop {
+            match scope {
+                Scope::SubProcess(p) if p == s => return true,
+                Scope::SubProcess(p) => scope = self.g.node(p).scope,
+                Scope::Process(_) => return false,
+            }
+        }
+    }
+
+    /// Flows, activity slots and counters inside sub-process `s` (or everything of context
+    /// `c` when `s` is `None`), including called processes inlined there.
+    fn contents(&self, c: usize, s: Option<NodeId>) -> (Vec<usize>, Vec<usize>, Vec<usize>) {
+        let (mut flows, mut acts, mut cnts) = (Vec::new(), Vec::new(), Vec::new());
+        for n in self.nodes(c) {
+            if s.is_some_and(|s| !self.within(n, s)) {
+                continue;
+            }
+            let node = self.g.node(n);
+            for f in &node.outgoing {
+                flows.push(self.f(c, *f));
+            }
+            if let Some(a) = self.act_ix.get(&(c, n)) {
+                acts.push(*a);
+            }
+            if let Some(k) = self.cnt_ix.get(&(c, n)) {
+                cnts.push(*k);
+            }
+            if matches!(node.kind, NodeKind::CallActivity(_))
+                && let Some(cc) = self.child(c, n)
+            {
+                let (f2, a2, k2) = self.contents(cc, None);
+                flows.extend(f2);
+                acts.extend(a2);
+                cnts.extend(k2);
+            }
+        }
+        (flows, acts, cnts)
+    }
+
+    fn child(&self, c: usize, call: NodeId) -> Option<usize> {
+        self.ctxs.iter().position(|x| x.call == Some((c, call)))
+    }
+
+    /// Zeroes everything inside an activity (and the activity itself).
+    fn cancel(&self, c: usize, activity: NodeId, alt: &mut Alt) {
+        let inner = match &self.g.node(activity).kind {
+            NodeKind::SubProcess(_) => Some(self.contents(c, Some(activity))),
+            NodeKind::CallActivity(_) => self.child(c, activity).map(|cc| self.contents(cc, None)),
+            _ => None,
+        };
+        if let Some((flows, acts, _)) = inner {
+            alt.effect
+                .extend(flows.iter().map(|f| format!("tok[{f}] = 0")));
+            alt.effect
+                .extend(acts.iter().map(|a| format!("act[{a}] = 0")));
+        }
+        alt.effect.push(format!("act[{}] = 0", self.a(c, activity)));
+    }
+
+    fn idle_inside(&self, c: usize, s: Option<NodeId>) -> String {
+        let (flows, acts, _) = self.contents(c, s);
+        let mut parts: Vec<String> = flows.iter().map(|f| format!("tok[{f}] == 0")).collect();
+        parts.extend(acts.iter().map(|a| format!("!act[{a}]")));
+        if parts.is_empty() {
+            "true".to_owned()
+        } else {
+            format!("({})", parts.join(" && "))
+        }
+    }
+
+    /// Starts a scope's body: counters reset, none starts' outgoing flows marked.
+    fn start_body(&mut self, c: usize, s: Option<NodeId>, alt: &mut Alt) {
+        let (_, _, cnts) = self.contents(c, s);
+        alt.effect
+            .extend(cnts.iter().map(|k| format!("reps[{k}] = 0")));
+        let starts: Vec<NodeId> = self
+            .nodes(c)
+            .into_iter()
+            .filter(|n| {
+                let node = self.g.node(*n);
+                let here = match s {
+                    Some(s) => node.scope == Scope::SubProcess(s),
+                    None => matches!(node.scope, Scope::Process(_)),
+                };
+                here && matches!(&node.kind, NodeKind::Start(st) if st.triggers.iter().all(|t| matches!(t, EventDefinition::Timer(_))))
+            })
+            .collect();
+        for st in starts {
+            let outs = self.g.node(st).outgoing.clone();
+            self.put_all(c, &outs, alt);
+        }
+    }
+
+    // ----- catchers -----
+}

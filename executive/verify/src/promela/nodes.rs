@@ -1,0 +1,516 @@
+//! One template per kind of flow node: events, gateways (data-decided where declared data
+//! allows), activities with their boundaries, failures and loops.
+
+use super::*;
+
+impl Tr<'_> {
+    /// An exclusive split decided by declared data: each outgoing flow with its exact guard
+    /// (the first condition that holds, in order; the default when none does). `None` when a
+    /// condition reads anything undeclared.
+    pub(super) fn data_guards(&self, n: NodeId) -> Option<Vec<(FlowId, String)>> {
+        let node = self.g.node(n);
+        if node.outgoing.len() < 2 || self.vars.is_empty() {
+            return None;
+        }
+        let mut earlier: Vec<String> = Vec::new();
+        let mut out = Vec::new();
+        for f in &node.outgoing {
+            if Some(*f) == node.default_flow {
+                continue;
+            }
+            let cond = match &self.g.flow(*f).condition {
+                Some(c) => crate::data::expression(&c.text, &self.vars)?,
+                None => "true".to_owned(),
+            };
+            let mut guard: Vec<String> = earlier.iter().map(|e| format!("!{e}")).collect();
+            guard.push(cond.clone());
+            out.push((*f, format!("({})", guard.join(" && "))));
+            earlier.push(cond);
+        }
+        if let Some(d) = node.default_flow {
+            let none: Vec<String> = earlier.iter().map(|e| format!("!{e}")).collect();
+            out.push((
+                d,
+                if none.is_empty() {
+                    "true".to_owned()
+                } else {
+                    format!("({})", none.join(" && "))
+                },
+            ));
+        }
+        Some(out)
+    }
+
+    /// What completing `n` does to declared data: script assignments (exact where they
+    /// translate, else any value of the range) and task outputs (any value).
+    pub(super) fn data_effects(&self, n: NodeId) -> Vec<String> {
+        let mut out = Vec::new();
+        if self.vars.is_empty() {
+            return out;
+        }
+        if let NodeKind::Task(t) = &self.g.node(n).kind {
+            if let Some(assignments) = t.script.as_ref().and_then(|s| s.assignments.as_ref()) {
+                for (name, e) in assignments {
+                    if let Some(k) = self.vars.get(name) {
+                        out.extend(crate::data::assign(
+                            name,
+                            k,
+                            crate::data::expression(&e.text, &self.vars),
+                        ));
+                    }
+                }
+            }
+            if let Some(b) = &t.binding {
+                for o in &b.outputs {
+                    if let Some(k) = self.vars.get(&o.target) {
+                        out.extend(crate::data::assign(&o.target, k, None));
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    pub(super) fn node(&mut self, c: usize, n: NodeId) {
+        let node = self.g.node(n);
+        let (ins, outs) = (node.incoming.clone(), node.outgoing.clone());
+        match &node.kind {
+            NodeKind::Start(_) | NodeKind::Boundary(_) => {}
+            NodeKind::End(defs) => {
+                for f in ins {
+                    let m = self.marker(c, n, "end");
+                    let mut alt = Alt::default();
+                    alt.guard.push(format!("tok[{}] > 0", self.f(c, f)));
+                    alt.effect.push(format!("tok[{}]--", self.f(c, f)));
+                    self.throw(c, n, defs, &mut alt);
+                    self.push(&m, alt);
+                }
+            }
+            NodeKind::Throw(defs) => {
+                for f in ins {
+                    let m = self.marker(c, n, "");
+                    let mut alt = Alt::default();
+                    alt.guard.push(format!("tok[{}] > 0", self.f(c, f)));
+                    alt.effect.push(format!("tok[{}]--", self.f(c, f)));
+                    if self.throw(c, n, defs, &mut alt) {
+                        self.put_all(c, &outs, &mut alt);
+                    }
+                    self.push(&m, alt);
+                }
+            }
+            NodeKind::Catch(ce) => {
+                let signal_only = ce
+                    .triggers
+                    .iter()
+                    .all(|t| matches!(t, EventDefinition::Signal(_)));
+                for f in ins {
+                    let from = self.g.flow(f).source;
+                    let gateway = matches!(&self.g.node(from).kind,
+                        NodeKind::Gateway(gw) if matches!(gw.kind, GatewayKind::EventBased { .. }));
+                    if signal_only {
+                        continue; // heard only when a signal is thrown
+                    }
+                    // Behind an event-based gateway, the shortest of its timers fires first.
+                    if gateway
+                        && let Some(d) = fixed_duration(self.g.node(n))
+                        && self.g.node(from).outgoing.iter().any(|o| {
+                            fixed_duration(self.g.node(self.g.flow(*o).target))
+                                .is_some_and(|other| other < d)
+                        })
+                    {
+                        continue;
+                    }
+                    let m = self.marker(c, n, "fire");
+                    let mut alt = Alt {
+                        outside: true,
+                        ..Alt::default()
+                    };
+                    if gateway {
+                        let a = self.a(c, from);
+                        alt.guard.push(format!("act[{a}]"));
+                        alt.effect.push(format!("act[{a}] = 0"));
+                    } else {
+                        alt.guard.push(format!("tok[{}] > 0", self.f(c, f)));
+                        alt.effect.push(format!("tok[{}]--", self.f(c, f)));
+                    }
+                    self.put_all(c, &outs, &mut alt);
+                    self.push(&m, alt);
+                }
+            }
+            NodeKind::Gateway(gw) => self.gateway(c, n, gw.kind, &ins, &outs),
+            NodeKind::Task(_) | NodeKind::SubProcess(_) | NodeKind::CallActivity(_) => {
+                self.activity(c, n, &ins, &outs)
+            }
+        }
+    }
+
+    pub(super) fn gateway(
+        &mut self,
+        c: usize,
+        n: NodeId,
+        kind: GatewayKind,
+        ins: &[FlowId],
+        outs: &[FlowId],
+    ) {
+        let cyclic = |t: &Self, f: FlowId| t.reaches(t.g.flow(f).target, n);
+        match kind {
+            GatewayKind::Parallel => {
+                let m = self.marker(c, n, "");
+                let mut alt = Alt::default();
+                for f in ins {
+                    let i = self.f(c, *f);
+                    alt.guard.push(format!("tok[{i}] > 0"));
+                    alt.effect.push(format!("tok[{i}]--"));
+                }
+                self.put_all(c, outs, &mut alt);
+                self.push(&m, alt);
+            }
+            GatewayKind::Exclusive if self.data_guards(n).is_some() => {
+                // Decided by declared data, as the engine does: the first condition that
+                // holds (in document order), else the default flow. Data bounds the cycles.
+                let guards = self.data_guards(n).unwrap_or_default();
+                for fi in ins {
+                    for (fo, guard) in &guards {
+                        let label = self.g.flow(*fo).id.clone();
+                        let m = self.marker(c, n, &format!("take[{label}]"));
+                        let mut alt = Alt::default();
+                        let i = self.f(c, *fi);
+                        alt.guard.push(format!("tok[{i}] > 0"));
+                        alt.guard.push(guard.clone());
+                        alt.effect.push(format!("tok[{i}]--"));
+                        self.put(c, *fo, &mut alt);
+                        self.push(&m, alt);
+                    }
+                }
+            }
+            GatewayKind::Exclusive | GatewayKind::Complex => {
+                // Branches that lead back here are bounded; when every branch does, one (the
+                // default, else the first) stays free so the choice can always be made.
+                let exit = outs.iter().any(|f| !cyclic(self, *f));
+                let free = (!exit)
+                    .then(|| self.g.node(n).default_flow.or(outs.first().copied()))
+                    .flatten();
+                for fi in ins {
+                    for fo in outs {
+                        let label = self.g.flow(*fo).id.clone();
+                        let m = self.marker(c, n, &format!("take[{label}]"));
+                        let mut alt = Alt::default();
+                        let i = self.f(c, *fi);
+                        alt.guard.push(format!("tok[{i}] > 0"));
+                        alt.effect.push(format!("tok[{i}]--"));
+                        if Some(*fo) != free && cyclic(self, *fo) {
+                            self.bound(c, n, &mut alt);
+                        }
+                        self.put(c, *fo, &mut alt);
+                        self.push(&m, alt);
+                    }
+                    if outs.is_empty() {
+                        let m = self.marker(c, n, "");
+                        let mut alt = Alt::default();
+                        let i = self.f(c, *fi);
+                        alt.guard.push(format!("tok[{i}] > 0"));
+                        alt.effect.push(format!("tok[{i}]--"));
+                        self.push(&m, alt);
+                    }
+                }
+            }
+            GatewayKind::Inclusive if ins.len() > 1 => {
+                // Non-local join: fire when some incoming flow is marked and no token can still
+                // arrive on the empty ones (nothing upstream of them is marked).
+                let m = self.marker(c, n, "join");
+                let mut alt = Alt::default();
+                let marked: Vec<String> = ins
+                    .iter()
+                    .map(|f| format!("tok[{}] > 0", self.f(c, *f)))
+                    .collect();
+                alt.guard.push(format!("({})", marked.join(" || ")));
+                for f in ins {
+                    let i = self.f(c, *f);
+                    let (flows, acts) = self.upstream(c, *f, n);
+                    let mut empty: Vec<String> =
+                        flows.iter().map(|u| format!("tok[{u}] == 0")).collect();
+                    empty.extend(acts.iter().map(|a| format!("!act[{a}]")));
+                    if !empty.is_empty() {
+                        alt.guard
+                            .push(format!("(tok[{i}] > 0 || ({}))", empty.join(" && ")));
+                    }
+                    alt.effect.push(format!(
+                        "if :: tok[{i}] > 0 -> tok[{i}]-- :: else -> skip fi"
+                    ));
+                }
+                self.put_all(c, outs, &mut alt);
+                self.push(&m, alt);
+            }
+            GatewayKind::Inclusive => {
+                let Some(fi) = ins.first().copied() else {
+                    return;
+                };
+                let exit = outs.iter().any(|f| !cyclic(self, *f));
+                for mask in 1u32..(1 << outs.len()) {
+                    let single = mask.count_ones() == 1 && mask & 1 == 1;
+                    let chosen: Vec<FlowId> = outs
+                        .iter()
+                        .enumerate()
+                        .filter(|(k, _)| mask & (1 << k) != 0)
+                        .map(|(_, f)| *f)
+                        .collect();
+                    let names: Vec<String> =
+                        chosen.iter().map(|f| self.g.flow(*f).id.clone()).collect();
+                    let m = self.marker(c, n, &format!("take[{}]", names.join("+")));
+                    let mut alt = Alt::default();
+                    let i = self.f(c, fi);
+                    alt.guard.push(format!("tok[{i}] > 0"));
+                    alt.effect.push(format!("tok[{i}]--"));
+                    if (exit || !single) && chosen.iter().any(|f| cyclic(self, *f)) {
+                        self.bound(c, n, &mut alt);
+                    }
+                    self.put_all(c, &chosen, &mut alt);
+                    self.push(&m, alt);
+                }
+            }
+            GatewayKind::EventBased { .. } => {
+                for fi in ins {
+                    let m = self.marker(c, n, "arm");
+                    let mut alt = Alt::default();
+                    let i = self.f(c, *fi);
+                    alt.guard.push(format!("tok[{i}] > 0"));
+                    alt.effect.push(format!("tok[{i}]--"));
+                    alt.effect.push(format!("act[{}] = 1", self.a(c, n)));
+                    alt.effect.extend(self.listening(n));
+                    self.push(&m, alt);
+                }
+            }
+        }
+    }
+
+    /// Flows and activity slots from which `flow` can still receive a token, not passing
+    /// through the join `join` (static, like fbpmn's `PreEdges`).
+    pub(super) fn upstream(
+        &self,
+        c: usize,
+        flow: FlowId,
+        join: NodeId,
+    ) -> (BTreeSet<usize>, BTreeSet<usize>) {
+        let (mut flows, mut acts) = (BTreeSet::new(), BTreeSet::new());
+        let mut seen = BTreeSet::new();
+        let mut stack = vec![self.g.flow(flow).source];
+        while let Some(n) = stack.pop() {
+            if n == join || !seen.insert(n) {
+                continue;
+            }
+            let node = self.g.node(n);
+            if let Some(a) = self.act_ix.get(&(c, n)) {
+                acts.insert(*a);
+            }
+            for f in &node.incoming {
+                flows.insert(self.f(c, *f));
+                stack.push(self.g.flow(*f).source);
+            }
+            if let NodeKind::Boundary(b) = &node.kind {
+                stack.push(b.attached_to);
+            }
+        }
+        (flows, acts)
+    }
+
+    pub(super) fn activity(&mut self, c: usize, n: NodeId, ins: &[FlowId], outs: &[FlowId]) {
+        let node = self.g.node(n);
+        let a = self.a(c, n);
+        let (body, child): (Option<Option<NodeId>>, Option<usize>) = match &node.kind {
+            NodeKind::SubProcess(_) => (Some(Some(n)), None),
+            NodeKind::CallActivity(ca) => match &ca.called {
+                Some(Called::Process(_)) => {
+                    let cc = self.child(c, n);
+                    (cc.map(|_| None), cc)
+                }
+                _ => (None, None),
+            },
+            _ => (None, None),
+        };
+        let body_ctx = child.unwrap_or(c);
+        let fails = match &node.kind {
+            NodeKind::Task(t) => !matches!(t.kind, TaskKind::User | TaskKind::Script),
+            NodeKind::CallActivity(_) => self.outside(n),
+            _ => false,
+        };
+        let mut catchers = Vec::new();
+        if fails {
+            for b in &node.boundaries {
+                if let NodeKind::Boundary(be) = &self.g.node(*b).kind
+                    && be
+                        .triggers
+                        .iter()
+                        .any(|t| matches!(t, EventDefinition::Error { .. }))
+                {
+                    catchers.push((c, n, *b));
+                }
+            }
+            let mut probe = (c, n);
+            while let Some(found) = self.catcher(probe.0, probe.1, &|be| {
+                be.triggers
+                    .iter()
+                    .any(|t| matches!(t, EventDefinition::Error { .. }))
+            }) {
+                catchers.push(found);
+                probe = (found.0, found.1);
+            }
+        }
+        // A task nothing can interrupt is one step (start and completion folded: fewer
+        // interleavings, the same reachable markings between steps).
+        if body.is_none()
+            && node.boundaries.is_empty()
+            && node.looping.is_none()
+            && catchers.is_empty()
+            && !self.observe.contains(&Atom::Running(n))
+        {
+            self.folded.insert(n);
+            for f in ins {
+                let m = self.marker(c, n, "run");
+                let mut alt = Alt {
+                    outside: self.outside(n),
+                    ..Alt::default()
+                };
+                let i = self.f(c, *f);
+                alt.guard.push(format!("tok[{i}] > 0"));
+                alt.effect.push(format!("tok[{i}]--"));
+                alt.effect.extend(self.data_effects(n));
+                self.put_all(c, outs, &mut alt);
+                self.push(&m, alt);
+            }
+            return;
+        }
+        // Start (or activate).
+        for f in ins {
+            let phase = if body.is_some() { "activate" } else { "start" };
+            let m = self.marker(c, n, phase);
+            let mut alt = Alt::default();
+            let i = self.f(c, *f);
+            alt.guard.push(format!("tok[{i}] > 0"));
+            alt.effect.push(format!("tok[{i}]--"));
+            alt.effect.push(format!("act[{a}] = 1"));
+            alt.effect.extend(self.listening(n));
+            // A loop's bodies are counted per start of the loop.
+            if node.looping.is_some()
+                && let Some(k) = self.cnt_ix.get(&(c, n))
+            {
+                alt.effect.push(format!("reps[{k}] = 0"));
+            }
+            if let Some(scope) = body {
+                self.start_body(body_ctx, scope, &mut alt);
+            }
+            self.push(&m, alt);
+        }
+        // Completion: a task whenever the system answers; a scope once nothing runs inside.
+        let done_guard = match body {
+            Some(scope) => format!("act[{a}] && {}", self.idle_inside(body_ctx, scope)),
+            None => format!("act[{a}]"),
+        };
+        if node.looping.is_some() {
+            let m = self.marker(c, n, "repeat");
+            let mut alt = Alt {
+                outside: body.is_none() && self.outside(n),
+                ..Alt::default()
+            };
+            alt.guard.push(done_guard.clone());
+            self.bound(c, n, &mut alt);
+            if let Some(scope) = body {
+                self.start_body(body_ctx, scope, &mut alt);
+            }
+            self.push(&m, alt);
+        }
+        // The ways out of a running activity (completion, a caught failure, a boundary event):
+        // those that lead back to it are bounded, except completion when every way leads
+        // back (so the activity can always end).
+        let spontaneous: Vec<NodeId> = node
+            .boundaries
+            .iter()
+            .copied()
+            .filter(|b| match &self.g.node(*b).kind {
+                NodeKind::Boundary(be) => be.triggers.iter().any(|t| {
+                    matches!(
+                        t,
+                        EventDefinition::Timer(_)
+                            | EventDefinition::Message(_)
+                            | EventDefinition::Conditional(_)
+                    )
+                }),
+                _ => false,
+            })
+            .collect();
+        let back = |t: &Self, b: NodeId, to: NodeId| t.leads_back(&t.g.node(b).outgoing, to);
+        let completes_back = self.leads_back(outs, n);
+        let exit = !completes_back
+            || catchers.iter().any(|(_, h, b)| !back(self, *b, *h))
+            || spontaneous.iter().any(|b| !back(self, *b, n));
+        let choices = !catchers.is_empty() || !spontaneous.is_empty();
+        let m = self.marker(c, n, "complete");
+        let mut alt = Alt {
+            outside: body.is_none() && self.outside(n),
+            ..Alt::default()
+        };
+        if choices && exit && completes_back {
+            // Another way out leaves the cycle.
+            self.bound(c, n, &mut alt);
+        }
+        alt.guard.push(done_guard);
+        alt.effect.push(format!("act[{a}] = 0"));
+        alt.effect.extend(self.data_effects(n));
+        self.put_all(c, outs, &mut alt);
+        self.push(&m, alt);
+        // A system's failure, caught by a boundary here or around.
+        {
+            for (cc, holder, b) in catchers {
+                let m = self.marker(c, n, &format!("fail[{}]", self.g.node(b).id));
+                let mut alt = Alt {
+                    outside: true,
+                    ..Alt::default()
+                };
+                alt.guard.push(format!("act[{a}]"));
+                if back(self, b, holder) {
+                    self.bound(cc, b, &mut alt);
+                }
+                alt.effect.push(format!("act[{a}] = 0"));
+                let code = match &self.g.node(b).kind {
+                    NodeKind::Boundary(be) => be.triggers.iter().find_map(|t| match t {
+                        EventDefinition::Error { error, .. } => {
+                            Some(error.and_then(|e| self.g.errors[e.index()].code.clone()))
+                        }
+                        _ => None,
+                    }),
+                    _ => None,
+                }
+                .flatten();
+                alt.effect.extend(self.error_observed(code.as_deref()));
+                self.caught(cc, holder, b, &mut alt);
+                self.push(&m, alt);
+            }
+        }
+        // Timers, messages and conditions on the boundary may fire while the activity runs.
+        // Timers armed together fire in the order of their durations: a longer one on the same
+        // activity never fires while a shorter interrupting one is armed with it.
+        let shortest = spontaneous
+            .iter()
+            .filter_map(|b| fixed_duration(self.g.node(*b)))
+            .min();
+        for b in spontaneous {
+            if let (Some(d), Some(min)) = (fixed_duration(self.g.node(b)), shortest)
+                && d > min
+            {
+                continue;
+            }
+            let m = self.marker(c, b, "fire");
+            let mut alt = Alt {
+                outside: true,
+                ..Alt::default()
+            };
+            alt.guard.push(format!("act[{a}]"));
+            if back(self, b, n) {
+                self.bound(c, b, &mut alt);
+            }
+            self.cancel(c, n, &mut alt);
+            let outs = self.g.node(b).outgoing.clone();
+            self.put_all(c, &outs, &mut alt);
+            self.push(&m, alt);
+        }
+    }
+}
