@@ -206,10 +206,13 @@ fn inputs(g: &ProcessGraph, s: &State, codes: &[String]) -> Vec<(String, Event)>
                 On::Timer { .. } | On::Message(..) | On::Condition { .. } | On::Manual
             );
         if fires {
-            out.push((
-                format!("{}.fire", g.node(w.node).id),
-                Event::WaitTriggered { wait: *wid },
-            ));
+            // A timer fires as the engine fires it (a duration once, a cycle as often as it
+            // repeats); other events by hand.
+            let event = match w.on {
+                On::Timer { key, .. } => Event::TimerFired { timer: key },
+                _ => Event::WaitTriggered { wait: *wid },
+            };
+            out.push((format!("{}.fire", g.node(w.node).id), event));
         }
     }
     out

@@ -113,7 +113,10 @@ impl Tr<'_> {
 
     /// A caught throw: the catching activity is cancelled and its boundary fires.
     pub(super) fn caught(&mut self, c: usize, holder: NodeId, b: NodeId, alt: &mut Alt) {
-        self.cancel(c, holder, alt);
+        // A non-interrupting boundary starts its path beside the activity, which runs on.
+        if interrupting(self.g, b) {
+            self.cancel(c, holder, alt);
+        }
         let outs = self.g.node(b).outgoing.clone();
         self.put_all(c, &outs, alt);
         let m = self.marker(c, b, "fire");
@@ -231,8 +234,8 @@ impl Tr<'_> {
                     if let Some((cc, holder, b)) =
                         self.catcher(c, n, &|be| self.escalation_matches(e, be))
                     {
+                        go_on &= !interrupting(self.g, b);
                         self.caught(cc, holder, b, alt);
-                        go_on = false;
                     }
                 }
                 EventDefinition::Terminate => {

@@ -151,6 +151,11 @@ pub(crate) fn fixed_duration(node: &executive_model::Node) -> Option<u64> {
     })
 }
 
+/// A boundary event that interrupts its activity (every other node: `true`).
+pub(crate) fn interrupting(g: &ProcessGraph, b: NodeId) -> bool {
+    !matches!(&g.node(b).kind, NodeKind::Boundary(be) if !be.interrupting)
+}
+
 /// One `unheard` flag per signal, and one for unnamed signals.
 fn signal_slots(g: &ProcessGraph) -> usize {
     g.signals.len() + 1

@@ -395,6 +395,14 @@ impl Tr<'_> {
             {
                 alt.effect.push(format!("reps[{k}] = 0"));
             }
+            // Non-interrupting boundaries count their firings per activation.
+            for b in &node.boundaries {
+                if !interrupting(self.g, *b)
+                    && let Some(k) = self.cnt_ix.get(&(c, *b))
+                {
+                    alt.effect.push(format!("reps[{k}] = 0"));
+                }
+            }
             if let Some(scope) = body {
                 self.start_body(body_ctx, scope, &mut alt);
             }
@@ -441,7 +449,9 @@ impl Tr<'_> {
         let completes_back = self.leads_back(outs, n);
         let exit = !completes_back
             || catchers.iter().any(|(_, h, b)| !back(self, *b, *h))
-            || spontaneous.iter().any(|b| !back(self, *b, n));
+            || spontaneous
+                .iter()
+                .any(|b| interrupting(self.g, *b) && !back(self, *b, n));
         let choices = !catchers.is_empty() || !spontaneous.is_empty();
         let m = self.marker(c, n, "complete");
         let mut alt = Alt {
@@ -487,9 +497,10 @@ impl Tr<'_> {
         }
         // Timers, messages and conditions on the boundary may fire while the activity runs.
         // Timers armed together fire in the order of their durations: a longer one on the same
-        // activity never fires while a shorter interrupting one is armed with it.
+        // activity never fires once a shorter interrupting one has ended the activity.
         let shortest = spontaneous
             .iter()
+            .filter(|b| interrupting(self.g, **b))
             .filter_map(|b| fixed_duration(self.g.node(*b)))
             .min();
         for b in spontaneous {
@@ -504,10 +515,23 @@ impl Tr<'_> {
                 ..Alt::default()
             };
             alt.guard.push(format!("act[{a}]"));
-            if back(self, b, n) {
-                self.bound(c, b, &mut alt);
+            if interrupting(self.g, b) {
+                if back(self, b, n) {
+                    self.bound(c, b, &mut alt);
+                }
+                self.cancel(c, n, &mut alt);
+            } else if let Some(k) = self.cnt_ix.get(&(c, b)).copied() {
+                // Beside the running activity: a duration timer once per activation, anything
+                // else (messages, conditions, cycles) a bounded number of times.
+                let once = fixed_duration(self.g.node(b)).is_some();
+                let limit = if once {
+                    1
+                } else {
+                    u32::from(self.bounds.loops) + 1
+                };
+                alt.guard.push(format!("reps[{k}] < {limit}"));
+                alt.effect.push(format!("reps[{k}]++"));
             }
-            self.cancel(c, n, &mut alt);
             let outs = self.g.node(b).outgoing.clone();
             self.put_all(c, &outs, &mut alt);
             self.push(&m, alt);

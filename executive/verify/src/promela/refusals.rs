@@ -49,8 +49,6 @@ impl Tr<'_> {
                 NodeKind::Boundary(b) => {
                     if b.parallel_multiple {
                         Some(no("parallel-multiple boundary events are not translated"))
-                    } else if !b.interrupting {
-                        Some(no("non-interrupting boundary events are not translated yet"))
                     } else if b.triggers.iter().any(|d| {
                         matches!(d, EventDefinition::Compensate { .. } | EventDefinition::Cancel)
                     }) {
