@@ -233,6 +233,8 @@ struct Driver {
     goals: HashMap<String, TaskKey>,
     /// Operators' answers waiting to be stepped, each with the verdict its sender waits for.
     answers: Vec<(String, Event, Verdict)>,
+    /// Who answered the user tasks closed by an answer (goal id → operator), for late answers.
+    answered: HashMap<String, String>,
     snapshot_every: u64,
 }
 
@@ -406,6 +408,7 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
         flights: BTreeMap::new(),
         goals: HashMap::new(),
         answers: Vec::new(),
+        answered: HashMap::new(),
         snapshot_every: opts.snapshot_every.max(1),
     };
     if let Some(c) = system_clock {
@@ -583,7 +586,12 @@ impl Driver {
                 let task = match self.goals.get(&goal_id) {
                     Some(t) if self.flights.get(t).is_some_and(|f| f.user) => *t,
                     _ => {
-                        verdict.give(Err(format!("user task `{goal_id}` is not open")));
+                        verdict.give(Err(match self.answered.get(&goal_id) {
+                            Some(op) => {
+                                format!("user task `{goal_id}` is closed: answered by {op}")
+                            }
+                            None => format!("user task `{goal_id}` is not open"),
+                        }));
                         return None;
                     }
                 };
@@ -660,9 +668,24 @@ impl Driver {
             // Out of flight first, so closing the answered task withdraws it from no station.
             let task = self.goals.remove(&goal_id);
             let flight = task.and_then(|t| self.flights.remove(&t));
+            let operator = match &event {
+                Event::UserTaskAnswered { operator, .. } => operator.clone(),
+                _ => String::new(),
+            };
+            if flight.is_none()
+                && let Some(op) = self.answered.get(&goal_id)
+            {
+                verdict.give(Err(format!(
+                    "user task `{goal_id}` is closed: answered by {op}"
+                )));
+                continue;
+            }
             let refused = self.feed_all(vec![event])?.pop().flatten();
             match refused {
-                None => verdict.give(Ok(())),
+                None => {
+                    self.answered.insert(goal_id, operator);
+                    verdict.give(Ok(()));
+                }
                 Some(reason) => {
                     if let (Some(task), Some(flight)) = (task, flight) {
                         self.goals.insert(goal_id, task);
