@@ -65,7 +65,7 @@ impl OpenTask {
     }
 }
 
-/// The open tasks, and why closed ones closed.
+/// The open tasks, and the number every task seen has (a repeated goal keeps its number).
 #[derive(Debug, Default)]
 pub struct Desk {
     next: u32,
@@ -110,11 +110,6 @@ impl Desk {
     pub fn by_goal(&mut self, goal_id: &str) -> Option<&mut OpenTask> {
         let n = self.numbers.get(goal_id)?;
         self.open.get_mut(n)
-    }
-
-    /// The number a goal has (open or closed).
-    pub fn number(&self, goal_id: &str) -> Option<u32> {
-        self.numbers.get(goal_id).copied()
     }
 
     /// Open tasks in arrival order.

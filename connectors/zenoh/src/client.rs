@@ -87,6 +87,9 @@ struct Shared {
     rt: tokio::runtime::Handle,
     state: Mutex<State>,
     catalogue: Mutex<Option<Catalogue>>,
+    /// Answers are decided one at a time, so a second answer to a task sees it closed (and by
+    /// whom) rather than racing the first to the executive.
+    answer_turn: tokio::sync::Mutex<()>,
 }
 
 /// A connector to one server over the Zenoh activity protocol.
@@ -444,6 +447,7 @@ impl Shared {
         if a.operator.trim().is_empty() || a.station.trim().is_empty() {
             return refused("an answer must name its operator and station".to_owned());
         }
+        let _turn = self.answer_turn.lock().await;
         let action = {
             let s = self.state();
             match s.flights.get(&goal_id) {
@@ -685,6 +689,7 @@ impl ZenohConnector {
             rt: tokio::runtime::Handle::current(),
             state: Mutex::new(State::default()),
             catalogue: Mutex::new(None),
+            answer_turn: tokio::sync::Mutex::new(()),
             opts,
         });
         let z = |e: zenoh::Error| ConnectorError::Transport(e.to_string());

@@ -227,7 +227,7 @@ pub fn task_uses(g: &ProcessGraph) -> Vec<TaskUse> {
         let ty = |f: &Option<executive_model::binding::FieldType>| {
             f.as_ref().and_then(|f| Type::parse(&f.to_string()))
         };
-        // A user task's goal is `{task, name, context}` (the operator sees the variables);
+        // A user task's goal is `{task, name, context, deadline_ms?}` (what the operator sees);
         // only its answer (outputs) is checked against the form.
         let user = t.kind == TaskKind::User;
         let (inputs, outputs) = match &t.binding {

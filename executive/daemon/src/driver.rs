@@ -233,8 +233,6 @@ struct Driver {
     goals: HashMap<String, TaskKey>,
     /// Operators' answers waiting to be stepped, each with the verdict its sender waits for.
     answers: Vec<(String, Event, Verdict)>,
-    /// Who answered the user tasks closed by an answer (goal id → operator), for late answers.
-    answered: HashMap<String, String>,
     snapshot_every: u64,
 }
 
@@ -408,7 +406,6 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
         flights: BTreeMap::new(),
         goals: HashMap::new(),
         answers: Vec::new(),
-        answered: HashMap::new(),
         snapshot_every: opts.snapshot_every.max(1),
     };
     if let Some(c) = system_clock {
@@ -586,12 +583,7 @@ impl Driver {
                 let task = match self.goals.get(&goal_id) {
                     Some(t) if self.flights.get(t).is_some_and(|f| f.user) => *t,
                     _ => {
-                        verdict.give(Err(match self.answered.get(&goal_id) {
-                            Some(op) => {
-                                format!("user task `{goal_id}` is closed: answered by {op}")
-                            }
-                            None => format!("user task `{goal_id}` is not open"),
-                        }));
+                        verdict.give(Err(format!("user task `{goal_id}` is not open")));
                         return None;
                     }
                 };
@@ -668,24 +660,9 @@ impl Driver {
             // Out of flight first, so closing the answered task withdraws it from no station.
             let task = self.goals.remove(&goal_id);
             let flight = task.and_then(|t| self.flights.remove(&t));
-            let operator = match &event {
-                Event::UserTaskAnswered { operator, .. } => operator.clone(),
-                _ => String::new(),
-            };
-            if flight.is_none()
-                && let Some(op) = self.answered.get(&goal_id)
-            {
-                verdict.give(Err(format!(
-                    "user task `{goal_id}` is closed: answered by {op}"
-                )));
-                continue;
-            }
             let refused = self.feed_all(vec![event])?.pop().flatten();
             match refused {
-                None => {
-                    self.answered.insert(goal_id, operator);
-                    verdict.give(Ok(()));
-                }
+                None => verdict.give(Ok(())),
                 Some(reason) => {
                     if let (Some(task), Some(flight)) = (task, flight) {
                         self.goals.insert(goal_id, task);
@@ -794,9 +771,7 @@ impl Driver {
                     "resource": f.resource, "user_task": f.user, "feedback": f.feedback,
                     "element": node.map(|n| self.g.node(n).label())});
                 if f.user
-                    && let Some(n) = node
-                    && let Some(Value::Int(due)) =
-                        self.user_goal(*task, n, Vars::new()).get("deadline_ms")
+                    && let Some(due) = self.deadline(*task)
                 {
                     v["deadline_ms"] = serde_json::json!(due);
                 }
@@ -846,8 +821,15 @@ impl Driver {
             ("name".to_owned(), Value::String(n.label().to_owned())),
             ("context".to_owned(), Value::Map(context)),
         ]);
-        let deadline = self
-            .engine
+        if let Some(due) = self.deadline(task) {
+            goal.insert("deadline_ms".to_owned(), Value::Int(due));
+        }
+        goal
+    }
+
+    /// When the earliest timer boundary on a task fires (mission time), if it has one.
+    fn deadline(&self, task: TaskKey) -> Option<Millis> {
+        self.engine
             .state()
             .waits
             .values()
@@ -856,11 +838,7 @@ impl Driver {
                 executive_engine::On::Timer { due, .. } => Some(due),
                 _ => None,
             })
-            .min();
-        if let Some(due) = deadline {
-            goal.insert("deadline_ms".to_owned(), Value::Int(due));
-        }
-        goal
+            .min()
     }
 
     /// The resource a user task is routed by: its binding's, else its element id.

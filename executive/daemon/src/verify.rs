@@ -141,20 +141,7 @@ pub fn verify(opts: &VerifyOptions) -> Result<Report, VerifyError> {
         path: path.display().to_string(),
         refusals,
     })?;
-    let ltls: Vec<executive_verify::Ltl> = reqs
-        .iter()
-        .map(|r| {
-            let mut formula = formulas[&r.name].clone();
-            for (k, expr) in t.atoms.iter().enumerate().rev() {
-                formula = formula.replace(&format!("@{k}"), expr);
-            }
-            executive_verify::Ltl {
-                name: r.name.clone(),
-                description: r.says.clone(),
-                formula,
-            }
-        })
-        .collect();
+    let ltls = executive_verify::requirements::claims(&reqs, &formulas, &t);
     let dir = opts
         .dir
         .clone()

@@ -160,20 +160,7 @@ fn main() {
     let t0 = Instant::now();
     let t = executive_verify::translate(&g, Bounds::default(), &atoms, &loaded.variables)
         .expect("translates");
-    let ltls: Vec<Ltl> = reqs
-        .iter()
-        .map(|r| {
-            let mut f = formulas[&r.name].clone();
-            for (k, e) in t.atoms.iter().enumerate().rev() {
-                f = f.replace(&format!("@{k}"), e);
-            }
-            Ltl {
-                name: r.name.clone(),
-                description: r.says.clone(),
-                formula: f,
-            }
-        })
-        .collect();
+    let ltls = executive_verify::requirements::claims(&reqs, &formulas, &t);
     let checked = executive_verify::check(&t, &ltls, &work.join("europa"), Limits::default())
         .expect("spin runs");
     let spin_s = t0.elapsed().as_secs_f64();

@@ -16,9 +16,11 @@ use executive_engine::{
     Action, At, Engine, Entry, Event, Input, On, Outcome, State, TaskKey, Vars,
 };
 use executive_model::{
-    Called, EventDefinition, GatewayKind, NodeId, NodeKind, ProcessGraph, Scope, TaskKind,
+    Called, EventDefinition, GatewayKind, NodeId, NodeKind, ProcessGraph, TaskKind,
 };
 use serde::Serialize;
+
+use crate::promela::outside;
 
 /// What the exploration found.
 #[derive(Clone, Debug, Default, Serialize)]
@@ -43,14 +45,6 @@ pub struct Exploration {
 struct Node {
     state: State,
     parent: Option<(usize, String)>,
-}
-
-fn outside(g: &ProcessGraph, n: NodeId) -> bool {
-    match &g.node(n).kind {
-        NodeKind::Task(t) => t.kind != TaskKind::Script,
-        NodeKind::CallActivity(ca) => matches!(ca.called, Some(Called::GlobalTask(_))),
-        _ => false,
-    }
 }
 
 /// The shape of a state: tokens by (scope path, node, flow in, what they do), waits by node,
@@ -357,10 +351,10 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
     let mut grew = true;
     while grew {
         grew = false;
-        for n in &g.nodes {
+        for (i, n) in g.nodes.iter().enumerate() {
             if let NodeKind::CallActivity(ca) = &n.kind
                 && let Some(Called::Process(p)) = &ca.called
-                && running.contains(&process_of(&g, n.scope))
+                && running.contains(&g.process_of(NodeId(i as u32)))
                 && running.insert(*p)
             {
                 grew = true;
@@ -380,13 +374,4 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
         }
     }
     out
-}
-
-fn process_of(g: &ProcessGraph, mut scope: Scope) -> executive_model::ProcessId {
-    loop {
-        match scope {
-            Scope::Process(p) => return p,
-            Scope::SubProcess(n) => scope = g.node(n).scope,
-        }
-    }
 }

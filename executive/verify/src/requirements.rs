@@ -476,3 +476,26 @@ pub fn shared_atoms(reqs: &[Requirement]) -> (Vec<Atom>, BTreeMap<String, String
     }
     (all, formulas)
 }
+
+/// The Spin claims of requirements, on a translation instrumented for their shared atoms
+/// (`formulas` from [`shared_atoms`]): each `@k` becomes what reads atom `k` in the model.
+pub fn claims(
+    reqs: &[Requirement],
+    formulas: &BTreeMap<String, String>,
+    t: &crate::Translation,
+) -> Vec<crate::Ltl> {
+    reqs.iter()
+        .map(|r| {
+            let mut formula = formulas[&r.name].clone();
+            // Highest first, as in `shared_atoms`.
+            for (k, expr) in t.atoms.iter().enumerate().rev() {
+                formula = formula.replace(&format!("@{k}"), expr);
+            }
+            crate::Ltl {
+                name: r.name.clone(),
+                description: r.says.clone(),
+                formula,
+            }
+        })
+        .collect()
+}

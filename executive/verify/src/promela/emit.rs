@@ -15,7 +15,7 @@ impl Tr<'_> {
                     && matches!(gw.kind, GatewayKind::Parallel | GatewayKind::Inclusive)
             }
             NodeKind::Task(_) | NodeKind::CallActivity(_) => {
-                self.outside(n) && self.folded.contains(&n)
+                outside(self.g, n) && self.folded.contains(&n)
             }
             _ => false,
         }

@@ -151,6 +151,23 @@ pub(crate) fn fixed_duration(node: &executive_model::Node) -> Option<u64> {
     })
 }
 
+/// The node's work is done outside the executive (a system, the ground): a task other than a
+/// script task, or a call of a global task that is not a script. The engine's token game holds
+/// exactly these for the explorer; the translation waits for them with `QUIET`.
+pub(crate) fn outside(g: &ProcessGraph, n: NodeId) -> bool {
+    match &g.node(n).kind {
+        NodeKind::Task(t) => t.kind != TaskKind::Script,
+        NodeKind::CallActivity(ca) => match &ca.called {
+            Some(Called::GlobalTask(id)) => g
+                .global_tasks
+                .get(id)
+                .is_some_and(|t| t.kind != TaskKind::Script),
+            _ => false,
+        },
+        _ => false,
+    }
+}
+
 /// A boundary event that interrupts its activity (every other node: `true`).
 pub(crate) fn interrupting(g: &ProcessGraph, b: NodeId) -> bool {
     !matches!(&g.node(b).kind, NodeKind::Boundary(be) if !be.interrupting)
@@ -383,26 +400,16 @@ impl<'g> Tr<'g> {
         }
     }
 
+    /// Takes the token on flow `f` (the step needs it).
+    fn take(&self, c: usize, f: FlowId, alt: &mut Alt) {
+        let i = self.f(c, f);
+        alt.guard.push(format!("tok[{i}] > 0"));
+        alt.effect.push(format!("tok[{i}]--"));
+    }
+
     fn put_all(&self, c: usize, flows: &[FlowId], alt: &mut Alt) {
         for f in flows {
             self.put(c, *f, alt);
-        }
-    }
-
-    /// The node's work is done outside the executive (a system, the ground): a task other
-    /// than a script task, or a call of a global task.
-    fn outside(&self, n: NodeId) -> bool {
-        match &self.g.node(n).kind {
-            NodeKind::Task(t) => t.kind != TaskKind::Script,
-            NodeKind::CallActivity(ca) => match &ca.called {
-                Some(Called::GlobalTask(id)) => self
-                    .g
-                    .global_tasks
-                    .get(id)
-                    .is_some_and(|t| t.kind != TaskKind::Script),
-                _ => false,
-            },
-            _ => false,
         }
     }
 

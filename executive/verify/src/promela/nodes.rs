@@ -80,8 +80,7 @@ impl Tr<'_> {
                 for f in ins {
                     let m = self.marker(c, n, "end");
                     let mut alt = Alt::default();
-                    alt.guard.push(format!("tok[{}] > 0", self.f(c, f)));
-                    alt.effect.push(format!("tok[{}]--", self.f(c, f)));
+                    self.take(c, f, &mut alt);
                     self.throw(c, n, defs, &mut alt);
                     self.push(&m, alt);
                 }
@@ -90,8 +89,7 @@ impl Tr<'_> {
                 for f in ins {
                     let m = self.marker(c, n, "");
                     let mut alt = Alt::default();
-                    alt.guard.push(format!("tok[{}] > 0", self.f(c, f)));
-                    alt.effect.push(format!("tok[{}]--", self.f(c, f)));
+                    self.take(c, f, &mut alt);
                     if self.throw(c, n, defs, &mut alt) {
                         self.put_all(c, &outs, &mut alt);
                     }
@@ -130,8 +128,7 @@ impl Tr<'_> {
                         alt.guard.push(format!("act[{a}]"));
                         alt.effect.push(format!("act[{a}] = 0"));
                     } else {
-                        alt.guard.push(format!("tok[{}] > 0", self.f(c, f)));
-                        alt.effect.push(format!("tok[{}]--", self.f(c, f)));
+                        self.take(c, f, &mut alt);
                     }
                     self.put_all(c, &outs, &mut alt);
                     self.push(&m, alt);
@@ -158,9 +155,7 @@ impl Tr<'_> {
                 let m = self.marker(c, n, "");
                 let mut alt = Alt::default();
                 for f in ins {
-                    let i = self.f(c, *f);
-                    alt.guard.push(format!("tok[{i}] > 0"));
-                    alt.effect.push(format!("tok[{i}]--"));
+                    self.take(c, *f, &mut alt);
                 }
                 self.put_all(c, outs, &mut alt);
                 self.push(&m, alt);
@@ -174,10 +169,8 @@ impl Tr<'_> {
                         let label = self.g.flow(*fo).id.clone();
                         let m = self.marker(c, n, &format!("take[{label}]"));
                         let mut alt = Alt::default();
-                        let i = self.f(c, *fi);
-                        alt.guard.push(format!("tok[{i}] > 0"));
+                        self.take(c, *fi, &mut alt);
                         alt.guard.push(guard.clone());
-                        alt.effect.push(format!("tok[{i}]--"));
                         self.put(c, *fo, &mut alt);
                         self.push(&m, alt);
                     }
@@ -195,9 +188,7 @@ impl Tr<'_> {
                         let label = self.g.flow(*fo).id.clone();
                         let m = self.marker(c, n, &format!("take[{label}]"));
                         let mut alt = Alt::default();
-                        let i = self.f(c, *fi);
-                        alt.guard.push(format!("tok[{i}] > 0"));
-                        alt.effect.push(format!("tok[{i}]--"));
+                        self.take(c, *fi, &mut alt);
                         if Some(*fo) != free && cyclic(self, *fo) {
                             self.bound(c, n, &mut alt);
                         }
@@ -207,9 +198,7 @@ impl Tr<'_> {
                     if outs.is_empty() {
                         let m = self.marker(c, n, "");
                         let mut alt = Alt::default();
-                        let i = self.f(c, *fi);
-                        alt.guard.push(format!("tok[{i}] > 0"));
-                        alt.effect.push(format!("tok[{i}]--"));
+                        self.take(c, *fi, &mut alt);
                         self.push(&m, alt);
                     }
                 }
@@ -258,9 +247,7 @@ impl Tr<'_> {
                         chosen.iter().map(|f| self.g.flow(*f).id.clone()).collect();
                     let m = self.marker(c, n, &format!("take[{}]", names.join("+")));
                     let mut alt = Alt::default();
-                    let i = self.f(c, fi);
-                    alt.guard.push(format!("tok[{i}] > 0"));
-                    alt.effect.push(format!("tok[{i}]--"));
+                    self.take(c, fi, &mut alt);
                     if (exit || !single) && chosen.iter().any(|f| cyclic(self, *f)) {
                         self.bound(c, n, &mut alt);
                     }
@@ -272,9 +259,7 @@ impl Tr<'_> {
                 for fi in ins {
                     let m = self.marker(c, n, "arm");
                     let mut alt = Alt::default();
-                    let i = self.f(c, *fi);
-                    alt.guard.push(format!("tok[{i}] > 0"));
-                    alt.effect.push(format!("tok[{i}]--"));
+                    self.take(c, *fi, &mut alt);
                     alt.effect.push(format!("act[{}] = 1", self.a(c, n)));
                     alt.effect.extend(self.listening(n));
                     self.push(&m, alt);
@@ -330,7 +315,7 @@ impl Tr<'_> {
         let body_ctx = child.unwrap_or(c);
         let fails = match &node.kind {
             NodeKind::Task(t) => !matches!(t.kind, TaskKind::User | TaskKind::Script),
-            NodeKind::CallActivity(_) => self.outside(n),
+            NodeKind::CallActivity(_) => outside(self.g, n),
             _ => false,
         };
         let mut catchers = Vec::new();
@@ -367,12 +352,10 @@ impl Tr<'_> {
             for f in ins {
                 let m = self.marker(c, n, "run");
                 let mut alt = Alt {
-                    outside: self.outside(n),
+                    outside: outside(self.g, n),
                     ..Alt::default()
                 };
-                let i = self.f(c, *f);
-                alt.guard.push(format!("tok[{i}] > 0"));
-                alt.effect.push(format!("tok[{i}]--"));
+                self.take(c, *f, &mut alt);
                 alt.effect.extend(self.data_effects(n));
                 self.put_all(c, outs, &mut alt);
                 self.push(&m, alt);
@@ -384,9 +367,7 @@ impl Tr<'_> {
             let phase = if body.is_some() { "activate" } else { "start" };
             let m = self.marker(c, n, phase);
             let mut alt = Alt::default();
-            let i = self.f(c, *f);
-            alt.guard.push(format!("tok[{i}] > 0"));
-            alt.effect.push(format!("tok[{i}]--"));
+            self.take(c, *f, &mut alt);
             alt.effect.push(format!("act[{a}] = 1"));
             alt.effect.extend(self.listening(n));
             // A loop's bodies are counted per start of the loop.
@@ -416,7 +397,7 @@ impl Tr<'_> {
         if node.looping.is_some() {
             let m = self.marker(c, n, "repeat");
             let mut alt = Alt {
-                outside: body.is_none() && self.outside(n),
+                outside: body.is_none() && outside(self.g, n),
                 ..Alt::default()
             };
             alt.guard.push(done_guard.clone());
@@ -455,7 +436,7 @@ impl Tr<'_> {
         let choices = !catchers.is_empty() || !spontaneous.is_empty();
         let m = self.marker(c, n, "complete");
         let mut alt = Alt {
-            outside: body.is_none() && self.outside(n),
+            outside: body.is_none() && outside(self.g, n),
             ..Alt::default()
         };
         if choices && exit && completes_back {
