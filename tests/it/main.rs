@@ -12,6 +12,7 @@ mod ground;
 mod hostile;
 mod missions;
 mod protocol;
+mod realworld;
 mod tidy;
 mod timeline;
 mod verify;

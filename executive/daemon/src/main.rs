@@ -23,6 +23,11 @@ enum Command {
         /// Print diagnostics as JSON for tools.
         #[arg(long)]
         json: bool,
+        /// Enforce every rule of BPMN 2.0.2: warnings that name a rule the model bends
+        /// harmlessly (an implicit end, an ignored condition, a missing scriptFormat, …) become
+        /// errors.
+        #[arg(long)]
+        strict: bool,
     },
     /// Run a mission (or resume the one its store holds) until every instance ends.
     Run {
@@ -147,9 +152,13 @@ fn main() -> anyhow::Result<ExitCode> {
         logging("warn", false);
     }
     match cli.command {
-        Command::Validate { files, json } => {
+        Command::Validate {
+            files,
+            json,
+            strict,
+        } => {
             let stdout = std::io::stdout();
-            let verdict = executive::validate::run(&files, json, &mut stdout.lock())?;
+            let verdict = executive::validate::run(&files, json, strict, &mut stdout.lock())?;
             Ok(ExitCode::from(verdict.exit_code() as u8))
         }
         Command::Run { mission, run } => drive(Some(mission), run),

@@ -64,8 +64,8 @@ pub fn load_file(path: &Path, options: &Options) -> std::io::Result<Loaded> {
 }
 
 /// Loads `path`; a file that cannot be read becomes an `unreadable` diagnostic.
-pub fn check_file(path: &Path) -> (Verdict, Loaded) {
-    match load_file(path, &Options::default()) {
+pub fn check_file(path: &Path, options: &Options) -> (Verdict, Loaded) {
+    match load_file(path, options) {
         Ok(loaded) => {
             let verdict = if loaded.unreadable() {
                 Verdict::Unreadable
@@ -144,12 +144,22 @@ pub fn render(out: &mut dyn Write, path: &Path, loaded: &Loaded) -> std::io::Res
     Ok(())
 }
 
-/// Runs `trace validate` over `files`, printing to `out`; returns the worst verdict.
-pub fn run(files: &[PathBuf], json: bool, out: &mut dyn Write) -> std::io::Result<Verdict> {
+/// Runs `trace validate` over `files`, printing to `out`; returns the worst verdict. `strict`
+/// enforces every rule of the specification (warnings that name a rule become errors).
+pub fn run(
+    files: &[PathBuf],
+    json: bool,
+    strict: bool,
+    out: &mut dyn Write,
+) -> std::io::Result<Verdict> {
     let mut worst = Verdict::Valid;
     let mut reports = Vec::new();
+    let options = Options {
+        strict,
+        ..Options::default()
+    };
     for path in files {
-        let (verdict, loaded) = check_file(path);
+        let (verdict, loaded) = check_file(path, &options);
         tracing::debug!(file = %path.display(), ?verdict, diagnostics = loaded.diagnostics.len(), "validated");
         worst = worst.max(verdict);
         if json {

@@ -16,7 +16,7 @@
 use serde::Serialize;
 
 use crate::diagnostic::Sink;
-use crate::expr::Expression;
+use crate::expr::{Expression, Failure, Language};
 use crate::xml::{Element, Ns};
 
 /// Which extension vocabulary a binding was read from.
@@ -161,10 +161,14 @@ impl Reader<'_> {
     }
 
     fn expr(&mut self, offset: usize, raw: &str, what: &str) -> Option<Expression> {
-        match Expression::parse(raw) {
+        match Expression::compile(raw, &Language::Cel) {
             Ok(e) => Some(e),
-            Err(e) => {
-                self.problem(offset, "bad-expression", format!("{what}: {e}"));
+            Err(f) => {
+                let code = match f {
+                    Failure::Syntax(_) => "bad-expression",
+                    Failure::Unevaluated(_) => "unevaluated-language",
+                };
+                self.problem(offset, code, format!("{what}: {f}"));
                 None
             }
         }
@@ -457,6 +461,20 @@ fn serde_json_string(value: &str) -> String {
     }
     out.push('"');
     out
+}
+
+/// Is the event `el` implemented like a task (a Camunda 8 job worker, a Camunda 7 delegate or
+/// external task, our own binding)? Such a message throw or end event needs no message.
+pub(crate) fn implemented_as_task(el: &Element) -> bool {
+    let on = |e: &Element| {
+        ["topic", "class", "delegateExpression", "expression"]
+            .iter()
+            .any(|a| e.attr_ns(&Ns::Camunda, a).is_some())
+    };
+    el.extensions().any(|e| {
+        (e.ns == Ns::Zeebe && e.name == "taskDefinition") || (e.ns == Ns::Trace && e.name == "task")
+    }) || on(el)
+        || el.bpmn_child("messageEventDefinition").is_some_and(on)
 }
 
 /// The standard `implementation` attribute as the resource name, when no extension binds the

@@ -9,7 +9,7 @@ use std::collections::BTreeMap;
 
 use crate::binding::Reader as BindingReader;
 use crate::diagnostic::Sink;
-use crate::expr::{Expression, parse_assignments};
+use crate::expr::{Expression, Failure, Language, parse_assignments};
 use crate::graph::*;
 use crate::timer::{TimerKind, parse_timer};
 use crate::xml::{Document, Element, Ns};
@@ -127,6 +127,8 @@ pub(crate) struct Builder<'d, 's> {
     bases: Vec<usize>,
     /// Namespace index of each document (documents with equal targetNamespace share one).
     doc_namespace: Vec<usize>,
+    /// The expression language each document declares (`expressionLanguage`; CEL when absent).
+    doc_language: Vec<Language>,
     /// Flow nodes and processes by (document, id).
     scoped_nodes: BTreeMap<(usize, String), NodeId>,
     scoped_processes: BTreeMap<(usize, String), ProcessId>,
@@ -195,6 +197,10 @@ pub(crate) fn build(
                 })
                 .collect()
         },
+        doc_language: docs
+            .iter()
+            .map(|d| Language::named(d.root.attr("expressionLanguage").unwrap_or_default()))
+            .collect(),
         scoped_nodes: BTreeMap::new(),
         scoped_processes: BTreeMap::new(),
         link_names: BTreeMap::new(),
@@ -430,6 +436,7 @@ impl<'d> Builder<'d, '_> {
             id,
             name: el.attr("name").map(str::to_owned),
             executable: strict,
+            declared_executable: el.attr("isExecutable") == Some("true"),
             imported,
             nodes: Vec::new(),
             properties: data_items(el, "property"),
@@ -475,16 +482,17 @@ impl<'d> Builder<'d, '_> {
                 let nid = NodeId(self.g.nodes.len() as u32);
                 let id = match child.attr("id") {
                     Some(id) => id.to_owned(),
+                    // The schema makes ids optional; one that nothing references may be left
+                    // out. The node gets a name for messages and records.
                     None => {
-                        self.sink
-                            .error(
-                                "missing-id",
-                                child.offset,
-                                None,
-                                format!("<{name}> has no id"),
-                            )
-                            .constraint("EXT.003");
-                        format!("<{name} at byte {}>", child.offset)
+                        let id = format!("{name}@{}", child.offset);
+                        self.sink.warning(
+                            "missing-id",
+                            child.offset,
+                            None,
+                            format!("<{name}> has no id; it is called `{id}` here"),
+                        );
+                        id
                     }
                 };
                 self.g.node_ids.entry(id.clone()).or_insert(nid);
@@ -592,24 +600,10 @@ impl<'d> Builder<'d, '_> {
                 }
             }
             let condition = el.bpmn_child("conditionExpression").and_then(|c| {
-                let text = c.trimmed_text();
-                if text.is_empty() {
+                if c.trimmed_text().is_empty() {
                     return None;
                 }
-                match Expression::parse(text) {
-                    Ok(e) => Some(e),
-                    Err(e) => {
-                        self.problem(
-                            strict,
-                            "bad-expression",
-                            c.offset,
-                            Some(&id),
-                            format!("condition of sequence flow: {e}"),
-                        )
-                        .constraint("EXT.012");
-                        None
-                    }
-                }
+                self.expr(strict, c, &id, "condition of sequence flow")
             });
             let fid = FlowId(self.g.flows.len() as u32);
             self.g.nodes[source.index()].outgoing.push(fid);
@@ -662,15 +656,14 @@ impl<'d> Builder<'d, '_> {
                     .any(|t| matches!(t, EventDefinition::Compensate { .. }))
                 && self.g.node(b.attached_to).compensation_handler.is_none()
             {
-                let msg = "a compensation boundary event must be connected by an association to its compensation handler".to_owned();
-                self.sink
-                    .error(
-                        "compensation-without-handler",
-                        node.offset,
-                        Some(&node.id.clone()),
-                        msg,
-                    )
-                    .constraint("EXT.143");
+                let msg = "a compensation boundary event should be connected by an association to its compensation handler; without one, nothing is compensated for the activity".to_owned();
+                self.sink.bent(
+                    "compensation-without-handler",
+                    "EXT.143",
+                    node.offset,
+                    Some(&node.id.clone()),
+                    msg,
+                );
             }
         }
     }
@@ -690,21 +683,34 @@ impl<'d> Builder<'d, '_> {
         }
     }
 
+    /// The language an expression element is written in: its `language` attribute, else the
+    /// document's `expressionLanguage`.
+    fn language_of(&self, el: &Element) -> Language {
+        match el.attr("language") {
+            Some(l) => Language::named(l),
+            None => self.doc_language[self.doc_of(el.offset)].clone(),
+        }
+    }
+
+    /// Compiles the expression in `el`; a failure is a diagnostic (`bad-expression`, or
+    /// `unevaluated-language` naming the language).
     fn expr(&mut self, strict: bool, el: &Element, owner: &str, what: &str) -> Option<Expression> {
-        let text = el.trimmed_text();
-        match Expression::parse(text) {
+        let language = self.language_of(el);
+        match Expression::compile(el.trimmed_text(), &language) {
             Ok(e) => Some(e),
-            Err(e) => {
-                self.problem(
-                    strict,
-                    "bad-expression",
-                    el.offset,
-                    Some(owner),
-                    format!("{what}: {e}"),
-                );
+            Err(f) => {
+                self.expr_problem(strict, el.offset, owner, what, f);
                 None
             }
         }
+    }
+
+    fn expr_problem(&mut self, strict: bool, offset: usize, owner: &str, what: &str, f: Failure) {
+        let code = match f {
+            Failure::Syntax(_) => "bad-expression",
+            Failure::Unevaluated(_) => "unevaluated-language",
+        };
+        self.problem(strict, code, offset, Some(owner), format!("{what}: {f}"));
     }
 
     fn resolve<T: Copy>(
@@ -742,7 +748,12 @@ impl<'d> Builder<'d, '_> {
             .filter(|c| c.ns == Ns::Bpmn && c.name.ends_with("EventDefinition"))
             .collect();
         for r in el.bpmn_children("eventDefinitionRef") {
-            match self.global_event_defs.get(local_ref(&r.text)) {
+            let id = local_ref(&r.text);
+            // A reference to a definition the event already holds inline adds nothing.
+            if defs.iter().any(|d| d.attr("id") == Some(id)) {
+                continue;
+            }
+            match self.global_event_defs.get(id) {
                 Some(d) => defs.push(d),
                 None => {
                     self.sink.error(
@@ -810,23 +821,28 @@ impl<'d> Builder<'d, '_> {
                         .and_then(|t| self.link_names.get(local_ref(&t.text)).copied());
                     EventDefinition::Link(target.or(d.attr("name")).unwrap_or_default().to_owned())
                 }
-                "conditionalEventDefinition" => match d.bpmn_child("condition") {
-                    Some(c) => {
-                        match self.expr(strict, c, owner, "condition of conditional event") {
-                            Some(e) => EventDefinition::Conditional(e),
-                            None => continue,
+                // A condition that cannot be evaluated (empty, or in another language) is a
+                // problem of its own; the event stays a conditional event, which never fires.
+                "conditionalEventDefinition" => {
+                    let e = match d.bpmn_child("condition") {
+                        Some(c) => self.expr(strict, c, owner, "condition of conditional event"),
+                        None => {
+                            self.problem(
+                                strict,
+                                "missing-condition",
+                                d.offset,
+                                Some(owner),
+                                "conditional event definition has no <condition>".to_owned(),
+                            )
+                            .constraint("XSD");
+                            None
                         }
+                    };
+                    match e.map_or_else(|| Expression::parse("false"), Ok) {
+                        Ok(e) => EventDefinition::Conditional(e),
+                        Err(_) => continue,
                     }
-                    None => {
-                        self.sink.error(
-                            "missing-condition",
-                            d.offset,
-                            Some(owner),
-                            "conditional event definition has no <condition>".to_owned(),
-                        );
-                        continue;
-                    }
-                },
+                }
                 "timerEventDefinition" => {
                     let parts: Vec<(TimerKind, &Element)> = [
                         ("timeDate", TimerKind::Date),
@@ -887,6 +903,12 @@ impl<'d> Builder<'d, '_> {
                 interrupting: el.attr("isInterrupting") != Some("false"),
                 parallel_multiple,
             }),
+            "endEvent" | "intermediateThrowEvent"
+                if el.bpmn_child("messageEventDefinition").is_some()
+                    && crate::binding::implemented_as_task(el) =>
+            {
+                NodeKind::Task(self.event_task(el, &owner, strict))
+            }
             "endEvent" => NodeKind::End(self.event_definitions(el, &owner, strict)),
             "intermediateCatchEvent" => NodeKind::Catch(CatchEvent {
                 triggers: self.event_definitions(el, &owner, strict),
@@ -928,10 +950,19 @@ impl<'d> Builder<'d, '_> {
                 if attached_to != nid {
                     self.g.nodes[attached_to.index()].boundaries.push(nid);
                 }
+                // Error, cancel and compensation boundaries always interrupt (§10.5.4).
+                let always = triggers.iter().any(|t| {
+                    matches!(
+                        t,
+                        EventDefinition::Error { .. }
+                            | EventDefinition::Cancel
+                            | EventDefinition::Compensate { .. }
+                    )
+                });
                 NodeKind::Boundary(BoundaryEvent {
                     attached_to,
                     triggers,
-                    interrupting: el.attr("cancelActivity") != Some("false"),
+                    interrupting: always || el.attr("cancelActivity") != Some("false"),
                     parallel_multiple,
                 })
             }
@@ -1062,7 +1093,32 @@ impl<'d> Builder<'d, '_> {
             script,
             message,
             instantiate: el.attr("instantiate") == Some("true"),
+            event: None,
         }
+    }
+
+    /// A message throw or end event implemented like a task (see [`Task::event`]).
+    fn event_task(&mut self, el: &'d Element, owner: &str, strict: bool) -> Task {
+        let mut t = self.task(el, "sendTask", owner, strict);
+        let def = el.bpmn_child("messageEventDefinition");
+        if t.binding.is_none()
+            && let Some(d) = def
+        {
+            // Camunda 7 puts the delegate on the event definition.
+            t.binding = BindingReader {
+                sink: self.sink,
+                element_id: owner,
+                strict,
+            }
+            .read(d);
+        }
+        t.message = def.and_then(|d| self.resolve(|b| &b.messages, d, "messageRef", owner));
+        t.event = Some(if el.name == "endEvent" {
+            "endEvent"
+        } else {
+            "intermediateThrowEvent"
+        });
+        t
     }
 
     fn script(&mut self, el: &Element, owner: &str, strict: bool) -> Option<Script> {
@@ -1076,11 +1132,25 @@ impl<'d> Builder<'d, '_> {
             );
             return None;
         };
-        let format = el.attr("scriptFormat").map(str::to_owned);
+        let format = el
+            .attr("scriptFormat")
+            .filter(|f| !f.trim().is_empty())
+            .map(str::to_owned);
         let text = s.trimmed_text().to_owned();
         let ours = matches!(format.as_deref(), Some("cel" | "text/x-cel" | "trace"));
         let assignments = match parse_assignments(&text) {
-            Ok(a) => Some(a),
+            Ok(a) => {
+                if format.is_none() {
+                    self.sink.bent(
+                        "missing-script-format",
+                        "EXT.053",
+                        el.offset,
+                        Some(owner),
+                        "the script task names no scriptFormat; its script is read as CEL assignments".to_owned(),
+                    );
+                }
+                Some(a)
+            }
             Err(e) if ours => {
                 self.problem(
                     strict,
@@ -1092,11 +1162,17 @@ impl<'d> Builder<'d, '_> {
                 None
             }
             Err(e) if format.is_none() && !self.script_connector => {
-                let msg = format!(
-                    "the script has no scriptFormat and is not written in the expression language ({e}); write assignments `name = expression`, or name its language in scriptFormat"
+                self.sink.bent(
+                    "missing-script-format",
+                    "EXT.053",
+                    el.offset,
+                    Some(owner),
+                    "the script task names no scriptFormat".to_owned(),
                 );
-                self.problem(strict, "missing-script-format", s.offset, Some(owner), msg)
-                    .constraint("EXT.053");
+                let msg = format!(
+                    "the script names no language and is not CEL assignments ({e}): TRACE runs CEL assignments `name = expression`, and scripts in other languages through a script connector"
+                );
+                self.problem(strict, "unevaluated-language", s.offset, Some(owner), msg);
                 None
             }
             // A script in another language runs through a script connector.

@@ -14,6 +14,19 @@ use crate::build::{ACTIVITIES, FLOW_NODES};
 use crate::diagnostic::Sink;
 use crate::xml::{Element, Ns};
 
+/// Rules whose breach leaves the meaning clear: warnings naming the rule (errors with
+/// `--strict`). Each message says how the model is read.
+const BENT: &[&str] = &[
+    "unknown-attribute",
+    "bad-mime-type",
+    "bad-uri",
+    "natural-language-expression",
+    "flow-mismatch",
+    "io-set",
+    "message-flow-none-event",
+    "unknown-script-language",
+];
+
 /// What kind of element a reference must name.
 const ITEM_AWARE: &[&str] = &[
     "dataObject",
@@ -122,6 +135,12 @@ const SCHEMA_ATTRIBUTES: &[&str] = &[
     "dataStateRef",
     "dataInputRefs",
     "dataOutputRefs",
+    "correlationPropertyRef",
+    "correlationKeyRef",
+    "supportedInterfaceRef",
+    "evaluatesToTypeRef",
+    "errorRef",
+    "implementationRef",
 ];
 
 /// Allowed target kinds for a reference held in a child element (`<x>id</x>`) or an attribute.
@@ -282,17 +301,22 @@ pub(crate) fn check(root: &Element, sink: &mut Sink) {
         };
         let id = el.attr("id");
         let in_process = ix.process_of.contains_key(id.unwrap_or_default()) || el.name == "process";
+        // References whose breach leaves the meaning clear, reported as bent rules below.
+        let mut soft: Vec<(&'static str, String)> = Vec::new();
         let mut err = |code: &'static str, constraint: &'static str, msg: String| {
             // Descriptive processes (isExecutable="false") are drawings: a broken reference there is
             // worth a warning, not a refusal, as vendor exports are full of them.
-            if constraint == "REF" && in_process && !executable {
+            if BENT.contains(&code) {
+                sink.bent(code, constraint, el.offset, id, msg);
+            } else if constraint == "REF" && in_process && !executable {
                 sink.warning(code, el.offset, id, msg)
                     .constraint(constraint);
             } else {
                 sink.error(code, el.offset, id, msg).constraint(constraint);
             }
         };
-        // Attributes the schema does not define, unqualified (vendor ones carry a namespace).
+        // Attributes the schema does not define, unqualified (vendor ones carry a namespace):
+        // ignored, with a warning.
         if executable {
             for a in el
                 .attrs
@@ -303,7 +327,7 @@ pub(crate) fn check(root: &Element, sink: &mut Sink) {
                     "unknown-attribute",
                     "XSD",
                     format!(
-                        "<{}> has no attribute `{}` in BPMN 2.0; put tool-specific attributes in their own namespace",
+                        "<{}> has no attribute `{}` in BPMN 2.0; it is ignored (tool-specific attributes belong in their own namespace)",
                         el.name, a.name
                     ),
                 );
@@ -322,7 +346,31 @@ pub(crate) fn check(root: &Element, sink: &mut Sink) {
             .filter(|c| c.ns == Ns::Bpmn && c.children.is_empty())
         {
             if let Some(kinds) = ref_targets(&el.name, &c.name) {
-                check_ref(&ix, &c.name, c.trimmed_text(), kinds, &mut err);
+                // `<incoming>`/`<outgoing>` repeat what the sequence flows say, lanes only
+                // document, and a loop data reference that names nothing is read as the name
+                // of a variable (as SpiffWorkflow writes it).
+                let why = match c.name.as_str() {
+                    "incoming" | "outgoing" => {
+                        Some("; the sequence flows' own sourceRef and targetRef decide")
+                    }
+                    "flowNodeRef" => Some("; lanes only document who does what"),
+                    "loopDataInputRef" | "loopDataOutputRef" => {
+                        Some("; it is read as the name of a variable holding the collection")
+                    }
+                    _ => None,
+                };
+                match why {
+                    Some(why) => check_ref(
+                        &ix,
+                        &c.name,
+                        c.trimmed_text(),
+                        kinds,
+                        &mut |code, _, msg| {
+                            soft.push((code, format!("{msg}{why}")));
+                        },
+                    ),
+                    None => check_ref(&ix, &c.name, c.trimmed_text(), kinds, &mut err),
+                }
             }
         }
         if FLOW_NODES.contains(&el.name.as_str()) {
@@ -361,6 +409,7 @@ pub(crate) fn check(root: &Element, sink: &mut Sink) {
                     "lua",
                 ];
                 if let Some(f) = el.attr("scriptFormat")
+                    && !f.trim().is_empty()
                     && !is_mime_type(f)
                     && !LANGUAGES.contains(&f.to_ascii_lowercase().as_str())
                 {
@@ -368,7 +417,7 @@ pub(crate) fn check(root: &Element, sink: &mut Sink) {
                         "unknown-script-language",
                         "EXT.145",
                         format!(
-                            "scriptFormat=\"{f}\" is neither a MIME type (e.g. text/x-cel) nor a known script language"
+                            "scriptFormat=\"{f}\" is not a MIME type (e.g. text/x-cel); it is read as the name of a script language, which a script connector runs"
                         ),
                     );
                 }
@@ -380,7 +429,9 @@ pub(crate) fn check(root: &Element, sink: &mut Sink) {
                     err(
                         "bad-uri",
                         "EXT.060",
-                        format!("transaction method=\"{m}\" is not a URI (e.g. ##Compensate)"),
+                        format!(
+                            "transaction method=\"{m}\" is not a URI (e.g. ##Compensate); the transaction compensates, as with ##Compensate"
+                        ),
                     );
                 }
             }
@@ -495,11 +546,17 @@ pub(crate) fn check(root: &Element, sink: &mut Sink) {
                     }
                 }
             }
-            "messageEventDefinition" if executable && el.attr("messageRef").is_none() => {
+            // A message event implemented by a job worker or delegate (Camunda) is a task: it
+            // needs no message.
+            "messageEventDefinition"
+                if executable
+                    && el.attr("messageRef").is_none()
+                    && !parent.is_some_and(crate::binding::implemented_as_task) =>
+            {
                 err(
                     "missing-message",
                     "EXT.127",
-                    "a message event in an executable process must name its message (messageRef)"
+                    "a message event in an executable process must name its message (messageRef) to be sent or correlated"
                         .to_owned(),
                 );
             }
@@ -558,10 +615,13 @@ pub(crate) fn check(root: &Element, sink: &mut Sink) {
                 "natural-language-expression",
                 "EXT.012",
                 format!(
-                    "<{}> is a natural-language expression (no xsi:type=\"tFormalExpression\"), which an executable process cannot evaluate",
+                    "<{}> has no xsi:type=\"tFormalExpression\", which an executable process needs; it is read as a formal expression in the process's language",
                     el.name
                 ),
             );
+        }
+        for (code, msg) in soft {
+            sink.bent(code, "REF", el.offset, id, msg);
         }
         stack.extend(el.children.iter().map(|c| (c, Some(el), executable)));
     }
@@ -604,11 +664,10 @@ fn listed_flows(root: &Element, ix: &Index<'_>, sink: &mut Sink) {
                     _ => "EXT.023",
                 };
                 let msg = format!(
-                    "sequence flow `{fid}` is not listed in the <{child}> elements of `{node}`"
+                    "sequence flow `{fid}` is not listed in the <{child}> elements of `{node}`; the flow's own sourceRef and targetRef decide"
                 );
                 if let Some(n) = ix.by_id.get(node) {
-                    sink.error("flow-mismatch", n.offset, Some(node), msg)
-                        .constraint(c);
+                    sink.bent("flow-mismatch", c, n.offset, Some(node), msg);
                 }
             }
         }
@@ -663,7 +722,7 @@ fn flow_node_refs(
                     "flow-mismatch",
                     "EXT.023",
                     format!(
-                        "<{child}> lists sequence flow `{f}`, whose {attr} is not this element"
+                        "<{child}> lists sequence flow `{f}`, whose {attr} is not this element; the flow's own sourceRef and targetRef decide"
                     ),
                 );
             }
@@ -724,9 +783,11 @@ fn message_flow(
             );
         } else if matches!(k, "endEvent" | "intermediateThrowEvent") && !msg_def(s) {
             err(
-                "bad-message-flow-end",
+                "message-flow-none-event",
                 "EXT.109",
-                format!("<{k}> `{s}` sends a message flow but is not a message event"),
+                format!(
+                    "<{k}> `{s}` sends a message flow but is not a message event; the flow is drawn, no message is sent"
+                ),
             );
         }
     }
@@ -741,9 +802,11 @@ fn message_flow(
             && !msg_def(t)
         {
             err(
-                "bad-message-flow-end",
+                "message-flow-none-event",
                 "EXT.109",
-                format!("<{k}> `{t}` receives a message flow but is not a message event"),
+                format!(
+                    "<{k}> `{t}` receives a message flow but is not a message event; the flow is drawn, no message is awaited"
+                ),
             );
         }
     }
@@ -983,6 +1046,7 @@ fn multi_instance(
         if executable
             && target.is_none()
             && reference == "loopDataInputRef"
+            && ix.kind(&r).is_some()
             && ix.kind(&r) != Some("property")
             && ix.kind(&r) != Some("dataObject")
         {

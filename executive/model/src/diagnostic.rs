@@ -39,6 +39,9 @@ const EXECUTION_CODES: &[&str] = &[
     "unknown-element",
     "missing-activation-condition",
     "unknown-script-language",
+    "missing-called-process",
+    "missing-message",
+    "unevaluated-language",
 ];
 
 /// One problem in a model.
@@ -50,7 +53,9 @@ pub struct Diagnostic {
     pub code: &'static str,
     /// BPMN violation or executability problem.
     pub category: Category,
-    /// BPMN 2.0 static constraint this check enforces (BPMNspector numbering), if any.
+    /// The rule of the specification this check enforces, if any: a static constraint in
+    /// BPMNspector's numbering (`EXT.nnn`), `REF` (typed references), `XSD` (the schema), or a
+    /// clause of BPMN 2.0.2 (`§13.2.1`) where no number exists.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub constraint: Option<&'static str>,
     /// What is wrong, in a plain sentence.
@@ -99,6 +104,8 @@ pub(crate) struct SourceText<'a> {
 #[derive(Debug, Default)]
 pub(crate) struct Sink {
     pub(crate) items: Vec<Diagnostic>,
+    /// Indices in `items` of the rules bent harmlessly: errors when reading strictly.
+    bent: Vec<usize>,
 }
 
 impl Sink {
@@ -150,6 +157,42 @@ impl Sink {
         self.push(Severity::Warning, code, offset, element, message)
     }
 
+    /// A rule of the specification bent harmlessly: the meaning of the model is still clear (the
+    /// sentence says how it is read). A warning that names the rule; `--strict` makes it an error.
+    pub(crate) fn bent(
+        &mut self,
+        code: &'static str,
+        rule: &'static str,
+        offset: usize,
+        element: Option<&str>,
+        message: String,
+    ) -> &mut Diagnostic {
+        self.bent.push(self.items.len());
+        self.push(Severity::Warning, code, offset, element, message)
+            .constraint(rule)
+    }
+
+    /// A rule that binds executable processes only, bent in a descriptive one: a warning naming
+    /// the rule, even when reading strictly.
+    pub(crate) fn noted(
+        &mut self,
+        code: &'static str,
+        rule: &'static str,
+        offset: usize,
+        element: Option<&str>,
+        message: String,
+    ) -> &mut Diagnostic {
+        self.push(Severity::Warning, code, offset, element, message)
+            .constraint(rule)
+    }
+
+    /// Strict reading: every rule bent harmlessly becomes an error.
+    pub(crate) fn enforce_rules(&mut self) {
+        for &i in &self.bent {
+            self.items[i].severity = Severity::Error;
+        }
+    }
+
     pub(crate) fn has_errors(&self) -> bool {
         self.items.iter().any(|d| d.severity == Severity::Error)
     }
@@ -191,6 +234,13 @@ impl Diagnostic {
     /// Tags the diagnostic with the BPMN static constraint it enforces.
     pub(crate) fn constraint(&mut self, id: &'static str) -> &mut Self {
         self.constraint = Some(id);
+        self
+    }
+
+    /// Files the diagnostic as an execution problem: valid (or harmlessly bent) BPMN that this
+    /// executive cannot run as written.
+    pub(crate) fn execution(&mut self) -> &mut Self {
+        self.category = Category::Execution;
         self
     }
 }

@@ -1,11 +1,20 @@
-//! Expressions: the one language for conditions, mappings, loop conditions and scripts.
+//! Expressions: conditions, mappings, loop conditions and scripts, each read in the language it
+//! is written in and compiled to the one language the engine evaluates.
 //!
-//! The language is CEL (Common Expression Language, the `cel` crate): side-effect free,
+//! The engine evaluates CEL (Common Expression Language, the `cel` crate): side-effect free,
 //! terminating, no I/O and no clock, so an expression cannot hurt the deterministic engine, and
-//! it reads the conditions other BPMN test suites are written in (`test.contains("a")`,
-//! `integerVariable < 2`) as they are. Camunda's wrappers are removed before compiling: JUEL
-//! `${…}` and FEEL's leading `=`, so simple Camunda conditions load unchanged. Every expression
-//! is compiled once at load; a syntax error is a diagnostic, never a run-time surprise.
+//! it reads the plain conditions other BPMN tools write (`test.contains("a")`, `x < 2`) as they
+//! are. Every expression is compiled once at load; a problem is a diagnostic, never a run-time
+//! surprise.
+//!
+//! The language of an expression ([`Language`]) comes from where it is written: Camunda's
+//! wrappers name it (JUEL `${…}` / `#{…}` for Camunda 7, a leading `=` for FEEL in Camunda 8),
+//! then the `language` attribute of the expression element, then `expressionLanguage` of the
+//! definitions; with none of these it is CEL. JUEL and FEEL are translated to CEL when they
+//! stay inside a subset whose meaning is the same in both ([`crate::juel`], [`feel_to_cel`]);
+//! XPath, which modelers write as boilerplate around plain values, is read as CEL when the text
+//! is CEL; any other language (JavaScript, Groovy, Python, …) is an *execution* problem naming
+//! the language, so that a binding can be supplied.
 
 use std::sync::Arc;
 
@@ -33,13 +42,126 @@ impl PartialEq for Expression {
     }
 }
 
+/// The language an expression is written in.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Language {
+    /// The Common Expression Language: what the engine evaluates.
+    Cel,
+    /// The Java Unified Expression Language (`${…}`), Camunda 7's.
+    Juel,
+    /// The Friendly Enough Expression Language (DMN), Camunda 8's.
+    Feel,
+    /// XPath, the specification's default, which many modelers declare as boilerplate.
+    XPath,
+    /// Any other language, as named in the model.
+    Other(String),
+}
+
+impl Language {
+    /// The language a `language`, `expressionLanguage` or `scriptFormat` value names.
+    pub fn named(name: &str) -> Language {
+        let l = name.trim().to_ascii_lowercase();
+        let l = l.trim_end_matches('/');
+        if l.is_empty() || matches!(l, "cel" | "text/x-cel" | "trace" | "application/x-cel") {
+            Language::Cel
+        } else if l.contains("xpath") {
+            Language::XPath
+        } else if l.contains("feel") {
+            Language::Feel
+        } else if matches!(
+            l,
+            "juel" | "el" | "uel" | "http://java.sun.com/products/jsp/"
+        ) || l.ends_with("/el")
+        {
+            Language::Juel
+        } else {
+            Language::Other(name.trim().to_owned())
+        }
+    }
+
+    /// The name people know the language by.
+    pub fn label(&self) -> String {
+        match self {
+            Language::Cel => "CEL".to_owned(),
+            Language::Juel => "JUEL".to_owned(),
+            Language::Feel => "FEEL".to_owned(),
+            Language::XPath => "XPath".to_owned(),
+            Language::Other(n) => {
+                let l = n.to_ascii_lowercase();
+                let known = [
+                    ("javascript", "JavaScript"),
+                    ("ecmascript", "JavaScript"),
+                    ("groovy", "Groovy"),
+                    ("python", "Python"),
+                    ("mvel", "MVEL"),
+                    ("java", "Java"),
+                    ("ruby", "Ruby"),
+                    ("xslt", "XSLT"),
+                ];
+                known
+                    .iter()
+                    .find(|(k, _)| l.contains(k))
+                    .map_or_else(|| format!("`{n}`"), |(_, v)| (*v).to_owned())
+            }
+        }
+    }
+}
+
+/// Why an expression cannot be compiled.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Failure {
+    /// The text is not valid in its language (or empty).
+    Syntax(String),
+    /// Valid, perhaps, but in a language (or a part of one) that TRACE does not evaluate.
+    Unevaluated(String),
+}
+
+impl std::fmt::Display for Failure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Failure::Syntax(m) | Failure::Unevaluated(m) => f.write_str(m),
+        }
+    }
+}
+
 impl Expression {
-    /// Compiles `raw`, removing JUEL `${…}` / `#{…}` and FEEL `=` wrappers first.
+    /// Compiles `raw`, reading JUEL `${…}` / `#{…}` and FEEL `=…` by their wrappers and any other
+    /// text as CEL.
     pub fn parse(raw: &str) -> Result<Expression, String> {
+        Self::compile(raw, &Language::Cel).map_err(|f| f.to_string())
+    }
+
+    /// Compiles `raw`, written in `declared` unless a wrapper says otherwise.
+    pub fn compile(raw: &str, declared: &Language) -> Result<Expression, Failure> {
         let source = raw.trim().to_owned();
-        let text = unwrap(&source).trim().to_owned();
+        if source.is_empty() {
+            return Err(Failure::Syntax("the expression is empty".to_owned()));
+        }
+        let (language, body) = match wrapped(&source) {
+            Some((l, body)) => (l, body.trim()),
+            None => (declared.clone(), source.as_str()),
+        };
+        let text = match &language {
+            Language::Cel | Language::XPath => body.to_owned(),
+            Language::Juel => crate::juel::to_cel(body).map_err(|why| {
+                Failure::Unevaluated(format!(
+                    "JUEL expression `{source}` is outside the subset TRACE evaluates: {why}"
+                ))
+            })?,
+            Language::Feel => feel_to_cel(body).map_err(|why| {
+                Failure::Unevaluated(format!(
+                    "FEEL expression `{source}` is outside the subset TRACE evaluates so far (names, literals, comparisons, and/or/not): {why}"
+                ))
+            })?,
+            other => {
+                return Err(Failure::Unevaluated(format!(
+                    "`{source}` is written in {}, which TRACE does not evaluate; write it in CEL or supply a binding",
+                    other.label()
+                )));
+            }
+        };
         if text.is_empty() {
-            return Err("the expression is empty".to_owned());
+            return Err(Failure::Syntax("the expression is empty".to_owned()));
         }
         let program = cel::Program::compile(&text).map_err(|e| {
             let msg = e.to_string();
@@ -49,7 +171,19 @@ impl Expression {
                 .unwrap_or("syntax error")
                 .trim()
                 .to_owned();
-            format!("{first} in `{text}`")
+            if language == Language::XPath {
+                Failure::Unevaluated(format!(
+                    "`{text}` is declared XPath, which TRACE does not evaluate, and is not CEL either ({first})"
+                ))
+            } else if language != Language::Cel {
+                // Valid in its own language, perhaps, but beyond what translates to CEL.
+                Failure::Unevaluated(format!(
+                    "{} expression `{source}` is outside the subset TRACE evaluates ({first})",
+                    language.label()
+                ))
+            } else {
+                Failure::Syntax(format!("{first} in `{text}`"))
+            }
         })?;
         let mut variables: Vec<String> = program
             .references()
@@ -73,13 +207,113 @@ impl Expression {
     }
 }
 
-fn unwrap(s: &str) -> &str {
+/// The language a Camunda wrapper names, and the text inside it.
+fn wrapped(s: &str) -> Option<(Language, &str)> {
     for open in ["${", "#{"] {
         if let Some(inner) = s.strip_prefix(open).and_then(|r| r.strip_suffix('}')) {
-            return inner;
+            return Some((Language::Juel, inner));
         }
     }
-    s.strip_prefix('=').unwrap_or(s)
+    s.strip_prefix('=').map(|r| (Language::Feel, r))
+}
+
+/// Translates the part of FEEL that means the same in CEL: names and dotted paths, string,
+/// number and boolean literals, `null`, comparisons (`=` is equality), `and`, `or`, `not(…)` and
+/// parentheses. Where FEEL would give `null` (a missing variable, values of different types),
+/// CEL fails instead, so the token stops with an incident rather than taking a branch by null.
+pub fn feel_to_cel(feel: &str) -> Result<String, String> {
+    let mut out = String::new();
+    let mut chars = feel.char_indices().peekable();
+    while let Some((i, c)) = chars.next() {
+        match c {
+            c if c.is_whitespace() => out.push(' '),
+            '(' | ')' => out.push(c),
+            '"' => {
+                out.push('"');
+                loop {
+                    match chars.next() {
+                        Some((_, '"')) => break,
+                        Some((j, '\\')) => {
+                            return Err(format!(
+                                "an escape in a string at {j} is not in the subset"
+                            ));
+                        }
+                        Some((_, ch)) => out.push(ch),
+                        None => return Err("a string is not closed".to_owned()),
+                    }
+                }
+                out.push('"');
+            }
+            '=' => out.push_str("=="),
+            '!' if chars.peek().is_some_and(|(_, n)| *n == '=') => {
+                chars.next();
+                out.push_str("!=");
+            }
+            '<' | '>' => {
+                out.push(c);
+                if chars.peek().is_some_and(|(_, n)| *n == '=') {
+                    chars.next();
+                    out.push('=');
+                }
+            }
+            c if c.is_ascii_digit() => {
+                out.push(c);
+                while let Some((_, d)) = chars.peek().copied() {
+                    if d.is_ascii_digit() || d == '.' {
+                        out.push(d);
+                        chars.next();
+                    } else {
+                        break;
+                    }
+                }
+            }
+            c if c.is_ascii_alphabetic() || c == '_' => {
+                let mut word = String::from(c);
+                while let Some((_, d)) = chars.peek().copied() {
+                    if d.is_ascii_alphanumeric() || d == '_' || d == '.' {
+                        word.push(d);
+                        chars.next();
+                    } else {
+                        break;
+                    }
+                }
+                match word.as_str() {
+                    "and" => out.push_str("&&"),
+                    "or" => out.push_str("||"),
+                    "not" => {
+                        while chars.peek().is_some_and(|(_, n)| n.is_whitespace()) {
+                            chars.next();
+                        }
+                        if chars.peek().is_none_or(|(_, n)| *n != '(') {
+                            return Err("`not` is a function in FEEL: not(…)".to_owned());
+                        }
+                        out.push('!');
+                    }
+                    "true" | "false" | "null" => out.push_str(&word),
+                    "if" | "then" | "else" | "for" | "in" | "some" | "every" | "satisfies"
+                    | "instance" | "of" | "between" | "function" | "return" => {
+                        return Err(format!("`{word}` is not in the subset"));
+                    }
+                    w if w.ends_with('.') || w.contains("..") => {
+                        return Err(format!("`{w}` is not a name or path"));
+                    }
+                    w => {
+                        // A name followed by `(` is a function call, outside the subset.
+                        let mut ahead = chars.clone();
+                        while ahead.peek().is_some_and(|(_, n)| n.is_whitespace()) {
+                            ahead.next();
+                        }
+                        if ahead.peek().is_some_and(|(_, n)| *n == '(') {
+                            return Err(format!("calls `{w}(…)`"));
+                        }
+                        out.push_str(w);
+                    }
+                }
+            }
+            other => return Err(format!("`{other}` at {i} is not in the subset")),
+        }
+    }
+    Ok(out.trim().to_owned())
 }
 
 /// Parses a script in the expression language: assignments `name = expression`, one per line or
@@ -140,6 +374,36 @@ mod tests {
                 .unwrap()
                 .variables,
             vec!["battery"]
+        );
+        assert_eq!(
+            Expression::parse("=decision = \"yes\" and not(late)")
+                .unwrap()
+                .text,
+            "decision == \"yes\" && !(late)"
+        );
+    }
+
+    #[test]
+    fn each_language_by_wrapper_then_declaration() {
+        let unevaluated = |raw: &str, l: &Language| match Expression::compile(raw, l) {
+            Err(Failure::Unevaluated(m)) => m,
+            other => panic!("{raw}: {other:?}"),
+        };
+        let js = Language::named("text/javascript");
+        assert!(unevaluated("a > 1", &js).contains("JavaScript"));
+        assert!(unevaluated("a > 1", &Language::named("python")).contains("Python"));
+        // A wrapper names the language whatever is declared.
+        assert_eq!(Expression::compile("${a}", &js).unwrap().text, "a");
+        // FEEL beyond the subset names FEEL.
+        assert!(unevaluated("= day of week(today())", &Language::Cel).contains("FEEL"));
+        assert!(unevaluated("x in [1..3]", &Language::Feel).contains("FEEL"));
+        // XPath declared as boilerplate around a plain value is read; real XPath is named.
+        let xpath = Language::named("http://www.w3.org/1999/XPath");
+        assert_eq!(Expression::compile("true", &xpath).unwrap().text, "true");
+        assert!(unevaluated("count(/a/b) > 1 and", &xpath).contains("XPath"));
+        assert_eq!(
+            Language::named("https://www.omg.org/spec/DMN/20191111/FEEL/"),
+            Language::Feel
         );
     }
 

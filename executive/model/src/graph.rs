@@ -180,6 +180,9 @@ pub struct Process {
     /// Checked and run as executable: `isExecutable` is not `false` (absent counts as executable,
     /// as Camunda Modeler and the conformance suites assume).
     pub executable: bool,
+    /// `isExecutable="true"` is written. Without it, the process is run when asked to, but what
+    /// would stop it running is an execution finding, not a breach of BPMN (it may be a drawing).
+    pub declared_executable: bool,
     /// Comes from an imported document: callable, but not started with the mission.
     pub imported: bool,
     /// Nodes at the top level of the process.
@@ -394,7 +397,7 @@ impl NodeKind {
             NodeKind::Throw(_) => "intermediateThrowEvent",
             NodeKind::Boundary(_) => "boundaryEvent",
             NodeKind::Gateway(g) => g.kind.element_name(),
-            NodeKind::Task(t) => t.kind.element_name(),
+            NodeKind::Task(t) => t.event.unwrap_or(t.kind.element_name()),
             NodeKind::SubProcess(s) => match s.kind {
                 SubProcessKind::Transaction => "transaction",
                 SubProcessKind::AdHoc { .. } => "adHocSubProcess",
@@ -549,6 +552,17 @@ pub struct Task {
     pub message: Option<MessageId>,
     /// Receive task `instantiate`.
     pub instantiate: bool,
+    /// The event this task stands for, when a message throw or end event is implemented like a
+    /// task (a Camunda 8 job worker, a Camunda 7 delegate): `intermediateThrowEvent` or
+    /// `endEvent`. It is dispatched as a send task; an end event's token then ends.
+    pub event: Option<&'static str>,
+}
+
+impl Task {
+    /// Is this a message end event implemented like a task?
+    pub fn ends(&self) -> bool {
+        self.event == Some("endEvent")
+    }
 }
 
 /// The task kinds.

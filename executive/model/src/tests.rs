@@ -299,16 +299,12 @@ fn each_diagnostic_fires_on_its_minimal_model() {
     let cases: Vec<(&str, String)> = vec![
         ("duplicate-id", around(r#"<bpmn:task id="x"/><bpmn:task id="x"/>"#)),
         ("dangling-reference", doc("", r#"<bpmn:startEvent id="s"/><bpmn:sequenceFlow id="f" sourceRef="s" targetRef="nowhere"/>"#)),
-        ("unreachable", around(r#"<bpmn:task id="x"/><bpmn:task id="island"><bpmn:outgoing>z</bpmn:outgoing></bpmn:task><bpmn:sequenceFlow id="z" sourceRef="island" targetRef="e"/>"#)),
         ("boundary-on-non-activity", around(r#"<bpmn:task id="x"/><bpmn:boundaryEvent id="b" attachedToRef="s"><bpmn:timerEventDefinition><bpmn:timeDuration xsi:type="bpmn:tFormalExpression">PT1M</bpmn:timeDuration></bpmn:timerEventDefinition></bpmn:boundaryEvent>"#)),
         ("missing-called-process", around(r#"<bpmn:callActivity id="x" calledElement="ghost"/>"#)),
         ("bad-timer", around(r#"<bpmn:intermediateCatchEvent id="x"><bpmn:timerEventDefinition><bpmn:timeDuration xsi:type="bpmn:tFormalExpression">soon</bpmn:timeDuration></bpmn:timerEventDefinition></bpmn:intermediateCatchEvent>"#)),
         ("bad-expression", around(r#"<bpmn:scriptTask id="x" scriptFormat="cel"><bpmn:script>a = (</bpmn:script></bpmn:scriptTask>"#).replace("bad-script", "")),
         ("missing-resource", around(r#"<bpmn:serviceTask id="x"/>"#)),
         ("unsupported-element", around(r#"<bpmn:task id="x"/><bpmn:choreographyTask id="ct"/>"#)),
-        ("no-outgoing", doc("", r#"<bpmn:startEvent id="s"/><bpmn:exclusiveGateway id="g"/><bpmn:endEvent id="e"/><bpmn:sequenceFlow id="f" sourceRef="s" targetRef="g"/>"#)),
-        ("start-without-end", doc("", r#"<bpmn:startEvent id="s"/><bpmn:task id="t"/><bpmn:sequenceFlow id="f" sourceRef="s" targetRef="t"/>"#)),
-        ("end-without-start", doc("", r#"<bpmn:task id="t"/><bpmn:endEvent id="e"/><bpmn:sequenceFlow id="f" sourceRef="t" targetRef="e"/>"#)),
         ("malformed-xml", "<bpmn:definitions".to_owned()),
         ("not-bpmn", "<html/>".to_owned()),
     ];
@@ -330,6 +326,223 @@ fn each_diagnostic_fires_on_its_minimal_model() {
         };
         assert!(found.contains(&code), "{code}: expected it among {found:?}");
     }
+}
+
+/// Loads `xml` strictly (`trace validate --strict`).
+fn strict_errors(xml: &str) -> Vec<&'static str> {
+    let options = crate::Options {
+        strict: true,
+        ..crate::Options::default()
+    };
+    crate::load_with(xml.as_bytes(), &options)
+        .errors()
+        .map(|d| d.code)
+        .collect()
+}
+
+#[test]
+fn rules_bent_harmlessly_are_warnings_that_name_the_rule_and_errors_when_strict() {
+    let cases: Vec<(&str, String)> = vec![
+        (
+            "unreachable",
+            around(
+                r#"<bpmn:task id="x"/><bpmn:task id="island"><bpmn:outgoing>z</bpmn:outgoing></bpmn:task><bpmn:sequenceFlow id="z" sourceRef="island" targetRef="e"/>"#,
+            ),
+        ),
+        (
+            "no-outgoing",
+            doc(
+                "",
+                r#"<bpmn:startEvent id="s"/><bpmn:exclusiveGateway id="g"/><bpmn:endEvent id="e"/><bpmn:sequenceFlow id="f" sourceRef="s" targetRef="g"/>"#,
+            ),
+        ),
+        (
+            "start-without-end",
+            doc(
+                "",
+                r#"<bpmn:startEvent id="s"/><bpmn:task id="t"/><bpmn:sequenceFlow id="f" sourceRef="s" targetRef="t"/>"#,
+            ),
+        ),
+        (
+            "end-without-start",
+            doc(
+                "",
+                r#"<bpmn:task id="t"/><bpmn:endEvent id="e"/><bpmn:sequenceFlow id="f" sourceRef="t" targetRef="e"/>"#,
+            ),
+        ),
+        // A blank diagram: a start event alone.
+        ("no-outgoing", doc("", r#"<bpmn:startEvent id="s"/>"#)),
+        (
+            "natural-language-expression",
+            doc(
+                "",
+                r#"<bpmn:startEvent id="s"/><bpmn:intermediateCatchEvent id="x"><bpmn:timerEventDefinition><bpmn:timeDuration>PT1H</bpmn:timeDuration></bpmn:timerEventDefinition></bpmn:intermediateCatchEvent><bpmn:exclusiveGateway id="g" default="f3"/><bpmn:endEvent id="e"/><bpmn:endEvent id="e2"/>
+            <bpmn:sequenceFlow id="f1" sourceRef="s" targetRef="x"/><bpmn:sequenceFlow id="f0" sourceRef="x" targetRef="g"/><bpmn:sequenceFlow id="f2" sourceRef="g" targetRef="e"><bpmn:conditionExpression>x &lt; 2</bpmn:conditionExpression></bpmn:sequenceFlow><bpmn:sequenceFlow id="f3" sourceRef="g" targetRef="e2"/>"#,
+            ),
+        ),
+        (
+            "condition-on-parallel",
+            doc(
+                "",
+                r#"<bpmn:startEvent id="s"/><bpmn:parallelGateway id="g"/><bpmn:endEvent id="e"/><bpmn:endEvent id="e2"/>
+            <bpmn:sequenceFlow id="f0" sourceRef="s" targetRef="g"/><bpmn:sequenceFlow id="f1" sourceRef="g" targetRef="e"><bpmn:conditionExpression xsi:type="bpmn:tFormalExpression">a</bpmn:conditionExpression></bpmn:sequenceFlow><bpmn:sequenceFlow id="f2" sourceRef="g" targetRef="e2"/>"#,
+            ),
+        ),
+        (
+            "conditional-default",
+            doc(
+                "",
+                r#"<bpmn:startEvent id="s"/><bpmn:exclusiveGateway id="g" default="f2"/><bpmn:endEvent id="e"/><bpmn:endEvent id="e2"/>
+            <bpmn:sequenceFlow id="f0" sourceRef="s" targetRef="g"/><bpmn:sequenceFlow id="f1" sourceRef="g" targetRef="e"><bpmn:conditionExpression xsi:type="bpmn:tFormalExpression">a</bpmn:conditionExpression></bpmn:sequenceFlow><bpmn:sequenceFlow id="f2" sourceRef="g" targetRef="e2"><bpmn:conditionExpression xsi:type="bpmn:tFormalExpression">b</bpmn:conditionExpression></bpmn:sequenceFlow>"#,
+            ),
+        ),
+        (
+            "public-executable",
+            format!(
+                r#"{HEAD}<bpmn:process id="p" isExecutable="true" processType="Public"><bpmn:startEvent id="s"/><bpmn:endEvent id="e"/><bpmn:sequenceFlow id="f" sourceRef="s" targetRef="e"/></bpmn:process></bpmn:definitions>"#
+            ),
+        ),
+        (
+            "unknown-attribute",
+            around(r#"<bpmn:task id="x" color="red"/>"#),
+        ),
+        (
+            "missing-script-format",
+            around(r#"<bpmn:scriptTask id="x"><bpmn:script>a = 1</bpmn:script></bpmn:scriptTask>"#),
+        ),
+        (
+            "non-interrupting-error",
+            around(
+                r#"<bpmn:task id="x"/><bpmn:boundaryEvent id="b" attachedToRef="x" cancelActivity="false"><bpmn:errorEventDefinition/><bpmn:outgoing>fb</bpmn:outgoing></bpmn:boundaryEvent><bpmn:endEvent id="eb"/><bpmn:sequenceFlow id="fb" sourceRef="b" targetRef="eb"/>"#,
+            ),
+        ),
+    ];
+    for (code, xml) in &cases {
+        let loaded = load(xml.as_bytes());
+        let warning = loaded.diagnostics.iter().find(|d| d.code == *code);
+        assert!(
+            warning.is_some_and(|d| d.severity == Severity::Warning && d.constraint.is_some()),
+            "{code}: expected a warning naming a rule among {:#?}",
+            loaded.diagnostics
+        );
+        assert!(loaded.graph.is_some(), "{code}: {:#?}", loaded.diagnostics);
+        assert!(
+            strict_errors(xml).contains(code),
+            "{code}: expected an error when strict"
+        );
+    }
+}
+
+#[test]
+fn bent_rules_are_read_as_the_warning_says() {
+    // An error boundary marked non-interrupting still interrupts.
+    let g = ok(&around(
+        r#"<bpmn:task id="x"/><bpmn:boundaryEvent id="b" attachedToRef="x" cancelActivity="false"><bpmn:errorEventDefinition/></bpmn:boundaryEvent>"#,
+    ));
+    assert!(matches!(kind(&g, "b"), NodeKind::Boundary(b) if b.interrupting));
+    // A timer and a condition without xsi:type are read in the process's language.
+    let g = ok(&around(
+        r#"<bpmn:intermediateCatchEvent id="x"><bpmn:timerEventDefinition><bpmn:timeDuration>PT1H</bpmn:timeDuration></bpmn:timerEventDefinition></bpmn:intermediateCatchEvent>"#,
+    ));
+    assert!(
+        matches!(kind(&g, "x"), NodeKind::Catch(c) if matches!(c.triggers[..], [EventDefinition::Timer(_)]))
+    );
+}
+
+#[test]
+fn expressions_in_other_languages_are_execution_problems_naming_the_language() {
+    let cond = |attrs: &str, text: &str| {
+        doc(
+            "",
+            &format!(
+                r#"<bpmn:startEvent id="s"/><bpmn:exclusiveGateway id="g" default="f2"/><bpmn:endEvent id="e"/><bpmn:endEvent id="e2"/>
+            <bpmn:sequenceFlow id="f0" sourceRef="s" targetRef="g"/><bpmn:sequenceFlow id="f1" sourceRef="g" targetRef="e"><bpmn:conditionExpression xsi:type="bpmn:tFormalExpression" {attrs}>{text}</bpmn:conditionExpression></bpmn:sequenceFlow><bpmn:sequenceFlow id="f2" sourceRef="g" targetRef="e2"/>"#
+            ),
+        )
+    };
+    for (attrs, text, language) in [
+        (r#"language="javascript""#, "a &gt; 1", "JavaScript"),
+        (r#"language="groovy""#, "a &gt; 1", "Groovy"),
+        ("", "${orderService.isValid(order)}", "JUEL"),
+        ("", r#"= day of week(today()) = "Tuesday""#, "FEEL"),
+    ] {
+        let loaded = load(cond(attrs, text).as_bytes());
+        let d = loaded
+            .diagnostics
+            .iter()
+            .find(|d| d.code == "unevaluated-language")
+            .unwrap_or_else(|| panic!("{text}: {:#?}", loaded.diagnostics));
+        assert_eq!(d.category, Category::Execution);
+        assert!(d.message.contains(language), "{}", d.message);
+        assert!(
+            loaded
+                .diagnostics
+                .iter()
+                .all(|d| d.category == Category::Execution || d.severity == Severity::Warning)
+        );
+    }
+    // Inside the subsets, JUEL and FEEL conditions compile to CEL.
+    for text in [
+        "${a == 'x' and not b}",
+        r#"=a = "x" and not(b)"#,
+        r#"a == "x" &amp;&amp; !b"#,
+    ] {
+        ok(&cond("", text));
+    }
+    // The definitions may declare the language for every expression.
+    let xml = cond("", "a &gt; 1").replace(
+        r#"targetNamespace="urn:test""#,
+        r#"targetNamespace="urn:test" expressionLanguage="http://groovy.codehaus.org/""#,
+    );
+    assert!(errors(&xml).contains(&"unevaluated-language"));
+}
+
+#[test]
+fn message_events_implemented_by_a_job_worker_are_tasks() {
+    let g = ok(&doc(
+        "",
+        r#"<bpmn:startEvent id="s"/><bpmn:intermediateThrowEvent id="x"><bpmn:extensionElements><zeebe:taskDefinition type="notify"/></bpmn:extensionElements><bpmn:messageEventDefinition/></bpmn:intermediateThrowEvent>
+        <bpmn:endEvent id="e"><bpmn:extensionElements><zeebe:taskDefinition type="report"/></bpmn:extensionElements><bpmn:messageEventDefinition/></bpmn:endEvent>
+        <bpmn:sequenceFlow id="f1" sourceRef="s" targetRef="x"/><bpmn:sequenceFlow id="f2" sourceRef="x" targetRef="e"/>"#,
+    ));
+    for (id, resource, element) in [
+        ("x", "notify", "intermediateThrowEvent"),
+        ("e", "report", "endEvent"),
+    ] {
+        let NodeKind::Task(t) = kind(&g, id) else {
+            panic!("{id} is not a task")
+        };
+        assert_eq!(
+            t.binding.as_ref().and_then(|b| b.resource.as_deref()),
+            Some(resource)
+        );
+        assert_eq!(kind(&g, id).element_name(), element);
+    }
+    assert!(g.warnings.is_empty(), "{:#?}", g.warnings);
+}
+
+#[test]
+fn processes_without_is_executable_report_what_stops_them_as_execution_problems() {
+    let xml = format!(
+        r#"{HEAD}<bpmn:process id="p"><bpmn:startEvent id="s"/><bpmn:intermediateCatchEvent id="x"/><bpmn:endEvent id="e"/>
+        <bpmn:sequenceFlow id="f1" sourceRef="s" targetRef="x"/><bpmn:sequenceFlow id="f2" sourceRef="x" targetRef="e"/></bpmn:process></bpmn:definitions>"#
+    );
+    let loaded = load(xml.as_bytes());
+    let d = loaded
+        .errors()
+        .find(|d| d.code == "catch-without-trigger")
+        .expect("reported");
+    assert_eq!(d.category, Category::Execution);
+    // Marked executable, the same model breaks BPMN.
+    let loaded = load(
+        xml.replace(r#"id="p">"#, r#"id="p" isExecutable="true">"#)
+            .as_bytes(),
+    );
+    assert!(
+        loaded
+            .errors()
+            .any(|d| d.code == "catch-without-trigger" && d.category == Category::Bpmn)
+    );
 }
 
 #[test]
@@ -395,12 +608,18 @@ fn imports_resolve_through_the_callers_resolver() {
     let lib_id = g.process_by_id("lib").unwrap();
     assert!(g.process(lib_id).imported);
     assert_eq!(g.primary_processes(), vec![g.process_by_id("p").unwrap()]);
+    // Unresolved, the import itself is a warning naming the rule; what the model needed from it
+    // is an error where it is used.
     let missing = load(main.as_bytes());
     assert!(
         missing
-            .errors()
-            .any(|d| d.code == "unresolved-import" && d.constraint == Some("EXT.001"))
+            .diagnostics
+            .iter()
+            .any(|d| d.code == "unresolved-import"
+                && d.severity == Severity::Warning
+                && d.constraint == Some("EXT.001"))
     );
+    assert!(missing.errors().any(|d| d.code == "missing-called-process"));
 }
 
 #[test]

@@ -25,6 +25,9 @@ impl Checker<'_> {
         self.g.process(self.g.process_of(n)).executable
     }
 
+    /// What stops a process running: an error in an executable process (a BPMN error when it is
+    /// marked `isExecutable="true"`, else an execution problem); in a descriptive process, a
+    /// warning, which `--strict` makes an error when it names a rule.
     fn report(
         &mut self,
         n: NodeId,
@@ -34,7 +37,18 @@ impl Checker<'_> {
     ) {
         let node = self.g.node(n);
         let d = if self.strict(n) {
-            self.sink.error(code, node.offset, Some(&node.id), message)
+            let d = self.sink.error(code, node.offset, Some(&node.id), message);
+            // Without isExecutable="true" the process may be a drawing: what stops it running
+            // is an execution finding.
+            if !self.g.process(self.g.process_of(n)).declared_executable {
+                d.execution();
+            }
+            d
+        } else if let Some(rule) = constraint {
+            // A drawing may leave out what only execution needs; `--strict` still enforces
+            // the rule.
+            self.sink
+                .bent(code, rule, node.offset, Some(&node.id), message)
         } else {
             self.sink
                 .warning(code, node.offset, Some(&node.id), message)
@@ -55,6 +69,31 @@ impl Checker<'_> {
         let d = self.sink.error(code, node.offset, Some(&node.id), message);
         if let Some(c) = constraint {
             d.constraint(c);
+        }
+    }
+
+    /// A rule bent harmlessly: a warning naming the rule (an error with `--strict`).
+    fn bent(&mut self, n: NodeId, code: &'static str, rule: &'static str, message: String) {
+        let node = self.g.node(n);
+        self.sink
+            .bent(code, rule, node.offset, Some(&node.id), message);
+    }
+
+    /// A rule that binds executable processes only, bent harmlessly: as [`Self::bent`] in an
+    /// executable process; in a descriptive one, a warning even with `--strict`.
+    fn bent_executable(
+        &mut self,
+        n: NodeId,
+        code: &'static str,
+        rule: &'static str,
+        message: String,
+    ) {
+        if self.strict(n) {
+            self.bent(n, code, rule, message);
+        } else {
+            let node = self.g.node(n);
+            self.sink
+                .noted(code, rule, node.offset, Some(&node.id), message);
         }
     }
 
@@ -101,16 +140,16 @@ impl Checker<'_> {
                     );
                 }
                 if outs == 0 {
-                    self.hard(
+                    self.bent(
                         n,
                         "no-outgoing",
-                        Some("EXT.101"),
-                        "a start event needs an outgoing sequence flow".to_owned(),
+                        "EXT.101",
+                        "a start event should have an outgoing sequence flow; without one, its token ends at once".to_owned(),
                     );
                 }
                 if event_sub {
                     if s.triggers.is_empty() {
-                        self.hard(n, "event-subprocess-start", Some("EXT.059"), "the start event of an event sub-process needs a trigger (message, timer, signal, error, escalation, conditional or compensation)".to_owned());
+                        self.report(n, "event-subprocess-start", Some("EXT.059"), "the start event of an event sub-process needs a trigger (message, timer, signal, error, escalation, conditional or compensation)".to_owned());
                     }
                     if let Some(bad) = s.triggers.iter().find(|t| {
                         matches!(
@@ -124,7 +163,7 @@ impl Checker<'_> {
                             "an event sub-process cannot be started by {}",
                             bad.element_name()
                         );
-                        self.hard(n, "event-subprocess-start", Some("EXT.059"), msg);
+                        self.report(n, "event-subprocess-start", Some("EXT.059"), msg);
                     }
                     if !s.interrupting
                         && let Some(bad) = s.triggers.iter().find(|t| {
@@ -138,7 +177,7 @@ impl Checker<'_> {
                             "a {} start event always interrupts (isInterrupting cannot be false)",
                             bad.element_name()
                         );
-                        self.hard(n, "event-subprocess-start", Some("EXT.059"), msg);
+                        self.report(n, "event-subprocess-start", Some("EXT.059"), msg);
                     }
                 } else if in_subprocess.is_some() {
                     if let Some(t) = s.triggers.first() {
@@ -146,7 +185,7 @@ impl Checker<'_> {
                             "a start event inside an embedded sub-process must be a none start event, not {}",
                             t.element_name()
                         );
-                        self.hard(n, "triggered-start-in-subprocess", Some("EXT.098"), msg);
+                        self.report(n, "triggered-start-in-subprocess", Some("EXT.098"), msg);
                     }
                 } else if let Some(bad) = s.triggers.iter().find(|t| {
                     !matches!(
@@ -161,16 +200,16 @@ impl Checker<'_> {
                         "a top-level start event cannot be triggered by {}; use message, timer, conditional or signal",
                         bad.element_name()
                     );
-                    self.hard(n, "bad-start-trigger", Some("EXT.098"), msg);
+                    self.report(n, "bad-start-trigger", Some("EXT.098"), msg);
                 }
             }
             NodeKind::End(results) => {
                 if ins == 0 {
-                    self.hard(
+                    self.bent(
                         n,
                         "no-incoming",
-                        Some("EXT.107"),
-                        "an end event needs an incoming sequence flow".to_owned(),
+                        "EXT.107",
+                        "an end event should have an incoming sequence flow; without one, no token reaches it".to_owned(),
                     );
                 }
                 if outs > 0 {
@@ -190,15 +229,15 @@ impl Checker<'_> {
                     )
                 }) {
                     let msg = format!("an end event cannot throw {}", bad.element_name());
-                    self.hard(n, "bad-end-result", None, msg);
+                    self.report(n, "bad-end-result", Some("§10.5.3"), msg);
                 }
                 if results.iter().any(|t| matches!(t, EventDefinition::Cancel))
                     && !self.in_transaction(n)
                 {
-                    self.hard(
+                    self.report(
                         n,
                         "cancel-outside-transaction",
-                        None,
+                        Some("§10.5.3"),
                         "a cancel end event must be inside a transaction".to_owned(),
                     );
                 }
@@ -219,13 +258,13 @@ impl Checker<'_> {
                         "an intermediate catch event cannot wait for {}",
                         bad.element_name()
                     );
-                    self.hard(n, "bad-catch-trigger", Some("EXT.148"), msg);
+                    self.report(n, "bad-catch-trigger", Some("EXT.148"), msg);
                 }
                 if c.triggers.is_empty() {
-                    self.hard(
+                    self.report(
                         n,
                         "catch-without-trigger",
-                        None,
+                        Some("§10.5.4"),
                         "an intermediate catch event needs an event definition".to_owned(),
                     );
                 }
@@ -234,11 +273,11 @@ impl Checker<'_> {
                     .iter()
                     .any(|t| matches!(t, EventDefinition::Link(_)));
                 if outs == 0 {
-                    self.hard(
+                    self.bent(
                         n,
                         "no-outgoing",
-                        Some("EXT.116"),
-                        "an intermediate event must have an outgoing sequence flow".to_owned(),
+                        "EXT.116",
+                        "an intermediate event should have an outgoing sequence flow; without one, its token ends here".to_owned(),
                     );
                 }
                 if link && ins > 0 {
@@ -265,7 +304,7 @@ impl Checker<'_> {
                         "an intermediate throw event cannot throw {}",
                         bad.element_name()
                     );
-                    self.hard(n, "bad-throw-result", Some("EXT.149"), msg);
+                    self.report(n, "bad-throw-result", Some("EXT.149"), msg);
                 }
                 let link = results
                     .iter()
@@ -279,11 +318,11 @@ impl Checker<'_> {
                     );
                 }
                 if !link && outs == 0 {
-                    self.hard(
+                    self.bent(
                         n,
                         "no-outgoing",
-                        Some("EXT.116"),
-                        "an intermediate event must have an outgoing sequence flow".to_owned(),
+                        "EXT.116",
+                        "an intermediate event should have an outgoing sequence flow; without one, its token ends here".to_owned(),
                     );
                 }
                 self.escalation_codes(n, results);
@@ -298,7 +337,7 @@ impl Checker<'_> {
                     );
                 }
                 if b.triggers.is_empty() {
-                    self.hard(
+                    self.report(
                         n,
                         "boundary-without-trigger",
                         Some("EXT.110"),
@@ -311,19 +350,7 @@ impl Checker<'_> {
                     .find(|t| matches!(t, EventDefinition::Link(_) | EventDefinition::Terminate))
                 {
                     let msg = format!("a boundary event cannot wait for {}", bad.element_name());
-                    self.hard(n, "bad-boundary-trigger", Some("EXT.110"), msg);
-                }
-                if !b.interrupting
-                    && has_trigger(&b.triggers, |t| {
-                        matches!(
-                            t,
-                            EventDefinition::Error { .. }
-                                | EventDefinition::Cancel
-                                | EventDefinition::Compensate { .. }
-                        )
-                    })
-                {
-                    self.hard(n, "non-interrupting-error", Some("EXT.110"), "error, cancel and compensation boundary events are always interrupting (cancelActivity cannot be false)".to_owned());
+                    self.report(n, "bad-boundary-trigger", Some("EXT.110"), msg);
                 }
                 let attached = g.node(b.attached_to);
                 if has_trigger(&b.triggers, |t| matches!(t, EventDefinition::Cancel))
@@ -335,7 +362,7 @@ impl Checker<'_> {
                         })
                     )
                 {
-                    self.hard(
+                    self.report(
                         n,
                         "cancel-boundary-not-on-transaction",
                         Some("EXT.111"),
@@ -349,11 +376,11 @@ impl Checker<'_> {
                     self.hard(n, "compensation-boundary-flow", Some("EXT.114"), "a compensation boundary event cannot have outgoing sequence flows; connect its handler with an association".to_owned());
                 }
                 if !compensation && outs == 0 {
-                    self.report(
+                    self.bent_executable(
                         n,
                         "no-outgoing",
-                        Some("EXT.116"),
-                        "a boundary event needs an outgoing sequence flow".to_owned(),
+                        "EXT.116",
+                        "a boundary event should have an outgoing sequence flow; without one, its token ends here".to_owned(),
                     );
                 }
             }
@@ -371,11 +398,11 @@ impl Checker<'_> {
                 }
                 if let SubProcessKind::AdHoc { .. } = s.kind {
                     if !s.nodes.iter().any(|c| g.node(*c).is_activity()) {
-                        self.hard(
+                        self.bent(
                             n,
                             "empty-adhoc",
-                            Some("EXT.061"),
-                            "an ad-hoc sub-process must contain at least one activity".to_owned(),
+                            "EXT.061",
+                            "an ad-hoc sub-process should contain at least one activity; empty, it completes at once".to_owned(),
                         );
                     }
                     if let Some(c) = s
@@ -387,7 +414,7 @@ impl Checker<'_> {
                             "start and end events are not allowed in an ad-hoc sub-process (found `{}`)",
                             g.node(*c).id
                         );
-                        self.hard(n, "event-in-adhoc", Some("EXT.062"), msg);
+                        self.report(n, "event-in-adhoc", Some("EXT.062"), msg);
                     }
                 }
             }
@@ -407,7 +434,7 @@ impl Checker<'_> {
                             "calls process `{}`, which has no none start event to be started by a call activity",
                             g.process(p).id
                         );
-                        self.hard(n, "called-process-start", Some("EXT.099"), msg);
+                        self.report(n, "called-process-start", Some("EXT.099"), msg);
                     }
                 }
             }
@@ -415,11 +442,14 @@ impl Checker<'_> {
         if let Some(d) = node.default_flow
             && g.flow(d).condition.is_some()
         {
-            self.report(
+            self.bent_executable(
                 n,
                 "conditional-default",
-                None,
-                format!("default flow `{}` must not have a condition", g.flow(d).id),
+                "§10.6.1",
+                format!(
+                    "default flow `{}` has a condition, which is ignored: a default flow is taken when no other flow is",
+                    g.flow(d).id
+                ),
             );
         }
         if matches!(
@@ -471,11 +501,11 @@ impl Checker<'_> {
                         .is_some_and(|c| !c.is_empty())
                 });
                 if !has_code {
-                    self.report(
+                    self.bent_executable(
                         n,
                         "escalation-without-code",
-                        Some("EXT.011"),
-                        "a thrown escalation must reference an escalation with an escalationCode"
+                        "EXT.011",
+                        "a thrown escalation should reference an escalation with an escalationCode; without one, only catch-all escalation events catch it"
                             .to_owned(),
                     );
                 }
@@ -488,19 +518,18 @@ impl Checker<'_> {
         let node = g.node(n);
         let (ins, outs) = (node.incoming.len(), node.outgoing.len());
         if outs == 0 {
-            self.report(
-                n,
-                "no-outgoing",
-                None,
-                format!("{} has no outgoing sequence flow", gw.kind.element_name()),
+            let msg = format!(
+                "{} has no outgoing sequence flow: tokens end here",
+                gw.kind.element_name()
             );
+            self.bent_executable(n, "no-outgoing", "EXT.151", msg);
         }
         if ins <= 1 && outs <= 1 && !(gw.instantiate && ins == 0) {
-            self.report(
+            self.bent_executable(
                 n,
                 "pass-through-gateway",
-                Some("EXT.135"),
-                "a gateway must have several incoming or several outgoing sequence flows"
+                "EXT.135",
+                "a gateway should have several incoming or several outgoing sequence flows; this one passes its token on"
                     .to_owned(),
             );
         }
@@ -512,9 +541,32 @@ impl Checker<'_> {
                     .filter(|f| Some(**f) != node.default_flow && g.flow(**f).condition.is_none())
                     .map(|f| g.flow(*f).id.as_str())
                     .collect();
-                if !unconditional.is_empty() {
+                // Flows without a condition: an inclusive gateway always takes them; an
+                // exclusive gateway tests its flows in document order, so one such flow, last
+                // and with no default, is the default in all but name (§13.3.2). More are
+                // ambiguous: engines differ on which one wins.
+                let last = node.outgoing.last().map(|f| g.flow(*f).id.as_str());
+                let as_default = gw.kind == GatewayKind::Exclusive
+                    && node.default_flow.is_none()
+                    && unconditional.len() == 1
+                    && last == unconditional.first().copied();
+                if gw.kind == GatewayKind::Inclusive && !unconditional.is_empty() {
                     let msg = format!(
-                        "diverging {} has outgoing flows without a condition that are not the default: {}",
+                        "diverging inclusiveGateway has outgoing flows without a condition, which it always takes: {}",
+                        unconditional.join(", ")
+                    );
+                    self.sink
+                        .warning("unconditional-branch", node.offset, Some(&node.id), msg);
+                } else if as_default {
+                    let msg = format!(
+                        "exclusiveGateway has no default flow; `{}`, its last outgoing flow and the only one without a condition, is taken when no condition holds",
+                        unconditional.join(", ")
+                    );
+                    self.sink
+                        .warning("unconditional-branch", node.offset, Some(&node.id), msg);
+                } else if !unconditional.is_empty() {
+                    let msg = format!(
+                        "diverging {} has outgoing flows without a condition that are not the default: {}; which one is taken is ambiguous (mark one as the default flow)",
                         gw.kind.element_name(),
                         unconditional.join(", ")
                     );
@@ -599,10 +651,10 @@ impl Checker<'_> {
                 for f in &node.outgoing {
                     if g.flow(*f).condition.is_some() {
                         let msg = format!(
-                            "sequence flow `{}` leaves a parallel gateway and cannot have a condition",
+                            "sequence flow `{}` leaves a parallel gateway; its condition is ignored (a parallel gateway takes every outgoing flow)",
                             g.flow(*f).id
                         );
-                        self.report(n, "condition-on-parallel", None, msg);
+                        self.bent_executable(n, "condition-on-parallel", "§13.3.1", msg);
                     }
                 }
             }
@@ -680,7 +732,7 @@ impl Checker<'_> {
                         if let EventDefinition::Link(name) = d
                             && !links_caught.contains(name.as_str())
                         {
-                            self.hard(
+                            self.report(
                                 *n,
                                 "unmatched-link",
                                 Some("EXT.118"),
@@ -696,7 +748,7 @@ impl Checker<'_> {
                         if let EventDefinition::Link(name) = d
                             && !links_thrown.contains(name.as_str())
                         {
-                            self.hard(
+                            self.report(
                                 *n,
                                 "unmatched-link",
                                 Some("EXT.124"),
@@ -774,17 +826,19 @@ impl Checker<'_> {
             if !seen.contains(n) {
                 let node = g.node(*n);
                 let msg = format!(
-                    "{} `{}` can never be reached: no path leads to it from a start event",
+                    "{} `{}` can never be reached: no path leads to it from a start event, so it never runs",
                     node.kind.element_name(),
                     node.label()
                 );
-                self.report(*n, "unreachable", Some("EXT.150"), msg);
+                self.bent_executable(*n, "unreachable", "EXT.150", msg);
             }
         }
         // Start and end events come together at one process level (EXT.097, EXT.105).
-        let has_end = nodes
-            .iter()
-            .any(|n| matches!(g.node(*n).kind, NodeKind::End(_)));
+        let has_end = nodes.iter().any(|n| match &g.node(*n).kind {
+            NodeKind::End(_) => true,
+            NodeKind::Task(t) => t.ends(),
+            _ => false,
+        });
         let owner = match scope {
             Scope::Process(p) => (g.process(p).offset, g.process(p).id.clone()),
             Scope::SubProcess(s) => (g.node(s).offset, g.node(s).id.clone()),
@@ -793,24 +847,22 @@ impl Checker<'_> {
             && !matches!(scope, Scope::SubProcess(s) if matches!(&g.node(s).kind, NodeKind::SubProcess(SubProcess { kind: SubProcessKind::Event, .. })))
         {
             if has_end && !has_start {
-                self.sink
-                    .error(
-                        "end-without-start",
-                        owner.0,
-                        Some(&owner.1),
-                        "this process level has end events but no start event".to_owned(),
-                    )
-                    .constraint("EXT.097");
+                self.sink.bent(
+                    "end-without-start",
+                    "EXT.097",
+                    owner.0,
+                    Some(&owner.1),
+                    "this process level has end events but no start event: it starts at every element without incoming sequence flow".to_owned(),
+                );
             }
             if has_start && !has_end {
-                self.sink
-                    .error(
-                        "start-without-end",
-                        owner.0,
-                        Some(&owner.1),
-                        "this process level has a start event but no end event".to_owned(),
-                    )
-                    .constraint("EXT.105");
+                self.sink.bent(
+                    "start-without-end",
+                    "EXT.105",
+                    owner.0,
+                    Some(&owner.1),
+                    "this process level has a start event but no end event: tokens end where their path ends".to_owned(),
+                );
             }
         }
         // With end events in use, every node needs an outgoing flow (EXT.151).
@@ -819,6 +871,7 @@ impl Checker<'_> {
                 let node = g.node(*n);
                 let exempt = match &node.kind {
                     NodeKind::End(_) | NodeKind::Boundary(_) | NodeKind::Throw(_) => true,
+                    NodeKind::Task(t) => t.ends() || node.for_compensation,
                     NodeKind::SubProcess(SubProcess {
                         kind: SubProcessKind::Event,
                         ..
@@ -827,11 +880,11 @@ impl Checker<'_> {
                 };
                 if !exempt && node.outgoing.is_empty() {
                     let msg = format!(
-                        "{} `{}` has no outgoing sequence flow although the process uses end events: the token would end here without an end event",
+                        "{} `{}` has no outgoing sequence flow although the process uses end events: its token ends here",
                         node.kind.element_name(),
                         node.label()
                     );
-                    self.report(*n, "no-outgoing", Some("EXT.151"), msg);
+                    self.bent_executable(*n, "no-outgoing", "EXT.151", msg);
                 }
             }
         }
@@ -892,38 +945,58 @@ pub(crate) fn element_checks(root: &Element, sink: &mut Sink) {
                     if el.attr("processType") == Some("Public")
                         && el.attr("isExecutable") == Some("true") =>
                 {
-                    sink.error(
+                    sink.bent(
                         "public-executable",
+                        "EXT.035",
                         el.offset,
                         id,
-                        "a public process cannot be executable".to_owned(),
-                    )
-                    .constraint("EXT.035");
+                        "a public process should not be executable; it is run as marked executable"
+                            .to_owned(),
+                    );
                 }
                 "sequenceFlow" if executable && el.attr("isImmediate") == Some("false") => {
-                    sink.error(
+                    sink.bent(
                         "not-immediate",
+                        "EXT.024",
                         el.offset,
                         id,
-                        "isImmediate=\"false\" is not allowed in an executable process".to_owned(),
-                    )
-                    .constraint("EXT.024");
+                        "isImmediate=\"false\" is not allowed in an executable process; the flow is taken immediately".to_owned(),
+                    );
                 }
                 "scriptTask" if executable => {
                     if let Some(s) = el.bpmn_child("script")
                         && !s.trimmed_text().is_empty()
                         && el.attr("scriptFormat").is_some_and(|f| f.trim().is_empty())
                     {
-                        sink.error(
+                        sink.bent(
                             "empty-script-format",
+                            "EXT.053",
                             el.offset,
                             id,
-                            "scriptFormat is empty".to_owned(),
-                        )
-                        .constraint("EXT.053");
+                            "scriptFormat is empty; the script is read as if it had none"
+                                .to_owned(),
+                        );
                     }
                 }
                 _ => {}
+            }
+            if el.name == "boundaryEvent"
+                && el.attr("cancelActivity") == Some("false")
+                && [
+                    "errorEventDefinition",
+                    "cancelEventDefinition",
+                    "compensateEventDefinition",
+                ]
+                .iter()
+                .any(|d| el.bpmn_child(d).is_some())
+            {
+                sink.bent(
+                    "non-interrupting-error",
+                    "EXT.110",
+                    el.offset,
+                    id,
+                    "error, cancel and compensation boundary events always interrupt: cancelActivity=\"false\" is ignored".to_owned(),
+                );
             }
             for (attr, constraint) in [
                 ("startQuantity", "EXT.037"),
@@ -951,8 +1024,13 @@ pub(crate) fn element_checks(root: &Element, sink: &mut Sink) {
                     _ => None,
                 };
                 if let Some((c, msg)) = bad {
-                    sink.error("gateway-direction", el.offset, id, msg.to_owned())
-                        .constraint(c);
+                    sink.bent(
+                        "gateway-direction",
+                        c,
+                        el.offset,
+                        id,
+                        format!("{msg}; gatewayDirection is ignored, the sequence flows decide"),
+                    );
                 }
             }
             stack.extend(el.children.iter().map(|c| (c, executable)));

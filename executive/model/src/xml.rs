@@ -279,6 +279,28 @@ impl Scope {
     }
 }
 
+/// Does a closing quote run straight into the next pseudo-attribute (`"1.0"encoding`)?
+fn attributes_run_together(decl: &str) -> bool {
+    let mut quote = None;
+    let mut closed = false;
+    for c in decl.chars() {
+        if closed && c.is_alphanumeric() {
+            return true;
+        }
+        closed = false;
+        match quote {
+            Some(q) if c == q => {
+                quote = None;
+                closed = true;
+            }
+            Some(_) => {}
+            None if c == '"' || c == '\'' => quote = Some(c),
+            None => {}
+        }
+    }
+    false
+}
+
 /// Parses decoded text into a [`Document`], enforcing `limits`.
 /// Offsets are `base` plus the position in `text`, so several documents of a bundle share one
 /// offset space.
@@ -403,7 +425,21 @@ pub(crate) fn parse(
                      external-entity (XXE) and entity-expansion attacks",
                 ));
             }
-            Event::Decl(_) | Event::PI(_) | Event::Comment(_) => {}
+            Event::Decl(_) => {
+                // `<?xml version="1.0"encoding="UTF-8"?>`: pseudo-attributes must be separated by
+                // white space (XML 1.0 §2.8). Read leniently, as bpmn-js does.
+                let decl = text
+                    .trim_start_matches('\u{feff}')
+                    .strip_prefix("<?xml")
+                    .and_then(|t| t.find("?>").map(|e| &t[..e]));
+                if decl.is_some_and(attributes_run_together) {
+                    warnings.push((
+                        offset,
+                        "the XML declaration is not well-formed (no space between its attributes); read leniently".to_owned(),
+                    ));
+                }
+            }
+            Event::PI(_) | Event::Comment(_) => {}
             Event::Eof => break,
         }
     }
