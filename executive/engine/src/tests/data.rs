@@ -1,0 +1,3 @@
+//! Chapter 13 semantics: data (rules in docs/engine-semantics.md).
+
+use super::*;

@@ -1,0 +1,3 @@
+//! Chapter 13 semantics: transactions (rules in docs/engine-semantics.md).
+
+use super::*;
