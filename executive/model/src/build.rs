@@ -136,6 +136,9 @@ pub(crate) struct Builder<'d, 's> {
     link_names: BTreeMap<&'d str, &'d str>,
     /// Foreign scripts are run by a script connector (see [`crate::Options`]).
     script_connector: bool,
+    /// Whether the process of the element being read is marked `isExecutable="true"`; without
+    /// it, what stops the process running is an execution problem (it may be a drawing).
+    declared: bool,
 }
 
 /// Builds the graph from a parsed document. Returns `None` only when the root is not a BPMN
@@ -205,6 +208,7 @@ pub(crate) fn build(
         scoped_processes: BTreeMap::new(),
         link_names: BTreeMap::new(),
         script_connector: options.script_connector,
+        declared: true,
     };
     for (i, doc) in docs.iter().enumerate() {
         if i > 0 && !doc.root.is_bpmn("definitions") {
@@ -226,6 +230,7 @@ pub(crate) fn build(
         b.node_details(NodeId(i as u32));
     }
     b.compensation_associations();
+    b.declared = true;
     let globals: Vec<(String, &Element)> = b
         .global_tasks
         .iter()
@@ -276,7 +281,11 @@ impl<'d> Builder<'d, '_> {
         message: String,
     ) -> &mut crate::Diagnostic {
         if strict {
-            self.sink.error(code, offset, element, message)
+            let d = self.sink.error(code, offset, element, message);
+            if !self.declared {
+                d.execution();
+            }
+            d
         } else {
             self.sink.warning(code, offset, element, message)
         }
@@ -528,6 +537,26 @@ impl<'d> Builder<'d, '_> {
                 self.flow_src.push((child, scope, strict));
             } else if name == "association" {
                 self.associations.push(child);
+            } else if !PASSIVE.contains(&name)
+                && !matches!(
+                    name,
+                    "callChoreography"
+                        | "choreographyTask"
+                        | "subChoreography"
+                        | "event"
+                        | "implicitThrowEvent"
+                )
+            {
+                // Not a flow element at all (the schema allows none other here): a misplaced
+                // element that execution never reads.
+                let msg = format!("<{name}> is not a flow element; it is ignored here");
+                self.sink.bent(
+                    "misplaced-element",
+                    "XSD",
+                    child.offset,
+                    child.attr("id"),
+                    msg,
+                );
             } else if !PASSIVE.contains(&name) {
                 let msg = format!(
                     "<{name}> is not a flow element the executive knows; the model cannot run with it"
@@ -547,6 +576,7 @@ impl<'d> Builder<'d, '_> {
     fn flows(&mut self) {
         let sources = std::mem::take(&mut self.flow_src);
         for (el, scope, strict) in sources {
+            self.declared = self.declared_in(scope);
             let id = el.attr("id").unwrap_or_default().to_owned();
             let end = |b: &mut Self, attr: &str| -> Option<NodeId> {
                 let Some(r) = el.attr(attr) else {
@@ -599,12 +629,9 @@ impl<'d> Builder<'d, '_> {
                         .error("cross-scope-flow", el.offset, Some(&id), msg);
                 }
             }
-            let condition = el.bpmn_child("conditionExpression").and_then(|c| {
-                if c.trimmed_text().is_empty() {
-                    return None;
-                }
-                self.expr(strict, c, &id, "condition of sequence flow")
-            });
+            let condition = el
+                .bpmn_child("conditionExpression")
+                .and_then(|c| self.condition(strict, c, &id, "condition of sequence flow"));
             let fid = FlowId(self.g.flows.len() as u32);
             self.g.nodes[source.index()].outgoing.push(fid);
             self.g.nodes[target.index()].incoming.push(fid);
@@ -690,6 +717,23 @@ impl<'d> Builder<'d, '_> {
             Some(l) => Language::named(l),
             None => self.doc_language[self.doc_of(el.offset)].clone(),
         }
+    }
+
+    /// A condition that cannot be evaluated: its problem is reported, and it stands in the graph
+    /// as a condition that never holds, so that no check mistakes the flow for an unconditioned
+    /// one (only a token game, which chooses branches itself, ever runs such a graph).
+    fn condition(
+        &mut self,
+        strict: bool,
+        el: &Element,
+        owner: &str,
+        what: &str,
+    ) -> Option<Expression> {
+        if el.trimmed_text().is_empty() {
+            return None;
+        }
+        self.expr(strict, el, owner, what)
+            .or_else(|| Expression::parse("false").ok())
     }
 
     /// Compiles the expression in `el`; a failure is a diagnostic (`bad-expression`, or
@@ -865,7 +909,27 @@ impl<'d> Builder<'d, '_> {
                         continue;
                     };
                     match parse_timer(kind, value.trimmed_text()) {
-                        Ok(t) => EventDefinition::Timer(t),
+                        Ok(t) => {
+                            let text = value.trimmed_text();
+                            let wrapped = ["${", "#{", "="].iter().any(|w| text.starts_with(w));
+                            if matches!(t.value, crate::timer::TimerValue::Expression(_))
+                                && !wrapped
+                            {
+                                let rule = match kind {
+                                    TimerKind::Date => "EXT.132",
+                                    TimerKind::Cycle => "EXT.133",
+                                    TimerKind::Duration => "EXT.134",
+                                };
+                                self.sink.bent(
+                                    "timer-expression",
+                                    rule,
+                                    value.offset,
+                                    Some(owner),
+                                    format!("`{text}` is not ISO 8601; it is read as an expression whose value is (a variable holding the time)"),
+                                );
+                            }
+                            EventDefinition::Timer(t)
+                        }
                         Err(e) => {
                             self.problem(strict, "bad-timer", value.offset, Some(owner), e);
                             EventDefinition::Timer(crate::timer::Timer {
@@ -893,8 +957,18 @@ impl<'d> Builder<'d, '_> {
         out
     }
 
+    /// Is the process of `scope` marked `isExecutable="true"`?
+    fn declared_in(&self, scope: Scope) -> bool {
+        let p = match scope {
+            Scope::Process(p) => p,
+            Scope::SubProcess(s) => self.g.process_of(s),
+        };
+        self.g.process(p).declared_executable
+    }
+
     fn node_details(&mut self, nid: NodeId) {
         let NodeSource { el, strict } = self.node_src[nid.index()];
+        self.declared = self.declared_in(self.g.node(nid).scope);
         let owner = self.g.node(nid).id.clone();
         let parallel_multiple = el.attr("parallelMultiple") == Some("true");
         let kind = match el.name.as_str() {
@@ -1122,14 +1196,42 @@ impl<'d> Builder<'d, '_> {
     }
 
     fn script(&mut self, el: &Element, owner: &str, strict: bool) -> Option<Script> {
+        // Camunda 8 writes a script task as one FEEL expression and the variable it sets.
+        if let Some(z) = el
+            .extensions()
+            .find(|e| e.ns == Ns::Zeebe && e.name == "script")
+        {
+            let (Some(expression), Some(result)) = (z.attr("expression"), z.attr("resultVariable"))
+            else {
+                self.problem(
+                    strict,
+                    "bad-binding",
+                    z.offset,
+                    Some(owner),
+                    "zeebe:script needs expression and resultVariable".to_owned(),
+                );
+                return None;
+            };
+            return match Expression::compile(expression, &Language::Feel) {
+                Ok(e) => Some(Script {
+                    format: Some("feel".to_owned()),
+                    text: format!("{result} = {expression}"),
+                    assignments: Some(vec![(result.to_owned(), e)]),
+                }),
+                Err(f) => {
+                    self.expr_problem(strict, z.offset, owner, "zeebe:script", f);
+                    None
+                }
+            };
+        }
         let Some(s) = el.bpmn_child("script") else {
-            self.problem(
-                strict,
-                "missing-script",
-                el.offset,
-                Some(owner),
-                "script task has no <script>".to_owned(),
-            );
+            let msg = match el.attr_ns(&Ns::Camunda, "resource") {
+                Some(r) => format!(
+                    "the script is kept in an external resource `{r}` (camunda:resource), which TRACE does not read; put it in <script>"
+                ),
+                None => "script task has no <script>".to_owned(),
+            };
+            self.problem(strict, "missing-script", el.offset, Some(owner), msg);
             return None;
         };
         let format = el
@@ -1254,16 +1356,10 @@ impl<'d> Builder<'d, '_> {
                     .and_then(|z| z.attr("inputCollection"))
                     .map(str::to_owned)
             })
-            .and_then(|c| match Expression::parse(&c) {
+            .and_then(|c| match Expression::compile(&c, &Language::Cel) {
                 Ok(e) => Some(e),
-                Err(e) => {
-                    self.problem(
-                        strict,
-                        "bad-expression",
-                        m.offset,
-                        Some(owner),
-                        format!("input collection: {e}"),
-                    );
+                Err(f) => {
+                    self.expr_problem(strict, m.offset, owner, "input collection", f);
                     None
                 }
             });
@@ -1402,7 +1498,7 @@ fn data_items(el: &Element, name: &str) -> Vec<DataItem> {
 }
 
 /// `startQuantity` / `completionQuantity`: a positive count, 1 when absent. Zero and garbage are
-/// refused by the checker (EXT.037/038) before the model is executed.
+/// read as 1, with a warning naming EXT.037/038.
 fn quantity(raw: Option<&str>) -> u32 {
     raw.and_then(|v| v.trim().parse().ok())
         .filter(|&q| q > 0)

@@ -25,7 +25,32 @@ const BENT: &[&str] = &[
     "io-set",
     "message-flow-none-event",
     "unknown-script-language",
+    "collection-mismatch",
 ];
+
+/// References that execution never follows, and why a dangling one leaves the meaning clear:
+/// `<incoming>`/`<outgoing>` repeat what the sequence flows say, lanes and categories only
+/// document, item definitions only type data (the engine's values carry their own types),
+/// interfaces and their operations describe services the executive does not call through WSDL,
+/// and a loop data reference that names nothing is read as the name of a variable (as
+/// SpiffWorkflow writes it). A dangling one is a rule bent harmlessly.
+fn documentary(owner: &str, name: &str) -> Option<&'static str> {
+    Some(match (owner, name) {
+        (_, "incoming" | "outgoing") => "; the sequence flows' own sourceRef and targetRef decide",
+        (_, "flowNodeRef") => "; lanes only document who does what",
+        (_, "categoryValueRef") => "; categories only document",
+        (_, "itemSubjectRef" | "itemRef" | "structureRef" | "evaluatesToTypeRef") => {
+            "; item definitions only type data, and values carry their own types"
+        }
+        ("operation", _) | (_, "interfaceRef" | "supportedInterfaceRef") => {
+            "; interfaces and operations are not called through"
+        }
+        (_, "loopDataInputRef" | "loopDataOutputRef") => {
+            "; it is read as the name of a variable holding the collection"
+        }
+        _ => return None,
+    })
+}
 
 /// What kind of element a reference must name.
 const ITEM_AWARE: &[&str] = &[
@@ -336,7 +361,12 @@ pub(crate) fn check(root: &Element, sink: &mut Sink) {
         // Typed references in attributes.
         for a in el.attrs.iter().filter(|a| a.ns == Ns::None) {
             if let Some(kinds) = ref_targets(&el.name, &a.name) {
-                check_ref(&ix, &a.name, &a.value, kinds, &mut err);
+                match documentary(&el.name, &a.name) {
+                    Some(why) => check_ref(&ix, &a.name, &a.value, kinds, &mut |code, _, msg| {
+                        soft.push((code, format!("{msg}{why}")));
+                    }),
+                    None => check_ref(&ix, &a.name, &a.value, kinds, &mut err),
+                }
             }
         }
         // Typed references in child elements.
@@ -346,20 +376,7 @@ pub(crate) fn check(root: &Element, sink: &mut Sink) {
             .filter(|c| c.ns == Ns::Bpmn && c.children.is_empty())
         {
             if let Some(kinds) = ref_targets(&el.name, &c.name) {
-                // `<incoming>`/`<outgoing>` repeat what the sequence flows say, lanes only
-                // document, and a loop data reference that names nothing is read as the name
-                // of a variable (as SpiffWorkflow writes it).
-                let why = match c.name.as_str() {
-                    "incoming" | "outgoing" => {
-                        Some("; the sequence flows' own sourceRef and targetRef decide")
-                    }
-                    "flowNodeRef" => Some("; lanes only document who does what"),
-                    "loopDataInputRef" | "loopDataOutputRef" => {
-                        Some("; it is read as the name of a variable holding the collection")
-                    }
-                    _ => None,
-                };
-                match why {
+                match documentary(&el.name, &c.name) {
                     Some(why) => check_ref(
                         &ix,
                         &c.name,
@@ -1155,13 +1172,12 @@ pub(crate) fn event_data(root: &Element, sink: &mut Sink) {
             .collect();
         if defs.len() != data.len() {
             let msg = format!(
-                "the event has {} event definitions but {} data {}s: each definition needs its own",
+                "the event has {} event definitions but {} data {}s: each definition should have its own; data without one is unused",
                 defs.len(),
                 data.len(),
                 if catch { "output" } else { "input" }
             );
-            sink.error("event-data", el.offset, el.attr("id"), msg)
-                .constraint("EXT.093");
+            sink.bent("event-data", "EXT.093", el.offset, el.attr("id"), msg);
         }
         for (d, data) in defs.iter().zip(&data) {
             let item = match d.name.as_str() {

@@ -41,6 +41,7 @@ const EXECUTION_CODES: &[&str] = &[
     "unknown-script-language",
     "missing-called-process",
     "missing-message",
+    "missing-cardinality",
     "unevaluated-language",
 ];
 

@@ -301,7 +301,7 @@ fn each_diagnostic_fires_on_its_minimal_model() {
         ("dangling-reference", doc("", r#"<bpmn:startEvent id="s"/><bpmn:sequenceFlow id="f" sourceRef="s" targetRef="nowhere"/>"#)),
         ("boundary-on-non-activity", around(r#"<bpmn:task id="x"/><bpmn:boundaryEvent id="b" attachedToRef="s"><bpmn:timerEventDefinition><bpmn:timeDuration xsi:type="bpmn:tFormalExpression">PT1M</bpmn:timeDuration></bpmn:timerEventDefinition></bpmn:boundaryEvent>"#)),
         ("missing-called-process", around(r#"<bpmn:callActivity id="x" calledElement="ghost"/>"#)),
-        ("bad-timer", around(r#"<bpmn:intermediateCatchEvent id="x"><bpmn:timerEventDefinition><bpmn:timeDuration xsi:type="bpmn:tFormalExpression">soon</bpmn:timeDuration></bpmn:timerEventDefinition></bpmn:intermediateCatchEvent>"#)),
+        ("bad-timer", around(r#"<bpmn:intermediateCatchEvent id="x"><bpmn:timerEventDefinition><bpmn:timeDuration xsi:type="bpmn:tFormalExpression">5 minutes</bpmn:timeDuration></bpmn:timerEventDefinition></bpmn:intermediateCatchEvent>"#)),
         ("bad-expression", around(r#"<bpmn:scriptTask id="x" scriptFormat="cel"><bpmn:script>a = (</bpmn:script></bpmn:scriptTask>"#).replace("bad-script", "")),
         ("missing-resource", around(r#"<bpmn:serviceTask id="x"/>"#)),
         ("unsupported-element", around(r#"<bpmn:task id="x"/><bpmn:choreographyTask id="ct"/>"#)),
@@ -495,6 +495,72 @@ fn expressions_in_other_languages_are_execution_problems_naming_the_language() {
         r#"targetNamespace="urn:test" expressionLanguage="http://groovy.codehaus.org/""#,
     );
     assert!(errors(&xml).contains(&"unevaluated-language"));
+}
+
+#[test]
+fn timer_values_are_iso_text_quoted_constants_or_expressions() {
+    let timer = |value: &str| {
+        around(&format!(
+            r#"<bpmn:intermediateCatchEvent id="x"><bpmn:timerEventDefinition><bpmn:timeDuration xsi:type="bpmn:tFormalExpression">{value}</bpmn:timeDuration></bpmn:timerEventDefinition></bpmn:intermediateCatchEvent>"#
+        ))
+    };
+    let value = |xml: &str| match kind(&ok(xml), "x") {
+        NodeKind::Catch(c) => match &c.triggers[..] {
+            [EventDefinition::Timer(t)] => t.value.clone(),
+            other => panic!("{other:?}"),
+        },
+        other => panic!("{other:?}"),
+    };
+    assert!(matches!(
+        value(&timer("PT1H")),
+        crate::timer::TimerValue::Fixed(_)
+    ));
+    assert!(matches!(
+        value(&timer("\"PT0.03S\"")),
+        crate::timer::TimerValue::Fixed(_)
+    ));
+    assert!(matches!(
+        value(&timer("due_time")),
+        crate::timer::TimerValue::Expression(_)
+    ));
+    // Text that looks like ISO 8601 but is not stays an error, not a variable.
+    assert!(errors(&timer("PT1X")).contains(&"bad-timer"));
+}
+
+#[test]
+fn camunda8_script_tasks_are_one_feel_expression_and_its_variable() {
+    let xml = around(
+        r#"<bpmn:scriptTask id="x"><bpmn:extensionElements><zeebe:script expression="=count" resultVariable="n"/></bpmn:extensionElements></bpmn:scriptTask>"#,
+    );
+    let g = ok(&xml);
+    let NodeKind::Task(t) = kind(&g, "x") else {
+        panic!("not a task")
+    };
+    let a = t
+        .script
+        .as_ref()
+        .and_then(|s| s.assignments.as_ref())
+        .expect("assignments");
+    assert_eq!((a[0].0.as_str(), a[0].1.text.as_str()), ("n", "count"));
+    // Beyond the FEEL subset: an execution problem naming FEEL, not a missing script.
+    let loaded = load(xml.replace("=count", "=today()").as_bytes());
+    let d = loaded.errors().next().expect("an error");
+    assert_eq!(
+        (d.code, d.category),
+        ("unevaluated-language", Category::Execution)
+    );
+}
+
+#[test]
+fn a_condition_that_cannot_be_evaluated_is_not_mistaken_for_none() {
+    let xml = doc(
+        "",
+        r#"<bpmn:startEvent id="s"/><bpmn:exclusiveGateway id="g"/><bpmn:endEvent id="e"/><bpmn:endEvent id="e2"/>
+        <bpmn:sequenceFlow id="f0" sourceRef="s" targetRef="g"/>
+        <bpmn:sequenceFlow id="f1" sourceRef="g" targetRef="e"><bpmn:conditionExpression xsi:type="bpmn:tFormalExpression" language="javascript">a &gt; 1</bpmn:conditionExpression></bpmn:sequenceFlow>
+        <bpmn:sequenceFlow id="f2" sourceRef="g" targetRef="e2"><bpmn:conditionExpression xsi:type="bpmn:tFormalExpression">a &lt;= 1</bpmn:conditionExpression></bpmn:sequenceFlow>"#,
+    );
+    assert_eq!(errors(&xml), ["unevaluated-language"]);
 }
 
 #[test]

@@ -100,10 +100,33 @@ impl IsoDuration {
     }
 }
 
-/// Parses a timer value for `kind`; an expression wrapper (`${…}`, `=…`) makes it an expression.
+/// Parses a timer value for `kind`. The value of `<timeDuration>` and its siblings is an
+/// expression (§10.5.6, `tFormalExpression`) whose value is ISO 8601: a literal ISO 8601 text is
+/// read at once, and so is a quoted constant (`"PT0.5S"`, as SpiffWorkflow writes it); an
+/// expression wrapper (`${…}`, `=…`) or a name such as `due_time` makes it an expression
+/// evaluated when the timer is armed. Text that looks like ISO 8601 but is not is an error here,
+/// not a variable.
 pub fn parse_timer(kind: TimerKind, raw: &str) -> Result<Timer, String> {
     let text = raw.trim();
-    if text.starts_with("${") || text.starts_with("#{") || text.starts_with('=') {
+    let quoted = ['"', '\''].into_iter().find_map(|q| {
+        text.strip_prefix(q)
+            .and_then(|t| t.strip_suffix(q))
+            .filter(|t| !t.contains(q))
+    });
+    if let Some(inner) = quoted {
+        return parse_timer(kind, inner);
+    }
+    let iso_like =
+        text.starts_with(['P', 'R', '+', '-']) || text.starts_with(|c: char| c.is_ascii_digit());
+    let name_like = text
+        .chars()
+        .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '.')
+        && text.starts_with(|c: char| c.is_ascii_alphabetic() || c == '_');
+    if text.starts_with("${")
+        || text.starts_with("#{")
+        || text.starts_with('=')
+        || (name_like && !iso_like)
+    {
         return Ok(Timer {
             kind,
             value: TimerValue::Expression(Expression::parse(text)?),

@@ -1005,13 +1005,15 @@ pub(crate) fn element_checks(root: &Element, sink: &mut Sink) {
                 if let Some(v) = el.attr(attr)
                     && v.trim().parse::<u32>().map_or(true, |q| q < 1)
                 {
-                    sink.error(
+                    sink.bent(
                         "bad-quantity",
+                        constraint,
                         el.offset,
                         id,
-                        format!("{attr}=\"{v}\" must be a whole number of at least 1"),
-                    )
-                    .constraint(constraint);
+                        format!(
+                            "{attr}=\"{v}\" should be a whole number of at least 1; it is read as 1"
+                        ),
+                    );
                 }
             }
             if let Some(dir) = el.attr("gatewayDirection") {

@@ -1,3 +1,585 @@
-//! Chapter 13 semantics: transactions (rules in docs/engine-semantics.md).
+//! Chapter 13 semantics: transactions cancelled, failed or completed while other branches move
+//! (rules in docs/engine-semantics.md; BPMN 2.0.2 §10.3.5 Transaction, §10.7, §13.5.5, §13.5.6).
 
 use super::*;
+
+/// A compensation handler: a service task marked `isForCompensation`.
+fn handler(id: &str) -> String {
+    format!(
+        r#"<serviceTask id="{id}" isForCompensation="true"><extensionElements><trace:task resource="sys.{id}"/></extensionElements></serviceTask>"#
+    )
+}
+
+/// A compensation boundary event on `activity`, associated with `handler` (which is declared
+/// too).
+fn compensated_by(activity: &str, h: &str) -> String {
+    format!(
+        r#"<boundaryEvent id="cb_{activity}" attachedToRef="{activity}"><compensateEventDefinition/></boundaryEvent>
+        {}<association id="as_{activity}" sourceRef="cb_{activity}" targetRef="{h}"/>"#,
+        handler(h)
+    )
+}
+
+fn cancel_end(id: &str) -> String {
+    format!(r#"<endEvent id="{id}"><cancelEventDefinition/></endEvent>"#)
+}
+
+fn end(id: &str) -> String {
+    format!(r#"<endEvent id="{id}"/>"#)
+}
+
+fn fork(id: &str) -> String {
+    format!(r#"<parallelGateway id="{id}"/>"#)
+}
+
+/// A process `p` around `body`.
+fn process(body: &str) -> String {
+    format!(r#"<process id="p" isExecutable="true"><startEvent id="s"/>{body}</process>"#)
+}
+
+/// Transaction `T` holding `inner` (with its start event `ts`) and its cancel boundary `bc`
+/// leading to task `after`, then to `after_next` (`"ea"`: an end event declared here); `T`
+/// itself leads along `ft` to `next`.
+fn transaction(inner: &str, next: &str, after_next: &str) -> String {
+    format!(
+        r#"<transaction id="T"><startEvent id="ts"/>{inner}</transaction>
+        <boundaryEvent id="bc" attachedToRef="T"><cancelEventDefinition/></boundaryEvent>
+        {}{}{}{}{}"#,
+        flow("fbc", "bc", "after"),
+        task("after", "fbc", "fa"),
+        flow("fa", "after", after_next),
+        if after_next == "ea" {
+            end("ea")
+        } else {
+            String::new()
+        },
+        flow("ft", "T", next),
+    )
+}
+
+/// Every task key dispatched for `node`, oldest first.
+fn keys_of(d: &Driver, node: &str) -> Vec<TaskKey> {
+    d.tasks
+        .iter()
+        .filter(|(n, _)| n == node)
+        .map(|(_, k)| *k)
+        .collect()
+}
+
+fn none() -> Vec<String> {
+    Vec::new()
+}
+
+/// §10.3.5, §13.5.6: a cancel end event aborts the transaction: the task still running in the
+/// other branch is cancelled, the completed activities are compensated newest first (one
+/// handler after the other), and only then is the cancel boundary's flow taken.
+#[test]
+fn cancel_withdraws_the_running_task_compensates_newest_first_then_takes_the_boundary() {
+    let inner = [
+        flow("t0", "ts", "tf"),
+        fork("tf"),
+        flow("t1", "tf", "A"),
+        task("A", "t1", "t2"),
+        compensated_by("A", "cA"),
+        flow("t2", "A", "B"),
+        task("B", "t2", "t3"),
+        compensated_by("B", "cB"),
+        flow("t3", "B", "C"),
+        task("C", "t3", "t4"),
+        flow("t4", "C", "te"),
+        end("te"),
+        flow("t5", "tf", "W"),
+        task("W", "t5", "t6"),
+        flow("t6", "W", "tc"),
+        cancel_end("tc"),
+    ]
+    .concat();
+    let mut d = Driver::new(&process(
+        &[
+            flow("f0", "s", "T"),
+            transaction(&inner, "e", "ea"),
+            end("e"),
+        ]
+        .concat(),
+    ));
+    assert_eq!(d.start(&[]), ["dispatch A", "dispatch W"]);
+    assert_eq!(d.complete("A", &[]), ["dispatch B"]);
+    assert_eq!(d.complete("B", &[]), ["dispatch C"]);
+    assert_eq!(d.complete("W", &[]), ["cancel C", "dispatch cB"]);
+    assert_eq!(d.complete("cB", &[]), ["dispatch cA"]);
+    assert_eq!(d.complete("cA", &[]), ["dispatch after"]);
+    assert_eq!(d.complete("after", &[]), ["completed"]);
+    // The cancelled task's late answer is refused.
+    let late = d.key("C");
+    let r = d.step(Event::TaskCompleted {
+        task: late,
+        output: Vars::new(),
+    });
+    assert!(matches!(r, Err(Rejected::UnknownTask(_))), "{r:?}");
+}
+
+/// §13.5.5: compensation runs in reverse order of completion; activities of concurrent branches
+/// have no order between them in the specification, and TRACE keeps one total order: newest
+/// completion first, across branches.
+#[test]
+fn cancel_compensates_across_branches_in_reverse_completion_order() {
+    let inner = [
+        flow("t0", "ts", "tf"),
+        fork("tf"),
+        flow("t1", "tf", "A"),
+        task("A", "t1", "t2"),
+        compensated_by("A", "cA"),
+        flow("t2", "A", "B"),
+        task("B", "t2", "t3"),
+        compensated_by("B", "cB"),
+        flow("t3", "B", "te"),
+        end("te"),
+        flow("t4", "tf", "X"),
+        task("X", "t4", "t5"),
+        compensated_by("X", "cX"),
+        flow("t5", "X", "Y"),
+        task("Y", "t5", "t6"),
+        flow("t6", "Y", "tc"),
+        cancel_end("tc"),
+    ]
+    .concat();
+    let mut d = Driver::new(&process(
+        &[
+            flow("f0", "s", "T"),
+            transaction(&inner, "e", "ea"),
+            end("e"),
+        ]
+        .concat(),
+    ));
+    assert_eq!(d.start(&[]), ["dispatch A", "dispatch X"]);
+    assert_eq!(d.complete("A", &[]), ["dispatch B"]);
+    assert_eq!(d.complete("X", &[]), ["dispatch Y"]);
+    // B's branch ends inside the transaction; the transaction is still running.
+    assert_eq!(d.complete("B", &[]), none());
+    assert_eq!(d.complete("Y", &[]), ["dispatch cB"]);
+    assert_eq!(d.complete("cB", &[]), ["dispatch cX"]);
+    assert_eq!(d.complete("cX", &[]), ["dispatch cA"]);
+    assert_eq!(d.complete("cA", &[]), ["dispatch after"]);
+    assert_eq!(d.complete("after", &[]), ["completed"]);
+}
+
+/// §10.3.5, §13.5.6: the cancel aborts everything inside the transaction, including a
+/// compensation handler started by a compensation throw inside it; every completed activity
+/// whose compensation has not started yet is still compensated before the cancel boundary is
+/// taken (a cancelled transaction leaves no completed work uncompensated). The interrupted
+/// handler itself is not started again: the specification is silent, and TRACE runs a
+/// handler at most once per completed activity.
+#[test]
+fn cancel_while_a_compensation_throw_runs_interrupts_its_handler_and_compensates_the_rest() {
+    let inner = [
+        flow("t0", "ts", "tf"),
+        fork("tf"),
+        flow("t1", "tf", "A"),
+        task("A", "t1", "t2"),
+        compensated_by("A", "cA"),
+        flow("t2", "A", "B"),
+        task("B", "t2", "t3"),
+        compensated_by("B", "cB"),
+        flow("t3", "B", "th"),
+        r#"<intermediateThrowEvent id="th"><compensateEventDefinition/></intermediateThrowEvent>"#
+            .to_owned(),
+        flow("t4", "th", "te"),
+        end("te"),
+        flow("t5", "tf", "W"),
+        task("W", "t5", "t6"),
+        flow("t6", "W", "tc"),
+        cancel_end("tc"),
+    ]
+    .concat();
+    let mut d = Driver::new(&process(
+        &[
+            flow("f0", "s", "T"),
+            transaction(&inner, "e", "ea"),
+            end("e"),
+        ]
+        .concat(),
+    ));
+    assert_eq!(d.start(&[]), ["dispatch A", "dispatch W"]);
+    assert_eq!(d.complete("A", &[]), ["dispatch B"]);
+    // The throw compensates newest first: B's handler runs, A's waits its turn.
+    assert_eq!(d.complete("B", &[]), ["dispatch cB"]);
+    assert_eq!(d.complete("W", &[]), ["cancel cB", "dispatch cA"]);
+    assert_eq!(d.complete("cA", &[]), ["dispatch after"]);
+    assert_eq!(d.complete("after", &[]), ["completed"]);
+}
+
+/// §13.5.6 (terminate), §10.3.5: the compensation that a cancelled transaction runs belongs to
+/// the instance; a terminate end event reached meanwhile in a parallel branch outside the
+/// transaction withdraws the running handler, and the cancel boundary's flow is never taken.
+#[test]
+fn terminate_outside_while_the_cancelled_transaction_compensates_stops_everything() {
+    let inner = [
+        flow("t0", "ts", "A"),
+        task("A", "t0", "t1"),
+        compensated_by("A", "cA"),
+        flow("t1", "A", "tc"),
+        cancel_end("tc"),
+    ]
+    .concat();
+    let mut d = Driver::new(&process(
+        &[
+            flow("f0", "s", "P"),
+            fork("P"),
+            flow("f1", "P", "T"),
+            transaction(&inner, "e", "ea"),
+            end("e"),
+            flow("f2", "P", "Z"),
+            task("Z", "f2", "f3"),
+            flow("f3", "Z", "z"),
+            r#"<endEvent id="z"><terminateEventDefinition/></endEvent>"#.to_owned(),
+        ]
+        .concat(),
+    ));
+    let out = d.start(&[]);
+    assert_eq!(sorted(out), ["dispatch A", "dispatch Z"]);
+    assert_eq!(d.complete("A", &[]), ["dispatch cA"]);
+    assert_eq!(d.complete("Z", &[]), ["cancel cA", "terminated"]);
+    assert!(d.e.state().tokens.is_empty());
+}
+
+/// §10.3.5: cancelling a transaction affects only what is inside it; a token in a parallel
+/// branch outside keeps moving during the cancel and its compensation, and the cancel
+/// boundary's token is an ordinary token afterwards (here it synchronises with that branch).
+#[test]
+fn tokens_outside_the_transaction_keep_moving_while_it_is_cancelled() {
+    let inner = [
+        flow("t0", "ts", "A"),
+        task("A", "t0", "t1"),
+        compensated_by("A", "cA"),
+        flow("t1", "A", "W"),
+        task("W", "t1", "t2"),
+        flow("t2", "W", "tc"),
+        cancel_end("tc"),
+    ]
+    .concat();
+    let mut d = Driver::new(&process(
+        &[
+            flow("f0", "s", "P"),
+            fork("P"),
+            flow("f1", "P", "T"),
+            transaction(&inner, "e0", "J"),
+            end("e0"),
+            flow("f2", "P", "Z1"),
+            task("Z1", "f2", "f3"),
+            flow("f3", "Z1", "Z2"),
+            task("Z2", "f3", "f4"),
+            flow("f4", "Z2", "J"),
+            fork("J"),
+            flow("f5", "J", "e"),
+            end("e"),
+        ]
+        .concat(),
+    ));
+    assert_eq!(sorted(d.start(&[])), ["dispatch A", "dispatch Z1"]);
+    assert_eq!(d.complete("A", &[]), ["dispatch W"]);
+    assert_eq!(d.complete("W", &[]), ["dispatch cA"]);
+    assert_eq!(d.complete("Z1", &[]), ["dispatch Z2"]);
+    assert_eq!(d.complete("cA", &[]), ["dispatch after"]);
+    // The join waits for the outside branch: the boundary token is an ordinary token.
+    assert_eq!(d.complete("after", &[]), none());
+    assert_eq!(d.complete("Z2", &[]), ["completed"]);
+}
+
+/// An error boundary `bh` on `T` leading to task `R`, then a compensation throw for the whole
+/// enclosing scope, then an end.
+fn hazard_path() -> String {
+    [
+        r#"<boundaryEvent id="bh" attachedToRef="T"><errorEventDefinition/></boundaryEvent>"#
+            .to_owned(),
+        flow("h0", "bh", "R"),
+        task("R", "h0", "h1"),
+        flow("h1", "R", "hc"),
+        r#"<intermediateThrowEvent id="hc"><compensateEventDefinition/></intermediateThrowEvent>"#
+            .to_owned(),
+        flow("h2", "hc", "eh"),
+        end("eh"),
+    ]
+    .concat()
+}
+
+/// §10.3.5 (Hazard), §10.7.3: an error inside a transaction interrupts it without compensation
+/// (running work is cancelled, completed activities are not compensated), its error boundary is
+/// taken, not its cancel boundary; and a failed activity is not compensable afterwards
+/// ("presumed abort": its compensation is an empty operation).
+#[test]
+fn a_failing_task_inside_a_transaction_is_a_hazard_without_compensation() {
+    let inner = [
+        flow("t0", "ts", "tf"),
+        fork("tf"),
+        flow("t1", "tf", "A"),
+        task("A", "t1", "t2"),
+        compensated_by("A", "cA"),
+        flow("t2", "A", "E"),
+        task("E", "t2", "t3"),
+        flow("t3", "E", "te"),
+        end("te"),
+        flow("t4", "tf", "W"),
+        task("W", "t4", "t5"),
+        flow("t5", "W", "tc"),
+        cancel_end("tc"),
+    ]
+    .concat();
+    let mut d = Driver::new(&process(
+        &[
+            flow("f0", "s", "T"),
+            transaction(&inner, "e", "ea"),
+            end("e"),
+            hazard_path(),
+        ]
+        .concat(),
+    ));
+    assert_eq!(d.start(&[]), ["dispatch A", "dispatch W"]);
+    assert_eq!(d.complete("A", &[]), ["dispatch E"]);
+    assert_eq!(d.fail("E", "HAZARD"), ["cancel W", "dispatch R"]);
+    // Nothing to compensate: the transaction failed.
+    assert_eq!(d.complete("R", &[]), ["completed"]);
+}
+
+/// §10.3.5 (Hazard), §13.5.6: an error end event inside the transaction is a hazard too: error
+/// boundary, no compensation, even with a completed compensable activity inside.
+#[test]
+fn an_error_end_event_inside_a_transaction_is_a_hazard_not_a_cancel() {
+    let inner = [
+        flow("t0", "ts", "A"),
+        task("A", "t0", "t1"),
+        compensated_by("A", "cA"),
+        flow("t1", "A", "tx"),
+        r#"<endEvent id="tx"><errorEventDefinition/></endEvent>"#.to_owned(),
+    ]
+    .concat();
+    let mut d = Driver::new(&process(
+        &[
+            flow("f0", "s", "T"),
+            transaction(&inner, "e", "ea"),
+            end("e"),
+            hazard_path(),
+        ]
+        .concat(),
+    ));
+    assert_eq!(d.start(&[]), ["dispatch A"]);
+    assert_eq!(d.complete("A", &[]), ["dispatch R"]);
+    assert_eq!(d.complete("R", &[]), ["completed"]);
+}
+
+/// A transaction `T` (A then B, both compensable) that completes, then `X` (compensable), then
+/// a compensation throw `th` (for `activity_ref`, or the whole scope), then the end.
+fn completed_transaction(activity_ref: Option<&str>) -> String {
+    let inner = [
+        flow("t0", "ts", "A"),
+        task("A", "t0", "t1"),
+        compensated_by("A", "cA"),
+        flow("t1", "A", "B"),
+        task("B", "t1", "t2"),
+        compensated_by("B", "cB"),
+        flow("t2", "B", "te"),
+        end("te"),
+    ]
+    .concat();
+    let def = match activity_ref {
+        Some(a) => format!(r#"<compensateEventDefinition activityRef="{a}"/>"#),
+        None => "<compensateEventDefinition/>".to_owned(),
+    };
+    process(
+        &[
+            flow("f0", "s", "T"),
+            transaction(&inner, "X", "ea"),
+            task("X", "ft", "f1"),
+            compensated_by("X", "cX"),
+            flow("f1", "X", "th"),
+            format!(r#"<intermediateThrowEvent id="th">{def}</intermediateThrowEvent>"#),
+            flow("f2", "th", "e"),
+            end("e"),
+        ]
+        .concat(),
+    )
+}
+
+/// §10.3.5 (successful completion), §13.5.5: a transaction that completes runs no
+/// compensation; a later compensation throw outside compensates it as a whole (its completed
+/// activities newest first), in reverse completion order with the activities around it.
+#[test]
+fn a_completed_transaction_is_compensated_as_a_whole_by_a_later_throw_outside() {
+    let mut d = Driver::new(&completed_transaction(None));
+    assert_eq!(d.start(&[]), ["dispatch A"]);
+    assert_eq!(d.complete("A", &[]), ["dispatch B"]);
+    assert_eq!(d.complete("B", &[]), ["dispatch X"]);
+    assert_eq!(d.complete("X", &[]), ["dispatch cX"]);
+    assert_eq!(d.complete("cX", &[]), ["dispatch cB"]);
+    assert_eq!(d.complete("cB", &[]), ["dispatch cA"]);
+    assert_eq!(d.complete("cA", &[]), ["completed"]);
+    // With activityRef naming the transaction, only the transaction is compensated.
+    let mut d = Driver::new(&completed_transaction(Some("T")));
+    d.start(&[]);
+    d.complete("A", &[]);
+    d.complete("B", &[]);
+    assert_eq!(d.complete("X", &[]), ["dispatch cB"]);
+    assert_eq!(d.complete("cB", &[]), ["dispatch cA"]);
+    assert_eq!(d.complete("cA", &[]), ["completed"]);
+}
+
+/// A transaction whose task `A` has a non-interrupting timer boundary (1 s) leading to `H`
+/// (compensable by `cH` when `h_compensable`); `A` leads to the cancel end event.
+fn boundary_inside(h_compensable: bool) -> String {
+    let inner = [
+        flow("t0", "ts", "A"),
+        task("A", "t0", "t1"),
+        compensated_by("A", "cA"),
+        r#"<boundaryEvent id="tb" attachedToRef="A" cancelActivity="false"><timerEventDefinition><timeDuration xsi:type="tFormalExpression">PT1S</timeDuration></timerEventDefinition></boundaryEvent>"#.to_owned(),
+        flow("t2", "tb", "H"),
+        task("H", "t2", "t3"),
+        if h_compensable { compensated_by("H", "cH") } else { String::new() },
+        flow("t3", "H", "te"),
+        end("te"),
+        flow("t1", "A", "tc"),
+        cancel_end("tc"),
+    ]
+    .concat();
+    process(
+        &[
+            flow("f0", "s", "T"),
+            transaction(&inner, "e", "ea"),
+            end("e"),
+        ]
+        .concat(),
+    )
+}
+
+/// §13.5.3, §13.5.6: the token a non-interrupting boundary event produced lives inside the
+/// transaction; a cancel end event reached while it still runs cancels its task too. Had it
+/// completed, its activity would be compensated with the others, newest first.
+#[test]
+fn cancel_reached_while_a_non_interrupting_boundary_branch_runs_cancels_that_branch_too() {
+    let mut d = Driver::new(&boundary_inside(false));
+    assert_eq!(d.start(&[]), ["timer 1000", "dispatch A"]);
+    assert_eq!(d.fire(0, 1000), ["dispatch H"]);
+    assert_eq!(d.complete("A", &[]), ["cancel H", "dispatch cA"]);
+    assert_eq!(d.complete("cA", &[]), ["dispatch after"]);
+    assert_eq!(d.complete("after", &[]), ["completed"]);
+
+    let mut d = Driver::new(&boundary_inside(true));
+    d.start(&[]);
+    assert_eq!(d.fire(0, 1000), ["dispatch H"]);
+    assert_eq!(d.complete("H", &[]), none());
+    assert_eq!(d.complete("A", &[]), ["dispatch cA"]);
+    assert_eq!(d.complete("cA", &[]), ["dispatch cH"]);
+    assert_eq!(d.complete("cH", &[]), ["dispatch after"]);
+}
+
+/// §13.5.5: a sub-process completed inside the cancelled transaction is compensated through its
+/// own completed activities, at its place in the reverse completion order.
+#[test]
+fn a_completed_sub_process_inside_a_cancelled_transaction_is_compensated_through_its_content() {
+    let inner = [
+        flow("t0", "ts", "S"),
+        r#"<subProcess id="S"><startEvent id="ss"/>"#.to_owned(),
+        flow("s0", "ss", "A"),
+        task("A", "s0", "s1"),
+        compensated_by("A", "cA"),
+        flow("s1", "A", "se"),
+        end("se"),
+        "</subProcess>".to_owned(),
+        flow("t1", "S", "B"),
+        task("B", "t1", "t2"),
+        compensated_by("B", "cB"),
+        flow("t2", "B", "tc"),
+        cancel_end("tc"),
+    ]
+    .concat();
+    let mut d = Driver::new(&process(
+        &[
+            flow("f0", "s", "T"),
+            transaction(&inner, "e", "ea"),
+            end("e"),
+        ]
+        .concat(),
+    ));
+    assert_eq!(d.start(&[]), ["dispatch A"]);
+    assert_eq!(d.complete("A", &[]), ["dispatch B"]);
+    assert_eq!(d.complete("B", &[]), ["dispatch cB"]);
+    assert_eq!(d.complete("cB", &[]), ["dispatch cA"]);
+    assert_eq!(d.complete("cA", &[]), ["dispatch after"]);
+}
+
+/// §13.5.6: two cancel end events reached in the same step cancel the transaction once: one
+/// compensation, one token on the cancel boundary.
+#[test]
+fn two_cancel_ends_reached_together_cancel_once() {
+    let inner = [
+        flow("t0", "ts", "A"),
+        task("A", "t0", "t1"),
+        compensated_by("A", "cA"),
+        flow("t1", "A", "tf"),
+        fork("tf"),
+        flow("t2", "tf", "tc1"),
+        cancel_end("tc1"),
+        flow("t3", "tf", "tc2"),
+        cancel_end("tc2"),
+    ]
+    .concat();
+    let mut d = Driver::new(&process(
+        &[
+            flow("f0", "s", "T"),
+            transaction(&inner, "e", "ea"),
+            end("e"),
+        ]
+        .concat(),
+    ));
+    assert_eq!(d.start(&[]), ["dispatch A"]);
+    assert_eq!(d.complete("A", &[]), ["dispatch cA"]);
+    assert_eq!(d.complete("cA", &[]), ["dispatch after"]);
+    assert_eq!(d.complete("after", &[]), ["completed"]);
+}
+
+/// §10.3.5 with §13.4.2 (a cycle): a transaction retried through its cancel boundary starts
+/// clean. The first attempt's completed work is compensated once, at its cancel; a later
+/// compensation throw compensates only the successful attempt.
+#[test]
+fn a_transaction_retried_after_a_cancel_compensates_each_attempt_once() {
+    let inner = [
+        flow("t0", "ts", "A"),
+        task("A", "t0", "t1"),
+        compensated_by("A", "cA"),
+        flow("t1", "A", "tg"),
+        r#"<exclusiveGateway id="tg" default="t3"/>"#.to_owned(),
+        cond_flow("t2", "tg", "te", "ok"),
+        end("te"),
+        flow("t3", "tg", "tc"),
+        cancel_end("tc"),
+    ]
+    .concat();
+    let mut d = Driver::new(&process(
+        &[
+            flow("f0", "s", "M"),
+            r#"<exclusiveGateway id="M"/>"#.to_owned(),
+            flow("f1", "M", "T"),
+            transaction(&inner, "th", "M"),
+            r#"<intermediateThrowEvent id="th"><compensateEventDefinition/></intermediateThrowEvent>"#.to_owned(),
+            flow("f2", "th", "e"),
+            end("e"),
+        ]
+        .concat(),
+    ));
+    assert_eq!(d.start(&[]), ["dispatch A"]);
+    assert_eq!(
+        d.complete("A", &[("ok", Value::Bool(false))]),
+        ["dispatch cA"]
+    );
+    assert_eq!(d.complete("cA", &[]), ["dispatch after"]);
+    assert_eq!(d.complete("after", &[]), ["dispatch A"]);
+    assert_eq!(
+        d.complete("A", &[("ok", Value::Bool(true))]),
+        ["dispatch cA"]
+    );
+    assert_eq!(d.complete("cA", &[]), ["completed"]);
+    assert_eq!(keys_of(&d, "cA").len(), 2);
+}
+
+fn sorted(mut v: Vec<String>) -> Vec<String> {
+    v.sort();
+    v
+}
