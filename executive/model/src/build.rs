@@ -93,6 +93,8 @@ const PASSIVE: &[&str] = &[
     "completionCondition",
     "renderings",
     "rendering",
+    "supportedInterfaceRef",
+    "categoryValueRef",
 ];
 
 /// Strips a QName prefix from a reference (`tns:Message_1` -> `Message_1`).
@@ -1497,8 +1499,8 @@ fn data_items(el: &Element, name: &str) -> Vec<DataItem> {
         .collect()
 }
 
-/// `startQuantity` / `completionQuantity`: a positive count, 1 when absent. Zero and garbage are
-/// read as 1, with a warning naming EXT.037/038.
+/// `startQuantity` / `completionQuantity`: a positive count, 1 when absent. Zero and garbage
+/// refuse an executable process (EXT.037/038) and are read as 1 in a descriptive one.
 fn quantity(raw: Option<&str>) -> u32 {
     raw.and_then(|v| v.trim().parse().ok())
         .filter(|&q| q > 0)

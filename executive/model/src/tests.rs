@@ -564,6 +564,25 @@ fn a_condition_that_cannot_be_evaluated_is_not_mistaken_for_none() {
 }
 
 #[test]
+fn correlation_properties_and_supported_interfaces_are_valid_bpmn() {
+    let xml = format!(
+        r#"{HEAD}<bpmn:message id="m" name="ping"/><bpmn:interface id="if" name="Lander"><bpmn:operation id="op" name="ping"><bpmn:inMessageRef>m</bpmn:inMessageRef></bpmn:operation></bpmn:interface>
+        <bpmn:correlationProperty id="cp" name="site"><bpmn:correlationPropertyRetrievalExpression messageRef="m"><bpmn:messagePath>site</bpmn:messagePath></bpmn:correlationPropertyRetrievalExpression></bpmn:correlationProperty>
+        <bpmn:process id="p" isExecutable="true"><bpmn:supportedInterfaceRef>if</bpmn:supportedInterfaceRef>
+          <bpmn:correlationSubscription correlationKeyRef="ck"><bpmn:correlationPropertyBinding correlationPropertyRef="cp"><bpmn:dataPath>site</bpmn:dataPath></bpmn:correlationPropertyBinding></bpmn:correlationSubscription>
+          <bpmn:startEvent id="s"/><bpmn:endEvent id="e"/><bpmn:sequenceFlow id="f" sourceRef="s" targetRef="e"/></bpmn:process>
+        <bpmn:collaboration id="c"><bpmn:participant id="pa" processRef="p"/><bpmn:correlationKey id="ck"><bpmn:correlationPropertyRef>cp</bpmn:correlationPropertyRef></bpmn:correlationKey></bpmn:collaboration></bpmn:definitions>"#
+    );
+    let loaded = load(xml.as_bytes());
+    let bpmn: Vec<_> = loaded
+        .diagnostics
+        .iter()
+        .filter(|d| d.category == Category::Bpmn)
+        .collect();
+    assert!(bpmn.is_empty(), "{bpmn:#?}");
+}
+
+#[test]
 fn message_events_implemented_by_a_job_worker_are_tasks() {
     let g = ok(&doc(
         "",

@@ -931,12 +931,15 @@ impl Checker<'_> {
 
 /// Constraint checks that need the raw elements (attributes the graph does not keep).
 pub(crate) fn element_checks(root: &Element, sink: &mut Sink) {
-    let mut stack: Vec<(&Element, bool)> = vec![(root, false)];
-    while let Some((el, executable)) = stack.pop() {
-        let executable = if el.is_bpmn("process") {
-            el.attr("isExecutable") != Some("false")
+    let mut stack: Vec<(&Element, bool, bool)> = vec![(root, false, false)];
+    while let Some((el, executable, declared)) = stack.pop() {
+        let (executable, declared) = if el.is_bpmn("process") {
+            (
+                el.attr("isExecutable") != Some("false"),
+                el.attr("isExecutable") == Some("true"),
+            )
         } else {
-            executable
+            (executable, declared)
         };
         if el.ns == crate::xml::Ns::Bpmn {
             let id = el.attr("id");
@@ -1005,15 +1008,28 @@ pub(crate) fn element_checks(root: &Element, sink: &mut Sink) {
                 if let Some(v) = el.attr(attr)
                     && v.trim().parse::<u32>().map_or(true, |q| q < 1)
                 {
-                    sink.bent(
-                        "bad-quantity",
-                        constraint,
-                        el.offset,
-                        id,
-                        format!(
-                            "{attr}=\"{v}\" should be a whole number of at least 1; it is read as 1"
-                        ),
-                    );
+                    // How many tokens to wait for is undefined at zero: an executable process
+                    // cannot run with it; a drawing (ADONIS writes 0 throughout) is read as 1.
+                    if executable {
+                        let d = sink.error(
+                            "bad-quantity",
+                            el.offset,
+                            id,
+                            format!("{attr}=\"{v}\" must be a whole number of at least 1"),
+                        );
+                        d.constraint(constraint);
+                        if !declared {
+                            d.execution();
+                        }
+                    } else {
+                        sink.bent(
+                            "bad-quantity",
+                            constraint,
+                            el.offset,
+                            id,
+                            format!("{attr}=\"{v}\" should be a whole number of at least 1; it is read as 1"),
+                        );
+                    }
                 }
             }
             if let Some(dir) = el.attr("gatewayDirection") {
@@ -1035,7 +1051,7 @@ pub(crate) fn element_checks(root: &Element, sink: &mut Sink) {
                     );
                 }
             }
-            stack.extend(el.children.iter().map(|c| (c, executable)));
+            stack.extend(el.children.iter().map(|c| (c, executable, declared)));
         }
     }
 }

@@ -1,6 +1,6 @@
 //! Chapter 13 semantics: signals (rules in docs/engine-semantics.md).
 //!
-//! A signal is broadcast (§10.5.1, §13.5.1–§13.5.3): every catcher waiting for it when it is
+//! A signal is broadcast (§10.5.6, §13.5.1–§13.5.3): every catcher waiting for it when it is
 //! thrown catches it — in the thrower's instance and in every other one, intermediate catch
 //! events, boundary events, event-based gateway branches, event sub-process starts — and every
 //! process with a signal start event starts a new instance. A catcher that is not yet waiting
@@ -91,7 +91,7 @@ fn a_throw_reaches_a_catch_already_waiting_in_the_same_instance() {
 }
 
 /// §13.5.2: waiting starts when the catch event is reached; a signal thrown earlier is gone
-/// (§10.5.1: a signal is not stored for later catchers).
+/// (§10.5.6: a published signal is not stored for later catchers).
 #[test]
 fn a_signal_thrown_before_the_catcher_waits_is_lost() {
     // Thrown on the way to the catch event.
@@ -133,7 +133,7 @@ fn a_signal_thrown_before_the_catcher_waits_is_lost() {
     assert_eq!(signal(&mut d, "S"), ["completed"]);
 }
 
-/// Parallel branches of one step have no order in the specification (§13.3.1 fork: the tokens
+/// Parallel branches of one step have no order in the specification (§13.4.1 fork: the tokens
 /// move concurrently). TRACE lets the other ready tokens of the step settle before a signal is
 /// thrown, so a catch event reached in the same instant as the throw catches it.
 #[test]
@@ -158,7 +158,7 @@ fn a_throw_waits_for_the_sibling_branches_of_the_same_step_to_settle() {
     assert_eq!(d.start(&[]), ["completed"]);
 }
 
-/// §10.5.1: a signal is broadcast to every catcher in every instance, the thrower's included;
+/// §10.5.6: a signal is broadcast to every catcher in every instance, the thrower's included;
 /// each catcher consumes its own copy.
 #[test]
 fn a_throw_reaches_every_waiting_catcher_of_every_instance() {
@@ -188,7 +188,7 @@ fn a_throw_reaches_every_waiting_catcher_of_every_instance() {
     assert_eq!(complete_nth(&mut d, 1), ["completed"]);
 }
 
-/// §10.5.1, §13.5.1: a signal start event starts a new instance for each signal; the
+/// §10.5.6, §13.5.1: a signal start event starts a new instance for each signal; the
 /// occurrence that started it is consumed by the start, not by the new instance's own catch
 /// events reached afterwards.
 #[test]
@@ -373,7 +373,7 @@ fn a_signal_thrown_inside_a_subprocess_interrupts_it_through_its_own_boundary() 
     assert_eq!(d.complete("h", &[]), ["completed"]);
 }
 
-/// §13.3.4: at an event-based gateway the signal branch wins; the other events are withdrawn
+/// §13.4.4: at an event-based gateway the signal branch wins; the other events are withdrawn
 /// (the timer cancelled).
 #[test]
 fn an_event_based_gateway_takes_the_signal_branch_and_withdraws_the_others() {
@@ -406,7 +406,7 @@ fn an_event_based_gateway_takes_the_signal_branch_and_withdraws_the_others() {
     assert_eq!(d.complete("a", &[]), ["completed"]);
 }
 
-/// §13.3.4 says the first event wins; one signal satisfying two branches of one event-based
+/// §13.4.4 says the first event wins; one signal satisfying two branches of one event-based
 /// gateway at once is not ordered by the specification. TRACE takes one branch only, the
 /// first in document order.
 #[test]
@@ -473,7 +473,7 @@ fn one_signal_reaches_an_event_subprocess_a_boundary_and_a_catch_together() {
     );
 }
 
-/// §10.5.1 does not say how two signal elements are told apart at run time; TRACE (like
+/// §10.5.5 does not say how two signal elements are told apart at run time; TRACE (like
 /// Camunda) matches signals by name, so two definitions with one name are one signal.
 #[test]
 fn two_signal_definitions_sharing_a_name_are_one_signal() {
@@ -520,7 +520,7 @@ fn a_signal_without_a_name_is_known_by_its_id() {
     assert_eq!(signal(&mut d, "noname"), ["completed"]);
 }
 
-/// `signalRef` is optional (§10.5.5, Table 10.96) and the specification says nothing of how an
+/// `signalRef` is optional (§10.5.5: `signalRef` [0..1]) and the specification says nothing of how an
 /// anonymous signal travels. TRACE treats every anonymous signal as one signal with the empty
 /// name: an anonymous throw reaches anonymous catchers (in any instance) and no named one; a
 /// named throw never reaches an anonymous catcher.
