@@ -318,6 +318,12 @@ impl Reader<'_> {
                         }
                     }
                 }
+                // A Camunda 8 business rule task calls a DMN decision: the decision is the
+                // resource a connector serves, as `camunda:decisionRef` is for Camunda 7.
+                "calledDecision" => {
+                    relevant = true;
+                    b.resource = z.attr("decisionId").map(str::to_owned);
+                }
                 "calledElement" => {
                     relevant = true;
                     b.all_in = z.attr("propagateAllParentVariables") != Some("false");
@@ -345,7 +351,24 @@ impl Reader<'_> {
                 break;
             }
         }
-        for ext in el.extensions().filter(|e| e.ns == Ns::Camunda) {
+        // A Camunda Connect connector (`camunda:connector`): its id is the resource a TRACE
+        // connector serves, and its own inputOutput maps the goal.
+        let connector = el
+            .extensions()
+            .find(|e| e.ns == Ns::Camunda && e.name == "connector");
+        if let Some(id) = connector.and_then(|c| {
+            c.children
+                .iter()
+                .find(|e| e.ns == Ns::Camunda && e.name == "connectorId")
+        }) {
+            b.resource = Some(id.trimmed_text().to_owned());
+            relevant = true;
+        }
+        let inner = connector
+            .into_iter()
+            .flat_map(|c| c.children.iter())
+            .filter(|e| e.name == "inputOutput");
+        for ext in el.extensions().filter(|e| e.ns == Ns::Camunda).chain(inner) {
             match ext.name.as_str() {
                 "inputOutput" => {
                     relevant = true;
@@ -358,20 +381,29 @@ impl Reader<'_> {
                             );
                             continue;
                         };
-                        if let Some(nested) = p.children.iter().find(|c| c.ns == Ns::Camunda) {
-                            self.problem(nested.offset, "unsupported", format!(
-                                "camunda:{} inside camunda:{} {name} is not supported; write the value as one expression",
-                                nested.name, p.name
-                            ));
-                            continue;
-                        }
-                        let raw = p.trimmed_text();
                         let what = format!("camunda:{} {name}", p.name);
-                        let value = if raw.starts_with("${") || raw.starts_with("#{") {
-                            self.expr(p.offset, raw, &what)
-                        } else {
-                            self.literal(p.offset, raw, &what)
-                        };
+                        let value =
+                            if let Some(nested) = p.children.iter().find(|c| c.ns == Ns::Camunda) {
+                                match camunda_value(nested) {
+                                    Ok(cel) => self.expr(nested.offset, &cel, &what),
+                                    Err(why) => {
+                                        let code = if why.contains("camunda:script") {
+                                            "unevaluated-language"
+                                        } else {
+                                            "unsupported"
+                                        };
+                                        self.problem(nested.offset, code, format!("{what}: {why}"));
+                                        continue;
+                                    }
+                                }
+                            } else {
+                                let raw = p.trimmed_text();
+                                if raw.starts_with("${") || raw.starts_with("#{") {
+                                    self.expr(p.offset, raw, &what)
+                                } else {
+                                    self.literal(p.offset, raw, &what)
+                                }
+                            };
                         let Some(value) = value else { continue };
                         match p.name.as_str() {
                             "inputParameter" => b.inputs.push(InputMapping {
@@ -461,6 +493,60 @@ fn serde_json_string(value: &str) -> String {
     }
     out.push('"');
     out
+}
+
+/// A Camunda 7 structured parameter value (`camunda:map`, `camunda:list`, nested, with literal
+/// or `${…}` leaves) as CEL text; a `camunda:script` value is refused with its language.
+fn camunda_value(el: &Element) -> Result<String, String> {
+    let leaf = |e: &Element| -> Result<String, String> {
+        match e.children.iter().find(|c| c.ns == Ns::Camunda) {
+            Some(nested) => camunda_value(nested),
+            None => {
+                let raw = e.trimmed_text();
+                let inner = ["${", "#{"]
+                    .iter()
+                    .find_map(|w| raw.strip_prefix(w).and_then(|r| r.strip_suffix('}')));
+                match inner {
+                    Some(juel) => crate::juel::to_cel(juel).map(|c| format!("({c})")),
+                    None => Ok(serde_json_string(raw)),
+                }
+            }
+        }
+    };
+    match el.name.as_str() {
+        "map" => {
+            let entries: Result<Vec<String>, String> = el
+                .children
+                .iter()
+                .filter(|c| c.ns == Ns::Camunda && c.name == "entry")
+                .map(|e| {
+                    let key = e.attr("key").ok_or("a camunda:entry has no key")?;
+                    Ok(format!("{}: {}", serde_json_string(key), leaf(e)?))
+                })
+                .collect();
+            Ok(format!("{{{}}}", entries?.join(", ")))
+        }
+        "list" => {
+            let values: Result<Vec<String>, String> = el
+                .children
+                .iter()
+                .filter(|c| c.ns == Ns::Camunda)
+                .map(|v| {
+                    if v.name == "value" {
+                        leaf(v)
+                    } else {
+                        camunda_value(v)
+                    }
+                })
+                .collect();
+            Ok(format!("[{}]", values?.join(", ")))
+        }
+        "script" => Err(format!(
+            "a camunda:script value (in {}) is not evaluated by TRACE; write the value as an expression",
+            el.attr("scriptFormat").unwrap_or("an unnamed language")
+        )),
+        other => Err(format!("camunda:{other} is not a parameter value")),
+    }
 }
 
 /// Is the event `el` implemented like a task (a Camunda 8 job worker, a Camunda 7 delegate or

@@ -1157,7 +1157,11 @@ impl<'d> Builder<'d, '_> {
             strict,
         }
         .read(el);
-        let script = (kind == TaskKind::Script)
+        // A script task implemented by a job worker or an external task (a resource name) is
+        // dispatched like a service task: it needs no script of its own.
+        let worker = binding.as_ref().is_some_and(|b| b.resource.is_some())
+            && el.bpmn_child("script").is_none();
+        let script = (kind == TaskKind::Script && !worker)
             .then(|| self.script(el, owner, strict))
             .flatten();
         let message = matches!(kind, TaskKind::Send | TaskKind::Receive)

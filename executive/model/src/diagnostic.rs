@@ -169,8 +169,7 @@ impl Sink {
         message: String,
     ) -> &mut Diagnostic {
         self.bent.push(self.items.len());
-        self.push(Severity::Warning, code, offset, element, message)
-            .constraint(rule)
+        self.noted(code, rule, offset, element, message)
     }
 
     /// A rule that binds executable processes only, bent in a descriptive one: a warning naming

@@ -528,6 +528,48 @@ fn timer_values_are_iso_text_quoted_constants_or_expressions() {
 }
 
 #[test]
+fn camunda8_job_worker_scripts_and_decisions_are_dispatched_by_resource() {
+    let g = ok(&doc(
+        "",
+        r#"<bpmn:startEvent id="s"/><bpmn:scriptTask id="x"><bpmn:extensionElements><zeebe:taskDefinition type="render"/></bpmn:extensionElements></bpmn:scriptTask>
+        <bpmn:businessRuleTask id="y"><bpmn:extensionElements><zeebe:calledDecision decisionId="approve" resultVariable="ok"/></bpmn:extensionElements></bpmn:businessRuleTask><bpmn:endEvent id="e"/>
+        <bpmn:sequenceFlow id="f1" sourceRef="s" targetRef="x"/><bpmn:sequenceFlow id="f2" sourceRef="x" targetRef="y"/><bpmn:sequenceFlow id="f3" sourceRef="y" targetRef="e"/>"#,
+    ));
+    for (id, resource) in [("x", "render"), ("y", "approve")] {
+        let NodeKind::Task(t) = kind(&g, id) else {
+            panic!("{id} is not a task")
+        };
+        assert_eq!(
+            t.binding.as_ref().and_then(|b| b.resource.as_deref()),
+            Some(resource)
+        );
+    }
+}
+
+#[test]
+fn camunda7_connectors_maps_and_lists_are_read() {
+    let g = ok(&around(
+        r#"<bpmn:serviceTask id="x"><bpmn:extensionElements><camunda:connector><camunda:inputOutput>
+          <camunda:inputParameter name="headers"><camunda:map><camunda:entry key="Accept">application/json</camunda:entry><camunda:entry key="n">${count}</camunda:entry></camunda:map></camunda:inputParameter>
+          <camunda:inputParameter name="ids"><camunda:list><camunda:value>a</camunda:value><camunda:value>${b}</camunda:value></camunda:list></camunda:inputParameter>
+        </camunda:inputOutput><camunda:connectorId>http-connector</camunda:connectorId></camunda:connector></bpmn:extensionElements></bpmn:serviceTask>"#,
+    ));
+    let NodeKind::Task(t) = kind(&g, "x") else {
+        panic!("not a task")
+    };
+    let b = t.binding.as_ref().expect("binding");
+    assert_eq!(b.resource.as_deref(), Some("http-connector"));
+    let texts: Vec<&str> = b.inputs.iter().map(|i| i.source.text.as_str()).collect();
+    assert_eq!(
+        texts,
+        [
+            r#"{"Accept": "application/json", "n": (count)}"#,
+            r#"["a", (b)]"#
+        ]
+    );
+}
+
+#[test]
 fn camunda8_script_tasks_are_one_feel_expression_and_its_variable() {
     let xml = around(
         r#"<bpmn:scriptTask id="x"><bpmn:extensionElements><zeebe:script expression="=count" resultVariable="n"/></bpmn:extensionElements></bpmn:scriptTask>"#,
