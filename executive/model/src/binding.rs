@@ -31,6 +31,8 @@ pub enum Dialect {
     Zeebe,
     /// Camunda 7 (`camunda:`).
     Camunda7,
+    /// SpiffWorkflow (`spiffworkflow:`).
+    Spiff,
 }
 
 /// A declared field type of a goal, result or form field.
@@ -202,6 +204,9 @@ impl Reader<'_> {
         if let Some(b) = self.read_camunda(el) {
             found.push(b);
         }
+        if let Some(b) = self.read_spiff(el) {
+            found.push(b);
+        }
         if found.len() > 1 {
             self.problem(el.offset, "conflicting-bindings", "the task carries bindings in more than one dialect (trace, zeebe, camunda); keep one".to_owned());
         }
@@ -328,6 +333,66 @@ impl Reader<'_> {
                     relevant = true;
                     b.all_in = z.attr("propagateAllParentVariables") != Some("false");
                     b.all_out = z.attr("propagateAllChildVariables") != Some("false");
+                }
+                _ => {}
+            }
+        }
+        relevant.then_some(b)
+    }
+
+    /// SpiffWorkflow: a service task names its operator and parameters
+    /// (`spiffworkflow:serviceTaskOperator id=… / parameters / parameter id value`, values in the
+    /// process's expression language), a business rule task its decision
+    /// (`spiffworkflow:calledDecisionId`).
+    fn read_spiff(&mut self, el: &Element) -> Option<TaskBinding> {
+        let mut b = TaskBinding::new(Dialect::Spiff);
+        let mut relevant = false;
+        for ext in el.extensions().filter(|e| e.ns == Ns::Spiff) {
+            match ext.name.as_str() {
+                "serviceTaskOperator" => {
+                    relevant = true;
+                    b.resource = ext.attr("id").map(str::to_owned);
+                    let params = ext
+                        .children
+                        .iter()
+                        .filter(|c| c.name == "parameters")
+                        .flat_map(|p| p.children.iter())
+                        .filter(|p| p.ns == Ns::Spiff && p.name == "parameter");
+                    for p in params {
+                        let (Some(target), Some(value)) = (p.attr("id"), p.attr("value")) else {
+                            self.problem(
+                                p.offset,
+                                "bad-binding",
+                                "spiffworkflow:parameter needs id and value".to_owned(),
+                            );
+                            continue;
+                        };
+                        let what = format!("spiffworkflow:parameter {target}");
+                        if let Some(source) = self.expr(p.offset, value, &what) {
+                            b.inputs.push(InputMapping {
+                                target: target.to_owned(),
+                                source,
+                                ty: None,
+                            });
+                        }
+                    }
+                }
+                "calledDecisionId" => {
+                    relevant = true;
+                    b.resource = Some(ext.trimmed_text().to_owned());
+                }
+                // Behaviour TRACE would otherwise drop without a word.
+                "preScript" | "postScript" if !ext.trimmed_text().is_empty() => {
+                    let when = if ext.name == "preScript" {
+                        "before"
+                    } else {
+                        "after"
+                    };
+                    self.problem(
+                        ext.offset,
+                        "unevaluated-language",
+                        format!("spiffworkflow:{} is a Python script SpiffWorkflow runs {when} the task, which TRACE does not run", ext.name),
+                    );
                 }
                 _ => {}
             }

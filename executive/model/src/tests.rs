@@ -6,6 +6,7 @@ const HEAD: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
 <bpmn:definitions xmlns:bpmn="http://www.omg.org/spec/BPMN/20100524/MODEL"
   xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance" xmlns:trace="urn:trace:bpmn:1.0"
   xmlns:zeebe="http://camunda.org/schema/zeebe/1.0" xmlns:camunda="http://camunda.org/schema/1.0/bpmn"
+  xmlns:spiffworkflow="http://spiffworkflow.org/bpmn/schema/1.0/core"
   id="d" targetNamespace="urn:test">"#;
 
 /// A document with `globals` at definitions level and `body` inside process `p`.
@@ -567,6 +568,34 @@ fn camunda7_connectors_maps_and_lists_are_read() {
             r#"["a", (b)]"#
         ]
     );
+}
+
+#[test]
+fn spiffworkflow_operators_and_decisions_are_resources_and_its_scripts_are_named() {
+    let xml = around(
+        r#"<bpmn:serviceTask id="x"><bpmn:extensionElements><spiffworkflow:serviceTaskOperator id="http/GetRequest"><spiffworkflow:parameters>
+          <spiffworkflow:parameter id="url" type="str" value="'https://example.org'"/><spiffworkflow:parameter id="retries" type="int" value="4"/>
+        </spiffworkflow:parameters></spiffworkflow:serviceTaskOperator></bpmn:extensionElements></bpmn:serviceTask>"#,
+    );
+    let g = ok(&xml);
+    let NodeKind::Task(t) = kind(&g, "x") else {
+        panic!("not a task")
+    };
+    let b = t.binding.as_ref().expect("binding");
+    assert_eq!(b.resource.as_deref(), Some("http/GetRequest"));
+    assert_eq!(
+        b.inputs
+            .iter()
+            .map(|i| i.target.as_str())
+            .collect::<Vec<_>>(),
+        ["url", "retries"]
+    );
+    // A Python pre-script would be dropped silently: it is named instead.
+    let with_script = xml.replace(
+        "</spiffworkflow:serviceTaskOperator>",
+        "</spiffworkflow:serviceTaskOperator><spiffworkflow:preScript>x = 1</spiffworkflow:preScript>",
+    );
+    assert_eq!(errors(&with_script), ["unevaluated-language"]);
 }
 
 #[test]

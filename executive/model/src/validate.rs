@@ -667,9 +667,15 @@ impl Checker<'_> {
         match t.kind {
             TaskKind::Service | TaskKind::BusinessRule | TaskKind::Send => {
                 let resource = t.binding.as_ref().and_then(|b| b.resource.as_deref());
-                if resource.is_none_or(str::is_empty)
-                    && !(t.kind == TaskKind::Send && t.message.is_some())
-                {
+                // A send task with a message, or drawn with a message flow, sends it.
+                let sends = t.kind == TaskKind::Send
+                    && (t.message.is_some()
+                        || self
+                            .g
+                            .collaborations
+                            .iter()
+                            .any(|c| c.message_flows.iter().any(|f| f.source == node.id)));
+                if resource.is_none_or(str::is_empty) && !sends {
                     let msg = format!(
                         "{} `{}` has no resource name: add <trace:task resource=\"…\"> (or zeebe:taskDefinition type, or camunda:topic) so a connector can run it",
                         t.kind.element_name(),

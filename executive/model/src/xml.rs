@@ -44,6 +44,7 @@ pub(crate) enum Ns {
     Di,
     Camunda,
     Zeebe,
+    Spiff,
     Trace,
     Xsi,
     Xml,
@@ -63,6 +64,8 @@ pub const TRACE_NS: &str = "urn:trace:bpmn:1.0";
 pub const ZEEBE_NS: &str = "http://camunda.org/schema/zeebe/1.0";
 /// URI of the Camunda 7 extension namespace.
 pub const CAMUNDA_NS: &str = "http://camunda.org/schema/1.0/bpmn";
+/// URI of SpiffWorkflow's extension namespace.
+pub const SPIFF_NS: &str = "http://spiffworkflow.org/bpmn/schema/1.0/core";
 
 impl Ns {
     fn from_uri(uri: &str) -> Ns {
@@ -73,6 +76,7 @@ impl Ns {
             "http://www.omg.org/spec/DD/20100524/DI" => Ns::Di,
             CAMUNDA_NS => Ns::Camunda,
             ZEEBE_NS => Ns::Zeebe,
+            SPIFF_NS => Ns::Spiff,
             TRACE_NS => Ns::Trace,
             "http://www.w3.org/2001/XMLSchema-instance" => Ns::Xsi,
             "http://www.w3.org/XML/1998/namespace" => Ns::Xml,
