@@ -29,7 +29,7 @@ pub struct Game {
 pub struct Engine {
     graph: Arc<ProcessGraph>,
     state: State,
-    reach: BTreeMap<(NodeId, NodeId), bool>,
+    reach: BTreeMap<(NodeId, NodeId, bool), Vec<executive_model::FlowId>>,
     trace_moves: bool,
     game: Option<Game>,
 }

@@ -1098,10 +1098,19 @@ impl Run<'_> {
         let Some(sc) = self.s.scopes.get(&scope) else {
             return;
         };
-        let (owner, handlers) = (sc.owner, self.handlers(&sc.compensable, None));
+        let (owner, mut handlers) = (sc.owner, self.handlers(&sc.compensable, None));
         let Some(owner) = owner else {
             return self.incident(t, "a cancel end event outside a transaction".to_owned());
         };
+        // A compensation throw inside the transaction may be running: its handler is cancelled
+        // with the rest, but the handlers it had not started yet still have to run (their
+        // activities completed before anything now in `compensable`).
+        for o in self.tokens_in(scope) {
+            if let Some(run) = self.s.tokens.get(&o).and_then(|x| x.compensating.as_ref()) {
+                handlers.extend(run.rest.iter().cloned());
+            }
+        }
+        let end_node = self.s.tokens[&t].node;
         let onode = self.s.tokens[&owner].node;
         let parent = self.s.tokens[&owner].scope;
         let boundary = g.node(onode).boundaries.iter().copied().find(|b| {
@@ -1130,8 +1139,9 @@ impl Run<'_> {
             );
         }
         self.withdraw(owner);
-        let Some(b) = boundary else { return };
-        let waiter = self.spawn(parent, b, None);
+        // Without a cancel boundary the transaction still rolls back; its path then ends (the
+        // waiter stands on the cancel end event, which has no outgoing flow).
+        let waiter = self.spawn(parent, boundary.unwrap_or(end_node), None);
         self.run_handlers(waiter, parent, handlers);
     }
 

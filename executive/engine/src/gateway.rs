@@ -206,14 +206,20 @@ impl Run<'_> {
             return false;
         };
         let waiting = self.joining(t);
-        let pending = self.can_arrive(scope, node, &waiting);
+        // Incoming flows holding a token (§13.4.3: a token that can also reach one of them
+        // belongs to a later activation and is not waited for).
+        let filled: BTreeSet<FlowId> = waiting
+            .iter()
+            .filter_map(|o| self.s.tokens[o].via)
+            .collect();
+        let pending = self.can_arrive(scope, node, &waiting, &filled);
         if gw.kind == GatewayKind::Complex {
             if self.s.fired_complex.contains(&(scope, node)) {
                 // The rest of a wave that already activated the gateway is absorbed.
                 for o in waiting {
                     self.consume(o);
                 }
-                if !self.can_arrive(scope, node, &[]) {
+                if !self.can_arrive(scope, node, &[], &BTreeSet::new()) {
                     self.s.fired_complex.remove(&(scope, node));
                 }
                 return true;
@@ -270,45 +276,63 @@ impl Run<'_> {
         true
     }
 
-    /// Whether a token of `scope` other than `except` can still reach `join`.
-    fn can_arrive(&mut self, scope: crate::io::ScopeId, join: NodeId, except: &[TokenId]) -> bool {
+    /// Whether a token of `scope` other than `except` can still arrive at `join` on an empty
+    /// incoming flow (one not in `filled`) while it cannot reach an occupied one (§13.4.3),
+    /// paths not passing through `join`. A token at `join` itself (not waiting) always counts.
+    fn can_arrive(
+        &mut self,
+        scope: crate::io::ScopeId,
+        join: NodeId,
+        except: &[TokenId],
+        filled: &BTreeSet<FlowId>,
+    ) -> bool {
         let others: BTreeSet<NodeId> = self
             .tokens_in(scope)
             .into_iter()
             .filter(|o| !except.contains(o))
             .map(|o| self.s.tokens[&o].node)
             .collect();
-        others
-            .into_iter()
-            .any(|from| from == join || self.reaches(from, join))
+        others.into_iter().any(|from| {
+            if from == join {
+                return true;
+            }
+            // It may still bring a token to an empty flow (boundary events included: they can
+            // fire while the activity runs), and no path of sequence flows leads it to an
+            // occupied one (§13.4.3 counts only sequence flows for that exemption).
+            let may = self.incoming_reached(from, join, true);
+            let along_flows = self.incoming_reached(from, join, false);
+            may.iter().any(|f| !filled.contains(f))
+                && !along_flows.iter().any(|f| filled.contains(f))
+        })
     }
 
-    /// Whether `to` is reachable from `from` along sequence flows (and boundary events).
-    fn reaches(&mut self, from: NodeId, to: NodeId) -> bool {
-        if let Some(&r) = self.reach.get(&(from, to)) {
-            return r;
+    /// The incoming flows of `join` a token at `from` can reach along sequence flows and links
+    /// (and, with `boundaries`, through the boundary events of the activities on the way)
+    /// without passing through `join`.
+    fn incoming_reached(&mut self, from: NodeId, join: NodeId, boundaries: bool) -> Vec<FlowId> {
+        if let Some(r) = self.reach.get(&(from, join, boundaries)) {
+            return r.clone();
         }
         let g = self.g;
         let mut seen = BTreeSet::new();
         let mut stack = vec![from];
-        let mut found = false;
+        let mut found = BTreeSet::new();
         while let Some(n) = stack.pop() {
-            if !seen.insert(n) {
+            if n == join || !seen.insert(n) {
                 continue;
             }
             let node = g.node(n);
             for &f in &node.outgoing {
                 let target = g.flow(f).target;
-                if target == to {
-                    found = true;
-                    break;
+                if target == join {
+                    found.insert(f);
+                } else {
+                    stack.push(target);
                 }
-                stack.push(target);
             }
-            if found {
-                break;
+            if boundaries {
+                stack.extend(node.boundaries.iter().copied());
             }
-            stack.extend(node.boundaries.iter().copied());
             // A link throw continues at the link catch events of its name.
             if let NodeKind::Throw(defs) = &node.kind {
                 for d in defs {
@@ -316,20 +340,15 @@ impl Run<'_> {
                         for &c in g.scope_nodes(node.scope) {
                             if matches!(&g.node(c).kind, NodeKind::Catch(k) if k.triggers.iter().any(|x| matches!(x, executive_model::EventDefinition::Link(l) if l == name)))
                             {
-                                if c == to {
-                                    found = true;
-                                }
                                 stack.push(c);
                             }
                         }
                     }
                 }
             }
-            if found {
-                break;
-            }
         }
-        self.reach.insert((from, to), found);
+        let found: Vec<FlowId> = found.into_iter().collect();
+        self.reach.insert((from, join, boundaries), found.clone());
         found
     }
 }

@@ -27,8 +27,9 @@ pub(crate) struct Run<'a> {
     pub(crate) deferred: Vec<TokenId>,
     /// Deferred throwers now due to throw.
     pub(crate) throw_now: std::collections::BTreeSet<TokenId>,
-    /// Reachability between nodes, memoised (derived from the graph only, not state).
-    pub(crate) reach: &'a mut std::collections::BTreeMap<(NodeId, NodeId), bool>,
+    /// The incoming flows of a join reachable from a node, memoised (derived from the graph
+    /// only, not state).
+    pub(crate) reach: &'a mut std::collections::BTreeMap<(NodeId, NodeId, bool), Vec<FlowId>>,
 }
 
 /// Conditional events re-evaluated this many rounds in one step at most (a condition that keeps

@@ -579,6 +579,92 @@ fn a_transaction_retried_after_a_cancel_compensates_each_attempt_once() {
     assert_eq!(keys_of(&d, "cA").len(), 2);
 }
 
+/// §10.3.5, §13.5.6 (the specification does not say what happens without a cancel boundary
+/// event): the transaction is still rolled back (its completed activities compensated), then
+/// its path ends there; the instance completes once no token is left. It must not be left
+/// running with no token and nothing to wait for.
+#[test]
+fn a_cancel_without_a_cancel_boundary_still_compensates_and_the_path_ends() {
+    let inner = [
+        flow("t0", "ts", "A"),
+        task("A", "t0", "t1"),
+        compensated_by("A", "cA"),
+        flow("t1", "A", "tc"),
+        cancel_end("tc"),
+    ]
+    .concat();
+    let mut d = Driver::new(&process(
+        &[
+            flow("f0", "s", "T"),
+            format!(r#"<transaction id="T"><startEvent id="ts"/>{inner}</transaction>"#),
+            flow("ft", "T", "e"),
+            end("e"),
+        ]
+        .concat(),
+    ));
+    assert_eq!(d.start(&[]), ["dispatch A"]);
+    assert_eq!(d.complete("A", &[]), ["dispatch cA"]);
+    assert_eq!(d.complete("cA", &[]), ["completed"]);
+}
+
+/// §10.3.5, §13.5.3: cancelling the transaction withdraws it, so its own interrupting boundary
+/// timer is disarmed at once (it cannot fire during the compensation; its late firing is
+/// refused), while the token a non-interrupting boundary of the transaction produced before
+/// runs outside it and is not affected.
+#[test]
+fn cancel_disarms_the_transactions_own_timers_but_not_what_its_boundaries_started() {
+    let inner = [
+        flow("t0", "ts", "A"),
+        task("A", "t0", "t1"),
+        compensated_by("A", "cA"),
+        flow("t1", "A", "W"),
+        task("W", "t1", "t2"),
+        flow("t2", "W", "tc"),
+        cancel_end("tc"),
+    ]
+    .concat();
+    let timer = |id: &str, interrupting: bool, duration: &str| {
+        format!(
+            r#"<boundaryEvent id="{id}" attachedToRef="T" cancelActivity="{interrupting}"><timerEventDefinition><timeDuration xsi:type="tFormalExpression">{duration}</timeDuration></timerEventDefinition></boundaryEvent>"#
+        )
+    };
+    let mut d = Driver::new(&process(
+        &[
+            flow("f0", "s", "T"),
+            transaction(&inner, "e", "ea"),
+            end("e"),
+            timer("nT", false, "PT1S"),
+            flow("n0", "nT", "N"),
+            task("N", "n0", "n1"),
+            flow("n1", "N", "eN"),
+            end("eN"),
+            timer("iT", true, "PT1H"),
+            flow("i0", "iT", "eI"),
+            end("eI"),
+        ]
+        .concat(),
+    ));
+    let out = d.start(&[]);
+    assert_eq!(
+        sorted(out.clone()),
+        ["dispatch A", "timer 1000", "timer 3600000"]
+    );
+    let timers: Vec<&String> = out.iter().filter(|a| a.starts_with("timer")).collect();
+    let short = timers
+        .iter()
+        .position(|a| *a == "timer 1000")
+        .expect("armed");
+    assert_eq!(d.fire(short, 1000), ["dispatch N"]);
+    assert_eq!(d.complete("A", &[]), ["dispatch W"]);
+    assert_eq!(d.complete("W", &[]), ["untimer", "dispatch cA"]);
+    let late = d.timers[1 - short];
+    let r = d.step(Event::TimerFired { timer: late });
+    assert!(matches!(r, Err(Rejected::UnknownTimer(_))), "{r:?}");
+    assert_eq!(d.complete("N", &[]), none());
+    assert_eq!(d.complete("cA", &[]), ["dispatch after"]);
+    assert_eq!(d.complete("after", &[]), ["completed"]);
+}
+
 fn sorted(mut v: Vec<String>) -> Vec<String> {
     v.sort();
     v
