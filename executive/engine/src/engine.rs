@@ -295,7 +295,10 @@ fn apply(run: &mut Run<'_>, event: Event) {
                 return run.complete_activity(t);
             }
             match run.apply_outputs(t, &output) {
-                Ok(()) => run.complete_activity(t),
+                Ok(()) => {
+                    run.connector_sent(t);
+                    run.complete_activity(t);
+                }
                 Err(e) => {
                     let label = run.g.node(run.s.tokens[&t].node).label().to_owned();
                     run.task_error(t, "TYPE_MISMATCH", &format!("{label}: {e}"));
@@ -382,6 +385,7 @@ fn apply(run: &mut Run<'_>, event: Event) {
                 }
             }
             run.s.data.insert(key, value);
+            run.start_conditions();
         }
         Event::WaitTriggered { wait } => {
             let what = match run.s.waits.get(&wait).map(|w| &w.on) {

@@ -494,7 +494,7 @@ impl Run<'_> {
             EventDefinition::Message(m) => {
                 let name = self.message_name(*m);
                 let payload = self.visible_vars(scope);
-                self.send_message(instance, Some(node), name, payload);
+                self.send_message(instance, Some(node), scope, name, payload);
             }
             // A token game's anonymous signal goes to the nearest catcher up the scope chain,
             // like an escalation; with none there, it is broadcast.
@@ -787,12 +787,15 @@ impl Run<'_> {
         }
     }
 
-    /// Sends a message: to the first catcher waiting for it, else to a process that starts on
-    /// it, else out of the engine.
+    /// Sends a message: along the message flows drawn from its thrower if there are any, else
+    /// to the first catcher waiting for it, else to a process that starts on it; what nothing
+    /// inside takes goes out of the engine. A message with a correlation key carries the
+    /// sender's value of that key (evaluated in `scope`).
     pub(crate) fn send_message(
         &mut self,
         instance: InstanceId,
         node: Option<NodeId>,
+        scope: ScopeId,
         name: String,
         payload: Vars,
     ) {
@@ -804,20 +807,71 @@ impl Run<'_> {
                 node,
             },
         );
-        if let Some(node) = node
-            && self.along_message_flows(node, &name, &payload)
-        {
-            return;
-        }
-        if !self.deliver_message(&name, None, &payload) {
+        let correlation = self.sender_correlation(scope, &name);
+        let drawn = node.is_some_and(|n| {
+            let id = &self.g.node(n).id;
+            self.g
+                .collaborations
+                .iter()
+                .flat_map(|c| &c.message_flows)
+                .any(|m| &m.source == id)
+        });
+        let delivered = match node {
+            // Drawn message flows name the receivers: no delivery by name besides them.
+            Some(n) if drawn => self.along_message_flows(n, &name, correlation.as_ref(), &payload),
+            _ => self.deliver_message(&name, correlation.as_ref(), &payload),
+        };
+        if !delivered {
             self.out.push(Action::SendMessage { name, payload });
         }
+    }
+
+    /// The sender's value of a message's correlation key (evaluated in the sender's scope).
+    fn sender_correlation(&self, scope: ScopeId, name: &str) -> Option<Value> {
+        let key = self.g.messages.iter().find(|m| m.name == name)?;
+        let key = key.correlation_key.as_ref()?;
+        self.eval(scope, key, &mut Vars::new()).ok()
+    }
+
+    /// A send task run by a connector has sent its message: the receivers inside the engine
+    /// that its message flows point at get it now (the connector reached anything outside).
+    pub(crate) fn connector_sent(&mut self, t: TokenId) {
+        if self.game.is_some() {
+            // A token game passes messages on when the task is left.
+            return;
+        }
+        let tok = &self.s.tokens[&t];
+        let (node, scope, instance) = (tok.node, tok.scope, tok.instance);
+        let NodeKind::Task(task) = &self.g.node(node).kind else {
+            return;
+        };
+        if task.kind != executive_model::TaskKind::Send {
+            return;
+        }
+        let name = self.message_name(task.message);
+        let payload = self.visible_vars(scope);
+        self.record(
+            instance,
+            Entry::Thrown {
+                what: Trigger::Message,
+                name: name.clone(),
+                node: Some(node),
+            },
+        );
+        let correlation = self.sender_correlation(scope, &name);
+        self.along_message_flows(node, &name, correlation.as_ref(), &payload);
     }
 
     /// Delivers a message along the message flows drawn from `node` (collaborations): to the
     /// catch event, receive task or start event at the other end, or to the process of the
     /// pool it points at. False if no flow leaves `node` or nothing at their ends takes it.
-    pub(crate) fn along_message_flows(&mut self, node: NodeId, name: &str, payload: &Vars) -> bool {
+    pub(crate) fn along_message_flows(
+        &mut self,
+        node: NodeId,
+        name: &str,
+        correlation: Option<&Value>,
+        payload: &Vars,
+    ) -> bool {
         let g = self.g;
         let source = &g.node(node).id;
         let targets: Vec<String> = g
@@ -834,14 +888,27 @@ impl Run<'_> {
                     .s
                     .waits
                     .iter()
-                    .find(|(_, w)| w.node == n && matches!(w.on, On::Message(..) | On::Manual))
+                    .find(|(id, w)| {
+                        w.node == n
+                            && match w.on {
+                                On::Message(..) => self.correlates(**id, name, correlation),
+                                On::Manual => true,
+                                _ => false,
+                            }
+                    })
                     .map(|(id, _)| *id);
                 if let Some(w) = wait {
                     self.trigger(w, Trigger::Message, name.to_owned(), payload);
                     delivered = true;
-                } else if let (NodeKind::Start(_), Scope::Process(p)) =
-                    (&g.node(n).kind, g.node(n).scope)
-                {
+                } else if let (true, Scope::Process(p)) = (
+                    match &g.node(n).kind {
+                        NodeKind::Start(_) => true,
+                        // A receive task with `instantiate` and no incoming flow starts it too.
+                        NodeKind::Task(t) => t.instantiate && g.node(n).incoming.is_empty(),
+                        _ => false,
+                    },
+                    g.node(n).scope,
+                ) {
                     self.start_instance_at(p, n, payload.clone(), Trigger::Message, name);
                     delivered = true;
                 }
@@ -852,8 +919,21 @@ impl Run<'_> {
                 .find(|p| p.id == target)
                 .and_then(|p| p.process)
             {
-                let (_, root) = self.open_instance(p, payload.clone());
-                self.start_process_scope(root, p, None);
+                // The pool's process receives it at its start event for this message, else
+                // (none drawn) as a plain start.
+                let start = g.process(p).nodes.iter().copied().find(|n| {
+                    matches!(&g.node(*n).kind, NodeKind::Start(st) if st.triggers.iter().any(
+                        |d| matches!(d, EventDefinition::Message(m) if self.message_name(*m) == name)))
+                });
+                match start {
+                    Some(s) => {
+                        self.start_instance_at(p, s, payload.clone(), Trigger::Message, name);
+                    }
+                    None => {
+                        let (_, root) = self.open_instance(p, payload.clone());
+                        self.start_process_scope(root, p, None);
+                    }
+                }
                 delivered = true;
             }
         }
@@ -888,28 +968,35 @@ impl Run<'_> {
         name: &str,
         correlation: Option<&Value>,
     ) -> Option<WaitId> {
+        self.s.waits.iter().find_map(|(id, w)| match &w.on {
+            On::Message(n, _) if n == name && self.correlates(*id, name, correlation) => Some(*id),
+            _ => None,
+        })
+    }
+
+    /// Whether message subscription `w` takes a message of `name` with `correlation`: without a
+    /// correlation key or value, any; with both, when the key evaluates to the value in the
+    /// subscriber's scope.
+    fn correlates(&self, w: WaitId, name: &str, correlation: Option<&Value>) -> bool {
         let key = self
             .g
             .messages
             .iter()
             .find(|m| m.name == name)
             .and_then(|m| m.correlation_key.as_ref());
-        self.s.waits.iter().find_map(|(id, w)| match &w.on {
-            On::Message(n, _) if n == name => {
-                let ok = match (key, correlation) {
-                    (Some(k), Some(c)) => {
-                        let scope = w
-                            .token
-                            .and_then(|t| self.s.tokens.get(&t))
-                            .map_or(w.scope, |t| t.scope);
-                        self.eval(scope, k, &mut Vars::new()).is_ok_and(|v| &v == c)
-                    }
-                    _ => true,
-                };
-                ok.then_some(*id)
+        let Some(w) = self.s.waits.get(&w) else {
+            return false;
+        };
+        match (key, correlation) {
+            (Some(k), Some(c)) => {
+                let scope = w
+                    .token
+                    .and_then(|t| self.s.tokens.get(&t))
+                    .map_or(w.scope, |t| t.scope);
+                self.eval(scope, k, &mut Vars::new()).is_ok_and(|v| &v == c)
             }
-            _ => None,
-        })
+            _ => true,
+        }
     }
 
     /// Top-level start events (of executable processes) matching `pred`.

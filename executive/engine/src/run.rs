@@ -412,7 +412,7 @@ impl Run<'_> {
             TaskKind::Send => {
                 let name = self.message_name(task.message);
                 let payload = self.visible_vars(scope);
-                self.send_message(instance, Some(node), name, payload);
+                self.send_message(instance, Some(node), scope, name, payload);
                 self.complete_activity(t);
             }
             TaskKind::Service | TaskKind::BusinessRule => {
@@ -601,6 +601,12 @@ impl Run<'_> {
             });
         }
         self.drop_waits(t);
+        // The result just written may make a condition true: that event occurs now, before the
+        // token moves on (an interrupting one may withdraw this token with its scope).
+        self.conditions();
+        if !self.s.tokens.contains_key(&t) {
+            return;
+        }
         self.leave(t);
     }
 
@@ -622,7 +628,7 @@ impl Run<'_> {
         // A token game passes a message along every message flow drawn from an element
         // without a message definition of its own (message throwers send when they throw).
         if self.game.is_some() && !sends_message(&node.kind) {
-            self.along_message_flows(node_id, "", &Vars::new());
+            self.along_message_flows(node_id, "", None, &Vars::new());
             if !self.s.tokens.contains_key(&t) {
                 return;
             }
@@ -878,6 +884,47 @@ impl Run<'_> {
             }
         }
         fired
+    }
+
+    /// Conditional start events of executable top-level processes, over system data (the only
+    /// data they can read, so only `DataChanged` re-evaluates them): each one
+    /// whose condition turned true starts a new instance (§13.5.1; it must turn false and then
+    /// true again before it starts another).
+    pub(crate) fn start_conditions(&mut self) {
+        let g = self.g;
+        for (i, p) in g.processes.iter().enumerate() {
+            if !p.executable || p.imported {
+                continue;
+            }
+            for &n in &p.nodes {
+                let NodeKind::Start(st) = &g.node(n).kind else {
+                    continue;
+                };
+                for d in &st.triggers {
+                    let EventDefinition::Conditional(expr) = d else {
+                        continue;
+                    };
+                    let now =
+                        eval::condition(expr, &|k| self.s.data.get(k).cloned(), &mut Vars::new())
+                            .unwrap_or(false);
+                    let was = if now {
+                        !self.s.start_conditions.insert(n)
+                    } else {
+                        self.s.start_conditions.remove(&n)
+                    };
+                    if now && !was {
+                        let process = executive_model::ProcessId(i as u32);
+                        self.start_instance_at(
+                            process,
+                            n,
+                            Vars::new(),
+                            Trigger::Condition,
+                            &expr.source,
+                        );
+                    }
+                }
+            }
+        }
     }
 }
 

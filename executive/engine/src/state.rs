@@ -35,6 +35,10 @@ pub struct State {
     pub joining: BTreeMap<(ScopeId, NodeId), BTreeSet<TokenId>>,
     /// Complex gateways that fired and now absorb the rest of their wave, by scope.
     pub fired_complex: BTreeSet<(ScopeId, NodeId)>,
+    /// Conditional start events of top-level processes whose condition held at the last
+    /// evaluation (a new instance starts on false -> true only).
+    #[serde(default)]
+    pub start_conditions: BTreeSet<NodeId>,
 }
 
 /// One process instance.

@@ -532,3 +532,47 @@ fn external_message_interrupts_a_sub_process_through_its_boundary() {
     assert_eq!(out.expect("accepted"), ["cancel qa", "dispatch qh"]);
     assert_eq!(root_var(&d, 0, "why"), Some(Value::from("abort")));
 }
+
+// §13.3.3, §13.5.1: a message from outside goes to an instance waiting for it before it starts a
+// new one at a message start event of the same message (the spec does not order the two;
+// Camunda 7's correlation likewise looks for a waiting execution before a message start event).
+#[test]
+fn external_message_goes_to_a_waiting_instance_before_starting_a_new_one() {
+    let body = format!(
+        r#"{PING}<process id="q" isExecutable="true"><startEvent id="qs"/>{}<receiveTask id="rt" messageRef="m"/>{}<endEvent id="qe"/></process>
+        <process id="r" isExecutable="true"><startEvent id="rs"><messageEventDefinition messageRef="m"/></startEvent>{}{}{}<endEvent id="re"/></process>"#,
+        flow("g0", "qs", "rt"),
+        flow("g1", "rt", "qe"),
+        flow("h0", "rs", "ra"),
+        task("ra", "h0", "h1"),
+        flow("h1", "ra", "re"),
+    );
+    let mut d = Driver::new(&body);
+    start_process(&mut d, "q", &[]);
+    let out = message(&mut d, "ping", None, &[]);
+    assert_eq!(out.expect("accepted"), ["completed"]);
+    // Nobody waits now: the next one starts `r`.
+    let out = message(&mut d, "ping", None, &[]);
+    assert_eq!(out.expect("accepted"), ["dispatch ra"]);
+}
+
+// §13.3.3: "the Message is sent and the Send Task completes". A send task run by a connector
+// (a `trace:task` binding) sends when its work is done: the receiver its message flow points
+// at gets the message when the connector reports completion.
+#[test]
+fn send_task_run_by_a_connector_delivers_along_its_message_flow_when_it_completes() {
+    let sender = format!(
+        r#"<process id="p" isExecutable="true"><startEvent id="s"/>{}<sendTask id="st" messageRef="m"><extensionElements><trace:task resource="radio.send"/></extensionElements></sendTask>{}<endEvent id="e"/></process>"#,
+        flow("f0", "s", "st"),
+        flow("f1", "st", "e"),
+    );
+    let mut d = Driver::new(&format!(
+        "{PING}{}{sender}{}",
+        collab(&[("A", Some("p")), ("B", Some("q"))], &[("st", "rt")]),
+        receiver_task()
+    ));
+    start_process(&mut d, "q", &[]);
+    assert_eq!(d.start(&[]), ["dispatch st"]);
+    let out = d.complete("st", &[]);
+    assert!(out.contains(&"dispatch qa".to_owned()), "{out:?}");
+}
