@@ -203,7 +203,8 @@ impl Run<'_> {
         let tok = &self.s.tokens[&t];
         let (node, scope) = (tok.node, tok.scope);
         let NodeKind::Gateway(gw) = &g.node(node).kind else {
-            return false;
+            // An activity waiting for an InputSet (§13.3.2).
+            return self.retry_activation(t);
         };
         let waiting = self.joining(t);
         // Incoming flows holding a token (§13.4.3: a token that can also reach one of them

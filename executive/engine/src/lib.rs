@@ -21,6 +21,7 @@
 //!
 #![doc = include_str!("../../../docs/engine-semantics.md")]
 
+mod data;
 mod engine;
 mod eval;
 mod events;

@@ -43,7 +43,10 @@ impl Run<'_> {
                     // Exploring without data: one body.
                     state.total = Some(1);
                 } else if let Some(c) = &mi.input_collection {
-                    match self.eval(scope, c, &mut Vars::new()) {
+                    // The collection may be a data input of the activity (§10.3.8).
+                    let inputs = self.loop_data_inputs(t);
+                    let lookup = |n: &str| inputs.get(n).cloned().or_else(|| self.lookup(scope, n));
+                    match crate::eval::eval(c, &lookup, &mut Vars::new()) {
                         Ok(Value::List(items)) => {
                             state.total = Some(items.len() as u64);
                             state.items = Some(items);
@@ -148,6 +151,15 @@ impl Run<'_> {
                 .clone()
                 .unwrap_or_else(|| "item".to_owned());
             vars.insert(name, item);
+        }
+        // The output item is the instance's own: what the body writes to it stays there.
+        if let Some(Looping::MultiInstance(mi)) = self.g.node(node).looping.as_ref()
+            && let Some(e) = &mi.output_element
+            && e.variables.len() == 1
+            && e.variables[0] == e.source.trim()
+        {
+            vars.entry(e.source.trim().to_owned())
+                .or_insert(Value::Null);
         }
         let scope = ScopeId(self.mint());
         self.s.scopes.insert(

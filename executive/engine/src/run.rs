@@ -124,6 +124,10 @@ impl Run<'_> {
             if matches!(sc.kind, ScopeKind::Process(_)) {
                 break;
             }
+            if self.declares(&sc.kind, name) {
+                // A data object of this sub-process instance that has no value yet.
+                return None;
+            }
             cur = sc.parent;
         }
         self.s.data.get(name).cloned()
@@ -137,7 +141,7 @@ impl Run<'_> {
                 return;
             };
             let top = matches!(sc.kind, ScopeKind::Process(_)) || sc.parent.is_none();
-            if sc.vars.contains_key(name) || top {
+            if sc.vars.contains_key(name) || top || self.declares(&sc.kind, name) {
                 break;
             }
             match sc.parent {
@@ -212,15 +216,10 @@ impl Run<'_> {
                 if node.start_quantity > 1 && !body && !self.quantity_reached(t) {
                     return;
                 }
-                if node.looping.is_some() && !body {
+                if !body {
                     self.subscribe_boundaries(t);
-                    self.start_loop(t);
-                } else {
-                    if !body {
-                        self.subscribe_boundaries(t);
-                    }
-                    self.start_activity(t);
                 }
+                self.activate(t);
             }
         }
     }
@@ -288,7 +287,16 @@ impl Run<'_> {
         binding: Option<&executive_model::binding::TaskBinding>,
     ) -> Vars {
         let mut vars = Vars::new();
-        let all = binding.is_none_or(|b| b.all_in || b.inputs.is_empty());
+        // Declared data inputs are what the called process gets (§10.3.6).
+        let data = match self.task_data_inputs(t) {
+            Ok(d) => d,
+            Err(e) => {
+                self.incident(t, e);
+                None
+            }
+        };
+        let all = binding.is_some_and(|b| b.all_in)
+            || (data.is_none() && binding.is_none_or(|b| b.inputs.is_empty()));
         if all {
             let mut cur = Some(scope);
             let mut chain = Vec::new();
@@ -306,6 +314,7 @@ impl Run<'_> {
                 vars.extend(self.s.scopes[&id].vars.clone());
             }
         }
+        vars.extend(data.unwrap_or_default());
         if let Some(b) = binding {
             for m in &b.inputs {
                 match self.eval(scope, &m.source, &mut Vars::new()) {
@@ -349,6 +358,10 @@ impl Run<'_> {
             TaskKind::User => {
                 // The operator sees the visible variables and the task's declared inputs.
                 let mut context = self.visible_vars(scope);
+                match self.task_data_inputs(t) {
+                    Ok(d) => context.extend(d.unwrap_or_default()),
+                    Err(e) => return self.incident(t, e),
+                }
                 if let Some(b) = &task.binding {
                     match self.task_inputs(t, b, context) {
                         Some(c) => context = c,
@@ -476,11 +489,20 @@ impl Run<'_> {
         let (scope, node, instance) = (tok.scope, tok.node, tok.instance);
         // A `trace:task` declares its goal exactly (no inputs: an empty goal); the other
         // dialects pass every visible variable when they map none, as their engines do.
-        let request = match binding.filter(|b| {
-            !b.inputs.is_empty() || b.dialect == executive_model::binding::Dialect::Trace
-        }) {
-            None => self.visible_vars(scope),
-            Some(b) => match self.task_inputs(t, b, Vars::new()) {
+        // A declared ioSpecification is an exact interface too: its data inputs, by name.
+        let data = match self.task_data_inputs(t) {
+            Ok(d) => d,
+            Err(e) => return self.incident(t, e),
+        };
+        let request = match (
+            binding.filter(|b| {
+                !b.inputs.is_empty() || b.dialect == executive_model::binding::Dialect::Trace
+            }),
+            data,
+        ) {
+            (None, None) => self.visible_vars(scope),
+            (None, Some(d)) => d,
+            (Some(b), d) => match self.task_inputs(t, b, d.unwrap_or_default()) {
                 Some(request) => request,
                 None => return,
             },
@@ -559,7 +581,10 @@ impl Run<'_> {
             },
             _ => None,
         };
+        let data_out = self.has_data_outputs(node);
         match binding.filter(|b| !b.outputs.is_empty()) {
+            // Declared data outputs: only they come back, through their associations.
+            None if data_out => {}
             None => {
                 for (k, v) in output {
                     self.set_var(scope, k, v.clone());
@@ -576,6 +601,9 @@ impl Run<'_> {
                     self.set_var(scope, &m.target, v);
                 }
             }
+        }
+        if data_out {
+            self.copy_outputs(node, scope, output)?;
         }
         Ok(())
     }

@@ -155,8 +155,9 @@ impl Run<'_> {
                     NodeKind::CallActivity(c) => c.binding.as_ref(),
                     _ => None,
                 };
-                if let Some(b) = binding.filter(|b| !b.outputs.is_empty() || b.all_out) {
-                    if b.all_out {
+                let declared = binding.is_some_and(|b| !b.outputs.is_empty() || b.all_out);
+                if declared || self.has_data_outputs(node) {
+                    if binding.is_some_and(|b| b.all_out) {
                         let caller = self.s.tokens[&owner].scope;
                         for (k, v) in &out {
                             self.set_var(caller, k, v.clone());

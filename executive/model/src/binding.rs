@@ -191,13 +191,15 @@ impl Reader<'_> {
         t
     }
 
-    /// Reads every binding on `el` (a task or call activity). Several dialects on one element
-    /// are refused, since which one wins would be a guess.
+    /// Reads every binding on `el` (a task or call activity). `trace:task` wins; several other
+    /// dialects on one element are refused, since which one wins would be a guess.
     pub(crate) fn read(&mut self, el: &Element) -> Option<TaskBinding> {
-        let mut found: Vec<TaskBinding> = Vec::new();
+        // Our own binding is addressed to this executive: it wins over the other engines'
+        // (a model may carry bindings for several engines).
         if let Some(b) = self.read_trace(el) {
-            found.push(b);
+            return Some(b);
         }
+        let mut found: Vec<TaskBinding> = Vec::new();
         if let Some(b) = self.read_zeebe(el) {
             found.push(b);
         }

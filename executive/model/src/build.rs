@@ -125,6 +125,9 @@ pub(crate) struct Builder<'d, 's> {
     /// Every BPMN id in the document, with the element name and offset.
     /// Ids are unique per target namespace: (namespace index, id) -> (element name, offset).
     pub(crate) all_ids: BTreeMap<(usize, &'d str), (&'d str, usize)>,
+    /// Item-aware elements (data objects and their references, properties, data stores and their
+    /// references, data inputs and outputs) by (namespace index, id).
+    data_els: BTreeMap<(usize, &'d str), &'d Element>,
     /// First offset of each document of the bundle, ascending.
     bases: Vec<usize>,
     /// Namespace index of each document (documents with equal targetNamespace share one).
@@ -189,6 +192,7 @@ pub(crate) fn build(
         global_event_defs: BTreeMap::new(),
         global_tasks: BTreeMap::new(),
         all_ids: BTreeMap::new(),
+        data_els: BTreeMap::new(),
         bases: docs.iter().map(|d| d.root.offset).collect(),
         doc_namespace: {
             let mut seen: Vec<Option<&str>> = Vec::new();
@@ -310,6 +314,9 @@ impl<'d> Builder<'d, '_> {
                         .constraint("EXT.002");
                 } else {
                     self.all_ids.insert((ns, id), (el.name.as_str(), el.offset));
+                    if DATA_ELEMENTS.contains(&el.name.as_str()) {
+                        self.data_els.insert((ns, id), el);
+                    }
                 }
                 if el.name == "linkEventDefinition" {
                     self.link_names.insert(id, el.attr("name").unwrap_or(id));
@@ -523,6 +530,7 @@ impl<'d> Builder<'d, '_> {
                     start_quantity: quantity(child.attr("startQuantity")),
                     completion_quantity: quantity(child.attr("completionQuantity")),
                     compensation_handler: None,
+                    data: None,
                     offset: child.offset,
                 });
                 self.node_src.push(NodeSource { el: child, strict });
@@ -532,7 +540,10 @@ impl<'d> Builder<'d, '_> {
                     self.g.nodes[nid.index()].kind = NodeKind::SubProcess(SubProcess {
                         kind: SubProcessKind::Embedded,
                         nodes: inner,
-                        data_objects: data_items(child, "dataObject"),
+                        data_objects: data_items(child, "dataObject")
+                            .into_iter()
+                            .chain(data_items(child, "property"))
+                            .collect(),
                     });
                 }
             } else if name == "sequenceFlow" {
@@ -973,6 +984,9 @@ impl<'d> Builder<'d, '_> {
         self.declared = self.declared_in(self.g.node(nid).scope);
         let owner = self.g.node(nid).id.clone();
         let parallel_multiple = el.attr("parallelMultiple") == Some("true");
+        if ACTIVITIES.contains(&el.name.as_str()) {
+            self.g.nodes[nid.index()].data = self.data_io(el, &owner, strict);
+        }
         let kind = match el.name.as_str() {
             "startEvent" => NodeKind::Start(StartEvent {
                 triggers: self.event_definitions(el, &owner, strict),
@@ -1137,6 +1151,135 @@ impl<'d> Builder<'d, '_> {
         self.g.nodes[nid.index()].kind = kind;
         self.looping(nid, el, &owner, strict);
         self.default_flow(nid, el, &owner);
+    }
+
+    /// The ioSpecification and data associations of activity `el` (§10.4.1).
+    fn data_io(&mut self, el: &'d Element, owner: &str, strict: bool) -> Option<Box<DataIo>> {
+        let spec = el.bpmn_child("ioSpecification");
+        let ins: Vec<&'d Element> = el.bpmn_children("dataInputAssociation").collect();
+        let outs: Vec<&'d Element> = el.bpmn_children("dataOutputAssociation").collect();
+        if spec.is_none() && ins.is_empty() && outs.is_empty() {
+            return None;
+        }
+        let params = |kind: &str| -> Vec<DataParam> {
+            spec.into_iter()
+                .flat_map(|s| s.bpmn_children(kind))
+                .map(|d| DataParam {
+                    id: d.attr("id").unwrap_or_default().to_owned(),
+                    name: item_name(d),
+                })
+                .collect()
+        };
+        let mut io = DataIo {
+            inputs: params("dataInput"),
+            outputs: params("dataOutput"),
+            ..DataIo::default()
+        };
+        let sets = |kind: &str, refs: &str, optional: &str, of: &[DataParam]| -> Vec<IoSet> {
+            spec.into_iter()
+                .flat_map(|s| s.bpmn_children(kind))
+                .map(|set| {
+                    let idx = |child: &str| -> Vec<usize> {
+                        set.bpmn_children(child)
+                            .filter_map(|r| of.iter().position(|p| p.id == local_ref(&r.text)))
+                            .collect()
+                    };
+                    IoSet {
+                        refs: idx(refs),
+                        optional: idx(optional),
+                    }
+                })
+                .collect()
+        };
+        io.input_sets = sets("inputSet", "dataInputRefs", "optionalInputRefs", &io.inputs);
+        io.output_sets = sets(
+            "outputSet",
+            "dataOutputRefs",
+            "optionalOutputRefs",
+            &io.outputs,
+        );
+        for (list, input) in [(ins, true), (outs, false)] {
+            for a in list {
+                let sources = a
+                    .bpmn_children("sourceRef")
+                    .filter_map(|r| self.data_ref(r.offset, &r.text, &io))
+                    .collect();
+                let target = a
+                    .bpmn_child("targetRef")
+                    .and_then(|r| self.data_ref(r.offset, &r.text, &io));
+                let transformation = a
+                    .bpmn_child("transformation")
+                    .and_then(|t| self.expr(strict, t, owner, "data association transformation"));
+                let mut assignments = Vec::new();
+                for asg in a.bpmn_children("assignment") {
+                    let (Some(from), Some(to)) = (asg.bpmn_child("from"), asg.bpmn_child("to"))
+                    else {
+                        continue;
+                    };
+                    if let Some(from) = self.expr(strict, from, owner, "assignment") {
+                        let to = self.data_path(to.offset, to.trimmed_text(), &io);
+                        assignments.push((from, to));
+                    }
+                }
+                let assoc = DataAssociation {
+                    sources,
+                    target,
+                    transformation,
+                    assignments,
+                };
+                if input {
+                    io.input_associations.push(assoc);
+                } else {
+                    io.output_associations.push(assoc);
+                }
+            }
+        }
+        Some(Box::new(io))
+    }
+
+    /// What the item-aware element `id` (seen from `offset`) stands for at run time.
+    fn data_ref(&self, offset: usize, id: &str, io: &DataIo) -> Option<DataRef> {
+        let id = local_ref(id);
+        if let Some(i) = io.inputs.iter().position(|p| p.id == id) {
+            return Some(DataRef::Input(i));
+        }
+        if let Some(i) = io.outputs.iter().position(|p| p.id == id) {
+            return Some(DataRef::Output(i));
+        }
+        let ns = self.doc_namespace[self.doc_of(offset)];
+        let el = *self.data_els.get(&(ns, id))?;
+        let referenced = |attr: &str| {
+            el.attr(attr)
+                .and_then(|r| self.data_els.get(&(ns, local_ref(r))))
+                .copied()
+        };
+        Some(match el.name.as_str() {
+            "dataObjectReference" => {
+                DataRef::Variable(item_name(referenced("dataObjectRef").unwrap_or(el)))
+            }
+            "dataStoreReference" => {
+                DataRef::Store(item_name(referenced("dataStoreRef").unwrap_or(el)))
+            }
+            "dataStore" => DataRef::Store(item_name(el)),
+            _ => DataRef::Variable(item_name(el)),
+        })
+    }
+
+    /// The path an assignment's `to` writes: its first part names a data input or output of the
+    /// activity, or an item-aware element, by id or name; the rest is a path inside it.
+    fn data_path(&self, offset: usize, to: &str, io: &DataIo) -> String {
+        let to = to.trim();
+        let (first, rest) = to.split_once('.').map_or((to, None), |(f, r)| (f, Some(r)));
+        let name = match self.data_ref(offset, first, io) {
+            Some(DataRef::Input(i)) => io.inputs[i].name.clone(),
+            Some(DataRef::Output(i)) => io.outputs[i].name.clone(),
+            Some(DataRef::Variable(n) | DataRef::Store(n)) => n,
+            None => first.to_owned(),
+        };
+        match rest {
+            Some(r) => format!("{name}.{r}"),
+            None => name,
+        }
     }
 
     /// A task (or global task, whose element name has lost its `global` prefix).
@@ -1353,9 +1496,19 @@ impl<'d> Builder<'d, '_> {
         let cardinality = m
             .bpmn_child("loopCardinality")
             .and_then(|c| self.expr(strict, c, owner, "loop cardinality"));
+        // A data input of the activity's ioSpecification is read by its name (§10.3.8).
+        let data_inputs = self.g.nodes[nid.index()]
+            .data
+            .as_ref()
+            .map(|d| d.inputs.clone())
+            .unwrap_or_default();
         let mut input_collection = m
             .bpmn_child("loopDataInputRef")
             .map(|r| local_ref(&r.text).to_owned())
+            .map(|r| match data_inputs.iter().find(|p| p.id == r) {
+                Some(p) => p.name.clone(),
+                None => r,
+            })
             .or_else(|| m.attr_ns(&Ns::Camunda, "collection").map(str::to_owned))
             .or_else(|| {
                 zeebe
@@ -1491,6 +1644,27 @@ impl<'d> Builder<'d, '_> {
             message_flows,
         });
     }
+}
+
+/// Elements a data association may read or write.
+const DATA_ELEMENTS: &[&str] = &[
+    "dataObject",
+    "dataObjectReference",
+    "property",
+    "dataStore",
+    "dataStoreReference",
+    "dataInput",
+    "dataOutput",
+    "inputDataItem",
+    "outputDataItem",
+];
+
+/// The variable an item-aware element stands for: its name, else its id.
+fn item_name(el: &Element) -> String {
+    el.attr("name")
+        .or(el.attr("id"))
+        .unwrap_or_default()
+        .to_owned()
 }
 
 fn data_items(el: &Element, name: &str) -> Vec<DataItem> {

@@ -61,6 +61,9 @@ const ITEM_AWARE: &[&str] = &[
     "dataStoreReference",
     "dataInput",
     "dataOutput",
+    // Multi-instance data items are data inputs and outputs (tDataInput / tDataOutput, §10.3.8).
+    "inputDataItem",
+    "outputDataItem",
 ];
 
 /// Every unqualified attribute the BPMN 2.0 schema defines, on any element.

@@ -342,8 +342,72 @@ pub struct Node {
     pub completion_quantity: u32,
     /// Compensation handler reached from this activity's compensation boundary event.
     pub compensation_handler: Option<NodeId>,
+    /// The activity's ioSpecification and data associations (§10.4), if it declares any.
+    pub data: Option<Box<DataIo>>,
     /// Byte offset of the element in the source.
     pub offset: usize,
+}
+
+/// An activity's data interface and data associations (§10.4.1, executed as §10.4.2).
+#[derive(Debug, Default)]
+pub struct DataIo {
+    /// `dataInput`s of the ioSpecification, in document order.
+    pub inputs: Vec<DataParam>,
+    /// `dataOutput`s of the ioSpecification, in document order.
+    pub outputs: Vec<DataParam>,
+    /// `inputSet`s, in document order (indexes into `inputs`).
+    pub input_sets: Vec<IoSet>,
+    /// `outputSet`s, in document order (indexes into `outputs`).
+    pub output_sets: Vec<IoSet>,
+    /// `dataInputAssociation`s, in document order.
+    pub input_associations: Vec<DataAssociation>,
+    /// `dataOutputAssociation`s, in document order.
+    pub output_associations: Vec<DataAssociation>,
+}
+
+/// A data input or output: the goal or result field of its name.
+#[derive(Debug, Clone)]
+pub struct DataParam {
+    /// BPMN id.
+    pub id: String,
+    /// Field name: the `name`, else the id.
+    pub name: String,
+}
+
+/// An input or output set.
+#[derive(Debug, Clone, Default)]
+pub struct IoSet {
+    /// The data inputs (outputs) of the set.
+    pub refs: Vec<usize>,
+    /// Those of `refs` that may be unavailable.
+    pub optional: Vec<usize>,
+}
+
+/// What a data association reads or writes.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum DataRef {
+    /// A data object, property, process data input or output, or multi-instance data item:
+    /// the variable of that name.
+    Variable(String),
+    /// A data store: the system data of that name.
+    Store(String),
+    /// A data input of the activity.
+    Input(usize),
+    /// A data output of the activity.
+    Output(usize),
+}
+
+/// A data input or output association.
+#[derive(Debug)]
+pub struct DataAssociation {
+    /// `sourceRef`s.
+    pub sources: Vec<DataRef>,
+    /// `targetRef`.
+    pub target: Option<DataRef>,
+    /// `transformation`.
+    pub transformation: Option<Expression>,
+    /// `assignment`s: `from`, and the path `to` writes (its first part names the target).
+    pub assignments: Vec<(Expression, String)>,
 }
 
 impl Node {
@@ -620,7 +684,7 @@ pub struct SubProcess {
     pub kind: SubProcessKind,
     /// Nodes directly inside it.
     pub nodes: Vec<NodeId>,
-    /// Data objects declared inside it.
+    /// Data objects and properties declared inside it: variables of each of its instances.
     pub data_objects: Vec<DataItem>,
 }
 

@@ -284,10 +284,10 @@ impl Harness {
         match a {
             Action::DispatchTask {
                 task,
+                node,
                 resource,
                 request,
-                ..
-            } => self.script(task, resource.trim(), &request),
+            } => self.script(task, node, resource.trim(), &request),
             Action::StartTimer { timer, at } => {
                 let order = self.seq * 1000 + self.later.len() as u64;
                 self.later.insert((at, order), Due::Timer(timer));
@@ -307,7 +307,26 @@ impl Harness {
     }
 
     /// The placeholder script connector of the corpus README.
-    fn script(&mut self, task: TaskKey, token: &str, request: &Vars) {
+    fn script(
+        &mut self,
+        task: TaskKey,
+        node: executive_model::NodeId,
+        token: &str,
+        request: &Vars,
+    ) {
+        // The data item the script reads or writes: the task's data input or output when it
+        // declares one (§10.4.2: associations connect it to the data object), else `data`.
+        let g = Arc::clone(self.engine.graph());
+        let io = g.node(node).data.as_deref();
+        let item = |params: Option<&Vec<executive_model::DataParam>>| {
+            params
+                .and_then(|p| p.first())
+                .map_or_else(|| "data".to_owned(), |p| p.name.clone())
+        };
+        let (data_in, data_out) = (
+            item(io.map(|io| &io.inputs)),
+            item(io.map(|io| &io.outputs)),
+        );
         let mut output = Vars::new();
         let int = |r: &Vars| match r.get("integerVariable") {
             Some(Value::Int(i)) => *i,
@@ -324,9 +343,9 @@ impl Harness {
                 output.insert("integerVariable".into(), Value::Int(int(request) + 1));
             }
             "SET_STRING_DATA" => {
-                output.insert("data".into(), Value::from("String"));
+                output.insert(data_out, Value::from("String"));
             }
-            "LOG_DATA" => self.data = request.get("data").cloned(),
+            "LOG_DATA" => self.data = request.get(&data_in).cloned(),
             "THROW_ERROR" => {
                 self.inputs.push_back(Event::TaskFailed {
                     task,

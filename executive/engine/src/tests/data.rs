@@ -447,10 +447,10 @@ fn an_unavailable_output_set_is_an_exception() {
 // ---------------------------------------------------------------------------------------------
 
 const CALLEE: &str = r#"<process id="q" isExecutable="true">
-      <ioSpecification><dataInput id="q_in" name="in"/><dataOutput id="q_out" name="out"/>
+      <ioSpecification><dataInput id="q_in" name="arg"/><dataOutput id="q_out" name="res"/>
         <inputSet><dataInputRefs>q_in</dataInputRefs></inputSet><outputSet><dataOutputRefs>q_out</dataOutputRefs></outputSet></ioSpecification>
       <startEvent id="qs"/><serviceTask id="qa" implementation="sys.qa"/>
-      <scriptTask id="qw" scriptFormat="cel"><script>out = in * 2</script></scriptTask><endEvent id="qe"/>
+      <scriptTask id="qw" scriptFormat="cel"><script>res = arg * 2</script></scriptTask><endEvent id="qe"/>
       <sequenceFlow id="q1" sourceRef="qs" targetRef="qa"/><sequenceFlow id="q2" sourceRef="qa" targetRef="qw"/>
       <sequenceFlow id="q3" sourceRef="qw" targetRef="qe"/></process>"#;
 
@@ -461,7 +461,7 @@ const CALLEE: &str = r#"<process id="q" isExecutable="true">
 #[test]
 fn call_activity_passes_data_through_its_io_specification() {
     let c = r#"<callActivity id="c" calledElement="q">
-      <ioSpecification><dataInput id="c_in" name="in"/><dataOutput id="c_out" name="out"/>
+      <ioSpecification><dataInput id="c_in" name="arg"/><dataOutput id="c_out" name="res"/>
         <inputSet><dataInputRefs>c_in</dataInputRefs></inputSet><outputSet><dataOutputRefs>c_out</dataOutputRefs></outputSet></ioSpecification>
       <dataInputAssociation><sourceRef>R_site</sourceRef><targetRef>c_in</targetRef></dataInputAssociation>
       <dataOutputAssociation><sourceRef>c_out</sourceRef><targetRef>R_measured</targetRef></dataOutputAssociation>
@@ -478,10 +478,10 @@ fn call_activity_passes_data_through_its_io_specification() {
         d.start(&[("site", int(3)), ("secret", int(9))]),
         ["dispatch qa"]
     );
-    assert_eq!(request(&d, "qa"), vars(&[("in", int(3))]));
+    assert_eq!(request(&d, "qa"), vars(&[("arg", int(3))]));
     assert_eq!(d.complete("qa", &[]), ["dispatch b"]);
     assert_eq!(request(&d, "b"), vars(&[("m", int(6))]));
-    assert_eq!(root_vars(&d).get("out"), None);
+    assert_eq!(root_vars(&d).get("res"), None);
 }
 
 /// The Camunda mappings on a call activity (`camunda:in` / `camunda:out`): only the named
@@ -489,7 +489,7 @@ fn call_activity_passes_data_through_its_io_specification() {
 #[test]
 fn call_activity_camunda_mappings_pass_only_the_named_variables() {
     let c = r#"<callActivity id="c" calledElement="q"><extensionElements>
-      <camunda:in source="site" target="in"/><camunda:out source="out" target="measured"/></extensionElements></callActivity>"#;
+      <camunda:in source="site" target="arg"/><camunda:out source="res" target="measured"/></extensionElements></callActivity>"#;
     let mut d = Driver::new(&format!(
         "{CALLEE}{}",
         line(
@@ -502,10 +502,10 @@ fn call_activity_camunda_mappings_pass_only_the_named_variables() {
         d.start(&[("site", int(3)), ("secret", int(9))]),
         ["dispatch qa"]
     );
-    assert_eq!(request(&d, "qa"), vars(&[("in", int(3))]));
+    assert_eq!(request(&d, "qa"), vars(&[("arg", int(3))]));
     assert_eq!(d.complete("qa", &[]), ["dispatch b"]);
     assert_eq!(request(&d, "b"), vars(&[("m", int(6))]));
-    assert_eq!(root_vars(&d).get("out"), None);
+    assert_eq!(root_vars(&d).get("res"), None);
 }
 
 /// Without any mapping the spec passes nothing. TRACE's documented choice (docs/engine-semantics.md,
@@ -524,11 +524,11 @@ fn call_activity_without_mappings_copies_variables_in_and_nothing_out() {
             &["c", "b"]
         )
     ));
-    assert_eq!(d.start(&[("in", int(3))]), ["dispatch qa"]);
-    assert_eq!(request(&d, "qa"), vars(&[("in", int(3))]));
+    assert_eq!(d.start(&[("arg", int(3))]), ["dispatch qa"]);
+    assert_eq!(request(&d, "qa"), vars(&[("arg", int(3))]));
     assert_eq!(d.complete("qa", &[]), ["dispatch b"]);
-    assert_eq!(root_vars(&d).get("out"), None);
-    assert_eq!(root_vars(&d).get("in"), Some(&int(3)));
+    assert_eq!(root_vars(&d).get("res"), None);
+    assert_eq!(root_vars(&d).get("arg"), Some(&int(3)));
 }
 
 /// §10.3.7, §13.3.4: a call activity that calls a global task runs that task in its place:
@@ -630,10 +630,7 @@ fn loop_data_input_ref_names_a_data_input_of_the_activity() {
         &["a"],
     ));
     let sites = Value::List(vec![int(7), int(8)]);
-    assert_eq!(
-        d.start(&[("sites", sites.clone())]),
-        ["dispatch a", "dispatch a"]
-    );
+    assert_eq!(d.start(&[("sites", sites)]), ["dispatch a", "dispatch a"]);
     let got: Vec<Option<Value>> = requests(&d, "a")
         .iter()
         .map(|r| r.get("target").cloned())
