@@ -986,6 +986,17 @@ impl<'d> Builder<'d, '_> {
         let parallel_multiple = el.attr("parallelMultiple") == Some("true");
         if ACTIVITIES.contains(&el.name.as_str()) {
             self.g.nodes[nid.index()].data = self.data_io(el, &owner, strict);
+        } else if let Some(a) = el
+            .bpmn_child("dataInputAssociation")
+            .or_else(|| el.bpmn_child("dataOutputAssociation"))
+        {
+            // An event's data associations fill or empty its message (§10.4.2): not executed
+            // yet, and never dropped without a word.
+            let msg = format!(
+                "the {} of this event is not executed by TRACE (the event's own payload is used as is)",
+                a.name
+            );
+            self.problem(strict, "unsupported", a.offset, Some(&owner), msg);
         }
         let kind = match el.name.as_str() {
             "startEvent" => NodeKind::Start(StartEvent {

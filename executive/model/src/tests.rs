@@ -599,6 +599,38 @@ fn spiffworkflow_operators_and_decisions_are_resources_and_its_scripts_are_named
 }
 
 #[test]
+fn a_trace_binding_wins_over_other_engines_bindings() {
+    // A model drawn for several engines carries a binding for each: ours is addressed to us.
+    let g = ok(&around(
+        r#"<bpmn:serviceTask id="x"><bpmn:extensionElements><trace:task resource="arm.dig"/><zeebe:taskDefinition type="dig"/></bpmn:extensionElements></bpmn:serviceTask>"#,
+    ));
+    let NodeKind::Task(t) = kind(&g, "x") else {
+        panic!("not a task")
+    };
+    assert_eq!(
+        t.binding.as_ref().and_then(|b| b.resource.as_deref()),
+        Some("arm.dig")
+    );
+    // Two other engines' bindings leave the choice to a guess: refused.
+    let two = around(
+        r#"<bpmn:serviceTask id="x" camunda:topic="dig"><bpmn:extensionElements><zeebe:taskDefinition type="dig2"/></bpmn:extensionElements></bpmn:serviceTask>"#,
+    );
+    assert!(errors(&two).contains(&"conflicting-bindings"));
+}
+
+#[test]
+fn event_data_associations_are_not_dropped_silently() {
+    let xml = around(
+        r#"<bpmn:intermediateThrowEvent id="x"><bpmn:dataInput id="di"/><bpmn:dataInputAssociation><bpmn:sourceRef>do</bpmn:sourceRef><bpmn:targetRef>di</bpmn:targetRef></bpmn:dataInputAssociation><bpmn:inputSet><bpmn:dataInputRefs>di</bpmn:dataInputRefs></bpmn:inputSet><bpmn:signalEventDefinition/></bpmn:intermediateThrowEvent><bpmn:dataObject id="do"/>"#,
+    );
+    assert!(
+        errors(&xml).contains(&"unsupported"),
+        "{:?}",
+        load(xml.as_bytes()).diagnostics
+    );
+}
+
+#[test]
 fn camunda8_script_tasks_are_one_feel_expression_and_its_variable() {
     let xml = around(
         r#"<bpmn:scriptTask id="x"><bpmn:extensionElements><zeebe:script expression="=count" resultVariable="n"/></bpmn:extensionElements></bpmn:scriptTask>"#,
