@@ -1,13 +1,15 @@
 //! Task bindings: how a task reaches a system (resource name, typed inputs and outputs).
 //!
-//! Three dialects are read into one [`TaskBinding`]:
+//! Four dialects are read into one [`TaskBinding`] (ours wins when a model carries several):
 //! - ours, namespace `urn:trace:bpmn:1.0` (prefix `trace`):
 //!   `<trace:task resource="excavation.excavate"><trace:input target="site_id" source="site.id" type="int"/>
 //!   <trace:output source="achieved_depth_cm" target="depth_cm" type="f64"/></trace:task>`;
 //! - Camunda 8: `zeebe:taskDefinition type=…` and `zeebe:ioMapping` (`zeebe:input` / `zeebe:output`);
 //! - Camunda 7: `camunda:topic` / `camunda:class` / `camunda:delegateExpression` and
 //!   `camunda:inputOutput` (`camunda:inputParameter` / `camunda:outputParameter`), and
-//!   `camunda:in` / `camunda:out` on call activities.
+//!   `camunda:in` / `camunda:out` on call activities, `camunda:connector` (its `connectorId`);
+//! - SpiffWorkflow: `spiffworkflow:serviceTaskOperator` and its parameters,
+//!   `spiffworkflow:calledDecisionId`.
 //!
 //! Inputs evaluate `source` (an expression over the instance's variables) into the goal field
 //! `target` (a dotted path such as `selected_site.site_id`). Outputs evaluate `source` (an

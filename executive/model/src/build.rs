@@ -314,7 +314,7 @@ impl<'d> Builder<'d, '_> {
                         .constraint("EXT.002");
                 } else {
                     self.all_ids.insert((ns, id), (el.name.as_str(), el.offset));
-                    if DATA_ELEMENTS.contains(&el.name.as_str()) {
+                    if crate::constraints::ITEM_AWARE.contains(&el.name.as_str()) {
                         self.data_els.insert((ns, id), el);
                     }
                 }
@@ -1656,19 +1656,6 @@ impl<'d> Builder<'d, '_> {
         });
     }
 }
-
-/// Elements a data association may read or write.
-const DATA_ELEMENTS: &[&str] = &[
-    "dataObject",
-    "dataObjectReference",
-    "property",
-    "dataStore",
-    "dataStoreReference",
-    "dataInput",
-    "dataOutput",
-    "inputDataItem",
-    "outputDataItem",
-];
 
 /// The variable an item-aware element stands for: its name, else its id.
 fn item_name(el: &Element) -> String {

@@ -52,8 +52,9 @@ fn documentary(owner: &str, name: &str) -> Option<&'static str> {
     })
 }
 
-/// What kind of element a reference must name.
-const ITEM_AWARE: &[&str] = &[
+/// Item-aware elements: what a data association may read or write, and what a reference to data
+/// must name.
+pub(crate) const ITEM_AWARE: &[&str] = &[
     "dataObject",
     "dataObjectReference",
     "property",

@@ -2,8 +2,10 @@
 //!
 //! Each check names the element and says what is wrong in a sentence. Where the check enforces
 //! one of the BPMN 2.0 static constraints that BPMNspector numbers (`EXT.nnn`), the diagnostic
-//! carries that number. Checks that only matter for execution (reachability, gateway
-//! completeness) are errors in executable processes and warnings in descriptive ones.
+//! carries that number. Three strengths: `hard` (the model is ambiguous: an error everywhere),
+//! `report` (what stops a process running: an error in an executable process, a warning in a
+//! descriptive one), and `bent` (a rule bent harmlessly, such as an implicit end or an
+//! unreachable node: a warning naming the rule, an error only when reading strictly).
 
 use std::collections::BTreeSet;
 
