@@ -408,6 +408,69 @@ mod tests {
     }
 
     #[test]
+    fn no_text_in_any_language_makes_the_reader_panic() {
+        // A deterministic walk over strings made of the characters that matter to the readers.
+        const ALPHABET: &[char] = &[
+            'a',
+            'b',
+            '1',
+            '.',
+            ' ',
+            '"',
+            '\'',
+            '\\',
+            '=',
+            '!',
+            '<',
+            '>',
+            '(',
+            ')',
+            '[',
+            ']',
+            '{',
+            '}',
+            '$',
+            '#',
+            '+',
+            '-',
+            '/',
+            '?',
+            ':',
+            ',',
+            'é',
+            '\u{10348}',
+            '\n',
+        ];
+        let languages = [
+            Language::Cel,
+            Language::Juel,
+            Language::Feel,
+            Language::XPath,
+            Language::named("groovy"),
+        ];
+        let mut state: u64 = 0x9e37_79b9_7f4a_7c15;
+        for _ in 0..3000 {
+            let mut text = String::new();
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1);
+            for _ in 0..(state >> 59) {
+                state = state
+                    .wrapping_mul(6_364_136_223_846_793_005)
+                    .wrapping_add(1);
+                text.push(ALPHABET[(state >> 33) as usize % ALPHABET.len()]);
+            }
+            for l in &languages {
+                let _ = Expression::compile(&text, l);
+                let _ = Expression::compile(&format!("={text}"), l);
+                let _ = Expression::compile(&format!("${{{text}}}"), l);
+            }
+            let _ = feel_to_cel(&text);
+            let _ = Language::named(&text).label();
+        }
+    }
+
+    #[test]
     fn syntax_errors_name_the_expression() {
         let e = Expression::parse("a < ").unwrap_err();
         assert!(e.contains("`a <`"), "{e}");
