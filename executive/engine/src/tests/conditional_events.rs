@@ -10,39 +10,24 @@ fn cond(c: &str) -> String {
     )
 }
 
-fn data(d: &mut Driver, key: &str, value: Value) -> Vec<String> {
-    d.step(Event::DataChanged {
-        key: key.into(),
-        value,
-    })
-    .expect("accepted")
-}
-
-fn no() -> Vec<String> {
-    Vec::new()
+/// The system data `level` changes to `v`.
+fn level(d: &mut Driver, v: f64) -> Vec<String> {
+    d.data("level", Value::from(v))
 }
 
 /// Process `p`: start, sub-process `sp` (start, task `a`, task `b`, end), task `z`, end; a
 /// conditional boundary `cb` on `sp` (`interrupting`, condition `c`) leads to task `h`.
 fn sub_with_boundary(interrupting: bool, c: &str) -> String {
     format!(
-        r#"<process id="p" isExecutable="true"><startEvent id="s"/>{}
-        <subProcess id="sp"><startEvent id="ss"/>{}{}{}{}{}<endEvent id="se"/></subProcess>
+        r#"<process id="p" isExecutable="true"><startEvent id="s"/>
+        <subProcess id="sp"><startEvent id="ss"/>{}<endEvent id="se"/></subProcess>
         <boundaryEvent id="cb" attachedToRef="sp" cancelActivity="{interrupting}">{}</boundaryEvent>
-        {}{}{}{}{}{}<endEvent id="e"/></process>"#,
-        flow("f0", "s", "sp"),
-        flow("i0", "ss", "a"),
-        task("a", "i0", "i1"),
-        flow("i1", "a", "b"),
-        task("b", "i1", "i2"),
-        flow("i2", "b", "se"),
+        {}{}{}<endEvent id="e"/></process>"#,
+        path("i", &["ss", "a", "b", "se"]) + &tasks(&["a", "b"]),
         cond(c),
-        flow("f1", "sp", "z"),
-        task("z", "f1", "f2"),
-        flow("f2", "z", "e"),
-        flow("f3", "cb", "h"),
-        task("h", "f3", "f4"),
-        flow("f4", "h", "e"),
+        path("f", &["s", "sp", "z", "e"]),
+        path("h", &["cb", "h", "e"]),
+        tasks(&["z", "h"]),
     )
 }
 
@@ -67,17 +52,10 @@ fn interrupting_conditional_boundary_fires_when_an_inner_task_sets_the_variable(
 fn interrupting_conditional_boundary_on_data_change_cancels_the_inner_task() {
     let mut d = Driver::new(&sub_with_boundary(true, "level &gt; 5.0"));
     assert_eq!(d.start(&[]), ["dispatch a"]);
-    assert_eq!(data(&mut d, "level", Value::from(3.0)), no());
-    assert_eq!(
-        data(&mut d, "level", Value::from(7.0)),
-        ["cancel a", "dispatch h"]
-    );
+    assert_eq!(level(&mut d, 3.0), none());
+    assert_eq!(level(&mut d, 7.0), ["cancel a", "dispatch h"]);
     // The cancelled task's late result is refused.
-    let late = d.key("a");
-    let r = d.step(Event::TaskCompleted {
-        task: late,
-        output: Vars::new(),
-    });
+    let r = d.try_complete_key(d.key("a"), &[]);
     assert!(matches!(r, Err(Rejected::UnknownTask(_))), "{r:?}");
     assert_eq!(d.complete("h", &[]), ["completed"]);
 }
@@ -94,7 +72,7 @@ fn non_interrupting_conditional_boundary_fires_once_while_the_condition_stays_tr
         d.complete("a", &[("done", Value::Bool(true))]),
         ["dispatch b", "dispatch h"]
     );
-    assert_eq!(d.complete("h", &[]), no());
+    assert_eq!(d.complete("h", &[]), none());
     assert_eq!(
         d.complete("b", &[("done", Value::Bool(true))]),
         ["dispatch z"]
@@ -108,30 +86,15 @@ fn non_interrupting_conditional_boundary_fires_once_while_the_condition_stays_tr
 fn non_interrupting_conditional_boundary_fires_on_each_false_to_true_edge_while_active() {
     let mut d = Driver::new(&sub_with_boundary(false, "level &gt; 5.0"));
     assert_eq!(d.start(&[]), ["dispatch a"]);
-    assert_eq!(data(&mut d, "level", Value::from(7.0)), ["dispatch h"]);
-    assert_eq!(data(&mut d, "level", Value::from(8.0)), no());
-    assert_eq!(data(&mut d, "level", Value::from(3.0)), no());
-    assert_eq!(data(&mut d, "level", Value::from(9.0)), ["dispatch h"]);
+    assert_eq!(level(&mut d, 7.0), ["dispatch h"]);
+    assert_eq!(level(&mut d, 8.0), none());
+    assert_eq!(level(&mut d, 3.0), none());
+    assert_eq!(level(&mut d, 9.0), ["dispatch h"]);
     assert_eq!(d.complete("a", &[]), ["dispatch b"]);
     assert_eq!(d.complete("b", &[]), ["dispatch z"]);
-    assert_eq!(data(&mut d, "level", Value::from(1.0)), no());
-    assert_eq!(data(&mut d, "level", Value::from(10.0)), no());
-    let hs: Vec<TaskKey> = d
-        .tasks
-        .iter()
-        .filter(|(n, _)| n == "h")
-        .map(|(_, k)| *k)
-        .collect();
-    assert_eq!(hs.len(), 2);
-    for k in hs {
-        let out = d
-            .step(Event::TaskCompleted {
-                task: k,
-                output: Vars::new(),
-            })
-            .expect("accepted");
-        assert_eq!(out, no());
-    }
+    assert_eq!(level(&mut d, 1.0), none());
+    assert_eq!(level(&mut d, 10.0), none());
+    assert_eq!(d.complete_every("h"), [none(), none()]);
     assert_eq!(d.complete("z", &[]), ["completed"]);
 }
 
@@ -147,7 +110,7 @@ fn conditional_boundary_already_true_when_the_sub_process_starts_fires_at_once_a
         ["dispatch a", "dispatch h"]
     );
     assert_eq!(d.complete("a", &[]), ["dispatch b"]);
-    assert_eq!(d.complete("h", &[]), no());
+    assert_eq!(d.complete("h", &[]), none());
     assert_eq!(d.complete("b", &[]), ["dispatch z"]);
 
     let mut d = Driver::new(&sub_with_boundary(true, "go == true"));
@@ -169,19 +132,15 @@ fn outer_interrupting_conditional_boundary_wins_over_an_inner_one_on_the_same_ch
     let body = sub_with_boundary(true, "level &gt; 5.0").replace(
         "</subProcess>",
         &format!(
-            r#"<boundaryEvent id="ib" attachedToRef="a">{}</boundaryEvent>{}{}{}</subProcess>"#,
+            r#"<boundaryEvent id="ib" attachedToRef="a">{}</boundaryEvent>{}{}</subProcess>"#,
             cond("level &gt; 5.0"),
-            flow("i3", "ib", "ih"),
-            task("ih", "i3", "i4"),
-            flow("i4", "ih", "se"),
+            path("ih", &["ib", "ih", "se"]),
+            task("ih", "", ""),
         ),
     );
     let mut d = Driver::new(&body);
     assert_eq!(d.start(&[]), ["dispatch a"]);
-    assert_eq!(
-        data(&mut d, "level", Value::from(7.0)),
-        ["cancel a", "dispatch h"]
-    );
+    assert_eq!(level(&mut d, 7.0), ["cancel a", "dispatch h"]);
 }
 
 /// Process `p`: start, sub-process `sp` (start, task `a`, end, and an event sub-process `esp`
@@ -189,22 +148,15 @@ fn outer_interrupting_conditional_boundary_wins_over_an_inner_one_on_the_same_ch
 /// end.
 fn sub_with_event_sub(interrupting: bool, c: &str) -> String {
     format!(
-        r#"<process id="p" isExecutable="true"><startEvent id="s"/>{}
-        <subProcess id="sp"><startEvent id="ss"/>{}{}{}<endEvent id="se"/>
-          <subProcess id="esp" triggeredByEvent="true"><startEvent id="cs" isInterrupting="{interrupting}">{}</startEvent>{}{}{}<endEvent id="ee"/></subProcess>
+        r#"<process id="p" isExecutable="true"><startEvent id="s"/>
+        <subProcess id="sp"><startEvent id="ss"/>{}<endEvent id="se"/>
+          <subProcess id="esp" triggeredByEvent="true"><startEvent id="cs" isInterrupting="{interrupting}">{}</startEvent>{}<endEvent id="ee"/></subProcess>
         </subProcess>
-        {}{}{}<endEvent id="e"/></process>"#,
-        flow("f0", "s", "sp"),
-        flow("i0", "ss", "a"),
-        task("a", "i0", "i1"),
-        flow("i1", "a", "se"),
+        {}<endEvent id="e"/></process>"#,
+        path("i", &["ss", "a", "se"]) + &task("a", "", ""),
         cond(c),
-        flow("j0", "cs", "eh"),
-        task("eh", "j0", "j1"),
-        flow("j1", "eh", "ee"),
-        flow("f1", "sp", "z"),
-        task("z", "f1", "f2"),
-        flow("f2", "z", "e"),
+        path("j", &["cs", "eh", "ee"]) + &task("eh", "", ""),
+        path("f", &["s", "sp", "z", "e"]) + &task("z", "", ""),
     )
 }
 
@@ -215,13 +167,10 @@ fn sub_with_event_sub(interrupting: bool, c: &str) -> String {
 fn interrupting_conditional_event_sub_process_inside_a_sub_process_replaces_its_content() {
     let mut d = Driver::new(&sub_with_event_sub(true, "level &gt; 5.0"));
     assert_eq!(d.start(&[]), ["dispatch a"]);
-    assert_eq!(
-        data(&mut d, "level", Value::from(7.0)),
-        ["cancel a", "dispatch eh"]
-    );
+    assert_eq!(level(&mut d, 7.0), ["cancel a", "dispatch eh"]);
     // Interrupted once: it does not fire again.
-    assert_eq!(data(&mut d, "level", Value::from(1.0)), no());
-    assert_eq!(data(&mut d, "level", Value::from(8.0)), no());
+    assert_eq!(level(&mut d, 1.0), none());
+    assert_eq!(level(&mut d, 8.0), none());
     assert_eq!(d.complete("eh", &[]), ["dispatch z"]);
     assert_eq!(d.complete("z", &[]), ["completed"]);
 }
@@ -233,34 +182,17 @@ fn interrupting_conditional_event_sub_process_inside_a_sub_process_replaces_its_
 fn non_interrupting_conditional_event_sub_process_runs_beside_on_each_edge() {
     let mut d = Driver::new(&sub_with_event_sub(false, "level &gt; 5.0"));
     assert_eq!(d.start(&[]), ["dispatch a"]);
-    assert_eq!(data(&mut d, "level", Value::from(7.0)), ["dispatch eh"]);
-    assert_eq!(data(&mut d, "level", Value::from(9.0)), no());
-    assert_eq!(data(&mut d, "level", Value::from(2.0)), no());
-    assert_eq!(data(&mut d, "level", Value::from(6.0)), ["dispatch eh"]);
-    assert_eq!(d.complete("a", &[]), no());
-    let ehs: Vec<TaskKey> = d
-        .tasks
-        .iter()
-        .filter(|(n, _)| n == "eh")
-        .map(|(_, k)| *k)
-        .collect();
-    let first = d
-        .step(Event::TaskCompleted {
-            task: ehs[0],
-            output: Vars::new(),
-        })
-        .expect("accepted");
-    assert_eq!(first, no());
-    let last = d
-        .step(Event::TaskCompleted {
-            task: ehs[1],
-            output: Vars::new(),
-        })
-        .expect("accepted");
-    assert_eq!(last, ["dispatch z"]);
+    assert_eq!(level(&mut d, 7.0), ["dispatch eh"]);
+    assert_eq!(level(&mut d, 9.0), none());
+    assert_eq!(level(&mut d, 2.0), none());
+    assert_eq!(level(&mut d, 6.0), ["dispatch eh"]);
+    assert_eq!(d.complete("a", &[]), none());
+    let ehs = d.keys_of("eh");
+    assert_eq!(d.complete_key(ehs[0], &[]), none());
+    assert_eq!(d.complete_key(ehs[1], &[]), ["dispatch z"]);
     // The event sub-process listened only while its sub-process ran.
-    assert_eq!(data(&mut d, "level", Value::from(0.0)), no());
-    assert_eq!(data(&mut d, "level", Value::from(9.0)), no());
+    assert_eq!(level(&mut d, 0.0), none());
+    assert_eq!(level(&mut d, 9.0), none());
 }
 
 // The event sub-process's condition read from a variable a task inside the sub-process writes.
@@ -305,10 +237,9 @@ fn conditional_event_sub_process_made_true_by_the_last_inner_task_still_runs() {
 /// Process `p`: start, conditional intermediate catch `c` (condition `cnd`), end.
 fn catch_process(cnd: &str) -> String {
     format!(
-        r#"<process id="p" isExecutable="true"><startEvent id="s"/>{}<intermediateCatchEvent id="c">{}</intermediateCatchEvent>{}<endEvent id="e"/></process>"#,
-        flow("f0", "s", "c"),
+        r#"<process id="p" isExecutable="true">{}<intermediateCatchEvent id="c">{}</intermediateCatchEvent></process>"#,
+        chain(&["c"]),
         cond(cnd),
-        flow("f1", "c", "e"),
     )
 }
 
@@ -321,7 +252,7 @@ fn conditional_catch_already_true_on_arrival_passes_at_once() {
     let mut d = Driver::new(&catch_process("x &gt; 0"));
     assert_eq!(d.start(&[("x", Value::Int(1))]), ["completed"]);
     let mut d = Driver::new(&catch_process("heater &gt; 0.0"));
-    assert_eq!(data(&mut d, "heater", Value::from(5.0)), no());
+    assert_eq!(d.data("heater", Value::from(5.0)), none());
     assert_eq!(d.start(&[]), ["completed"]);
 }
 
@@ -330,21 +261,13 @@ fn conditional_catch_already_true_on_arrival_passes_at_once() {
 #[test]
 fn conditional_catch_is_re_evaluated_after_every_step() {
     let mut d = Driver::new(&format!(
-        r#"<process id="p" isExecutable="true"><startEvent id="s"/>{}<parallelGateway id="fork"/>{}{}
-        <intermediateCatchEvent id="c">{}</intermediateCatchEvent>{}{}
-        {}{}{}{}{}<parallelGateway id="join"/>{}<endEvent id="e"/></process>"#,
-        flow("f0", "s", "fork"),
-        flow("f1", "fork", "c"),
-        flow("f2", "fork", "a"),
+        r#"<process id="p" isExecutable="true"><startEvent id="s"/>{}{}
+        <intermediateCatchEvent id="c">{}</intermediateCatchEvent>{}{}<endEvent id="e"/></process>"#,
+        flow("f0", "s", "fork") + &parallel("fork"),
+        path("fc", &["fork", "c", "w", "join"]),
         cond("count &gt;= 2"),
-        flow("f3", "c", "w"),
-        task("w", "f3", "f4"),
-        task("a", "f2", "f5"),
-        flow("f5", "a", "b"),
-        task("b", "f5", "f6"),
-        flow("f6", "b", "join"),
-        flow("f4", "w", "join"),
-        flow("f7", "join", "e"),
+        path("fa", &["fork", "a", "b", "join"]) + &tasks(&["w", "a", "b"]),
+        parallel("join") + &flow("f7", "join", "e"),
     ));
     assert_eq!(d.start(&[("count", Value::Int(0))]), ["dispatch a"]);
     assert_eq!(d.complete("a", &[("count", Value::Int(1))]), ["dispatch b"]);
@@ -357,15 +280,15 @@ fn conditional_catch_is_re_evaluated_after_every_step() {
 #[test]
 fn conditional_catch_over_missing_data_waits_without_incident() {
     let mut d = Driver::new(&catch_process("pressure &gt; 2.0"));
-    assert_eq!(d.start(&[]), no());
-    assert_eq!(data(&mut d, "other", Value::from(1.0)), no());
+    assert_eq!(d.start(&[]), none());
+    assert_eq!(d.data("other", Value::from(1.0)), none());
     assert!(
         d.e.state()
             .instances
             .values()
             .all(|i| i.incidents.is_empty())
     );
-    assert_eq!(data(&mut d, "pressure", Value::from(3.0)), ["completed"]);
+    assert_eq!(d.data("pressure", Value::from(3.0)), ["completed"]);
 }
 
 // §13.5.1 with Table 10.84 (§10.5.2): a conditional start event of a top-level process starts a
@@ -374,16 +297,15 @@ fn conditional_catch_over_missing_data_waits_without_incident() {
 #[test]
 fn conditional_start_event_starts_an_instance_on_each_false_to_true_edge() {
     let mut d = Driver::new(&format!(
-        r#"<process id="p" isExecutable="true"><startEvent id="s">{}</startEvent>{}{}{}<endEvent id="e"/></process>"#,
+        r#"<process id="p" isExecutable="true"><startEvent id="s">{}</startEvent>{}{}<endEvent id="e"/></process>"#,
         cond("temp &gt; 300.0"),
-        flow("f0", "s", "a"),
-        task("a", "f0", "f1"),
-        flow("f1", "a", "e"),
+        path("f", &["s", "a", "e"]),
+        task("a", "", ""),
     ));
-    assert_eq!(data(&mut d, "temp", Value::from(20.0)), no());
-    assert_eq!(data(&mut d, "temp", Value::from(310.0)), ["dispatch a"]);
-    assert_eq!(data(&mut d, "temp", Value::from(320.0)), no());
-    assert_eq!(data(&mut d, "temp", Value::from(100.0)), no());
-    assert_eq!(data(&mut d, "temp", Value::from(305.0)), ["dispatch a"]);
+    assert_eq!(d.data("temp", Value::from(20.0)), none());
+    assert_eq!(d.data("temp", Value::from(310.0)), ["dispatch a"]);
+    assert_eq!(d.data("temp", Value::from(320.0)), none());
+    assert_eq!(d.data("temp", Value::from(100.0)), none());
+    assert_eq!(d.data("temp", Value::from(305.0)), ["dispatch a"]);
     assert_eq!(d.e.state().instances.len(), 2);
 }

@@ -7,21 +7,22 @@ fn xor(id: &str) -> String {
     format!(r#"<exclusiveGateway id="{id}"/>"#)
 }
 
-/// An exclusive gateway whose default flow is `default`.
-fn xor_default(id: &str, default: &str) -> String {
-    format!(r#"<exclusiveGateway id="{id}" default="{default}"/>"#)
-}
-
 fn and(id: &str) -> String {
-    format!(r#"<parallelGateway id="{id}"/>"#)
+    parallel(id)
 }
 
 fn or(id: &str) -> String {
     format!(r#"<inclusiveGateway id="{id}"/>"#)
 }
 
-fn end(id: &str) -> String {
-    format!(r#"<endEvent id="{id}"/>"#)
+/// An exclusive gateway `x` that goes back to `to` when `cond` holds, else on (its default
+/// flow) to `next`.
+fn back_or_on(x: &str, cond: &str, to: &str, next: &str) -> String {
+    format!(
+        r#"<exclusiveGateway id="{x}" default="{x}_on"/>{}{}"#,
+        cond_flow(&format!("{x}_back"), x, to, cond),
+        flow(&format!("{x}_on"), x, next)
+    )
 }
 
 fn process(parts: &[String]) -> String {
@@ -31,36 +32,19 @@ fn process(parts: &[String]) -> String {
     )
 }
 
+/// s → `merge` (the gateway `gateway`) → A → X, back to `merge` while `again`, else to the end.
+fn loop_through_a(merge: &str, gateway: String) -> String {
+    process(&[
+        path("f", &["s", merge, "A", "X"]),
+        gateway,
+        task("A", "", ""),
+        back_or_on("X", "again", merge, "e"),
+        ends(&["e"]),
+    ])
+}
+
 fn b(name: &str, v: bool) -> (&str, Value) {
     (name, Value::Bool(v))
-}
-
-fn none() -> Vec<String> {
-    Vec::new()
-}
-
-fn sorted(mut v: Vec<String>) -> Vec<String> {
-    v.sort();
-    v
-}
-
-/// Every task key dispatched for `node`, oldest first.
-fn keys_of(d: &Driver, node: &str) -> Vec<TaskKey> {
-    d.tasks
-        .iter()
-        .filter(|(n, _)| n == node)
-        .map(|(_, k)| *k)
-        .collect()
-}
-
-/// Completes one task by its key.
-fn complete_key(d: &mut Driver, task: TaskKey, output: &[(&str, Value)]) -> Vec<String> {
-    let output = output
-        .iter()
-        .map(|(k, v)| ((*k).to_owned(), v.clone()))
-        .collect();
-    d.step(Event::TaskCompleted { task, output })
-        .expect("accepted")
 }
 
 /// Tokens waiting at a join.
@@ -76,17 +60,7 @@ fn finished(d: &Driver) -> bool {
 /// at once, so the task repeats until the exit condition; one token, whatever the round.
 #[test]
 fn backward_flow_into_an_exclusive_merge_repeats_until_the_exit() {
-    let mut d = Driver::new(&process(&[
-        flow("f0", "s", "M"),
-        xor("M"),
-        flow("f1", "M", "A"),
-        task("A", "f1", "f2"),
-        flow("f2", "A", "X"),
-        xor_default("X", "out"),
-        cond_flow("back", "X", "M", "again"),
-        flow("out", "X", "e"),
-        end("e"),
-    ]));
+    let mut d = Driver::new(&loop_through_a("M", xor("M")));
     assert_eq!(d.start(&[]), ["dispatch A"]);
     for _ in 0..3 {
         assert_eq!(d.complete("A", &[b("again", true)]), ["dispatch A"]);
@@ -105,19 +79,17 @@ fn backward_flow_straight_into_a_task_starts_it_for_every_token() {
         and("P"),
         flow("p1", "P", "A"),
         flow("p2", "P", "A"),
-        task("A", "p1", "f2"),
+        task("A", "", ""),
         flow("f2", "A", "X"),
-        xor_default("X", "out"),
-        cond_flow("back", "X", "A", "again"),
-        flow("out", "X", "e"),
-        end("e"),
+        back_or_on("X", "again", "A", "e"),
+        ends(&["e"]),
     ]));
     assert_eq!(d.start(&[]), ["dispatch A", "dispatch A"]);
-    let first = keys_of(&d, "A");
+    let first = d.keys_of("A");
     // The first token leaves the cycle and ends; the instance waits for the other.
-    assert_eq!(complete_key(&mut d, first[0], &[b("again", false)]), none());
+    assert_eq!(d.complete_key(first[0], &[b("again", false)]), none());
     assert_eq!(
-        complete_key(&mut d, first[1], &[b("again", true)]),
+        d.complete_key(first[1], &[b("again", true)]),
         ["dispatch A"]
     );
     assert_eq!(d.complete("A", &[b("again", false)]), ["completed"]);
@@ -132,21 +104,13 @@ fn two_entries(d: &str) -> String {
         cond_flow("da", "D", "MA", "!at_b"),
         cond_flow("db", "D", "MB", "at_b"),
         xor("MA"),
-        flow("m1", "MA", "A"),
-        task("A", "m1", "a1"),
-        flow("a1", "A", "XA"),
-        xor_default("XA", "xa"),
-        cond_flow("ab", "XA", "MB", "go"),
-        flow("xa", "XA", "e1"),
-        end("e1"),
+        path("a", &["MA", "A", "XA"]),
+        back_or_on("XA", "go", "MB", "e1"),
         xor("MB"),
-        flow("m2", "MB", "B"),
-        task("B", "m2", "b1"),
-        flow("b1", "B", "XB"),
-        xor_default("XB", "xb"),
-        cond_flow("ba", "XB", "MA", "go"),
-        flow("xb", "XB", "e2"),
-        end("e2"),
+        path("b", &["MB", "B", "XB"]),
+        back_or_on("XB", "go", "MA", "e2"),
+        tasks(&["A", "B"]),
+        ends(&["e1", "e2"]),
     ])
 }
 
@@ -170,35 +134,23 @@ fn a_cycle_with_two_entry_points_runs_from_either_entry_and_from_both() {
     let mut d = Driver::new(&two_entries(&and("D")));
     assert_eq!(d.start(&[]), ["dispatch A", "dispatch B"]);
     assert_eq!(d.complete("A", &[b("go", true)]), ["dispatch B"]);
-    let bs = keys_of(&d, "B");
-    assert_eq!(complete_key(&mut d, bs[0], &[b("go", false)]), none());
+    let bs = d.keys_of("B");
+    assert_eq!(d.complete_key(bs[0], &[b("go", false)]), none());
     assert_eq!(d.e.state().tokens.len(), 1);
-    assert_eq!(
-        complete_key(&mut d, bs[1], &[b("go", false)]),
-        ["completed"]
-    );
+    assert_eq!(d.complete_key(bs[1], &[b("go", false)]), ["completed"]);
 }
 
 /// §13.4.2: nested cycles: the inner cycle runs to its exit in every round of the outer one.
 #[test]
 fn nested_cycles_run_the_inner_cycle_in_every_outer_round() {
     let mut d = Driver::new(&process(&[
-        flow("f0", "s", "MO"),
+        path("f", &["s", "MO", "O", "MI", "I", "XI"]),
         xor("MO"),
-        flow("f1", "MO", "O"),
-        task("O", "f1", "f2"),
-        flow("f2", "O", "MI"),
         xor("MI"),
-        flow("f3", "MI", "I"),
-        task("I", "f3", "f4"),
-        flow("f4", "I", "XI"),
-        xor_default("XI", "xi"),
-        cond_flow("bi", "XI", "MI", "inner"),
-        flow("xi", "XI", "XO"),
-        xor_default("XO", "xo"),
-        cond_flow("bo", "XO", "MO", "outer"),
-        flow("xo", "XO", "e"),
-        end("e"),
+        tasks(&["O", "I"]),
+        back_or_on("XI", "inner", "MI", "XO"),
+        back_or_on("XO", "outer", "MO", "e"),
+        ends(&["e"]),
     ]));
     assert_eq!(d.start(&[]), ["dispatch O"]);
     assert_eq!(d.complete("O", &[]), ["dispatch I"]);
@@ -219,27 +171,19 @@ fn a_parallel_join_fed_by_cycles_pairs_tokens_round_by_round() {
     let mut d = Driver::new(&process(&[
         flow("f0", "s", "P"),
         and("P"),
-        flow("p1", "P", "MA"),
-        xor("MA"),
-        flow("m1", "MA", "A"),
-        task("A", "m1", "a1"),
-        flow("a1", "A", "IA"),
-        or("IA"),
-        flow("fa", "IA", "J"),
+        path("a", &["P", "MA", "A", "IA", "J"]),
         cond_flow("ba", "IA", "MA", "again_a"),
-        flow("p2", "P", "MB"),
-        xor("MB"),
-        flow("m2", "MB", "B"),
-        task("B", "m2", "b1"),
-        flow("b1", "B", "IB"),
-        or("IB"),
-        flow("fb", "IB", "J"),
+        path("b", &["P", "MB", "B", "IB", "J"]),
         cond_flow("bb", "IB", "MB", "again_b"),
+        xor("MA"),
+        xor("MB"),
+        tasks(&["A", "B"]),
+        or("IA"),
+        or("IB"),
         and("J"),
-        flow("j1", "J", "C"),
-        task("C", "j1", "c1"),
-        flow("c1", "C", "e"),
-        end("e"),
+        path("j", &["J", "C", "e"]),
+        task("C", "", ""),
+        ends(&["e"]),
     ]));
     assert_eq!(d.start(&[]), ["dispatch A", "dispatch B"]);
     assert_eq!(d.complete("A", &[b("again_a", true)]), ["dispatch A"]);
@@ -254,10 +198,10 @@ fn a_parallel_join_fed_by_cycles_pairs_tokens_round_by_round() {
     assert_eq!(joining(&d), 1);
     assert_eq!(d.complete("B", &[b("again_b", false)]), ["dispatch C"]);
     assert_eq!(joining(&d), 0);
-    let cs = keys_of(&d, "C");
+    let cs = d.keys_of("C");
     assert_eq!(cs.len(), 2);
-    assert_eq!(complete_key(&mut d, cs[0], &[]), none());
-    assert_eq!(complete_key(&mut d, cs[1], &[]), ["completed"]);
+    assert_eq!(d.complete_key(cs[0], &[]), none());
+    assert_eq!(d.complete_key(cs[1], &[]), ["completed"]);
 }
 
 /// §13.4.1: a cycle that comes back into a parallel join on one of its incoming flows only
@@ -268,22 +212,14 @@ fn a_parallel_join_reentered_by_a_cycle_on_one_flow_waits_for_the_other() {
     let mut d = Driver::new(&process(&[
         flow("f0", "s", "P"),
         and("P"),
-        flow("p1", "P", "A"),
-        task("A", "p1", "fa"),
-        flow("fa", "A", "J"),
-        flow("p2", "P", "MB"),
+        path("a", &["P", "A", "J"]),
+        path("b", &["P", "MB", "B", "J"]),
         xor("MB"),
-        flow("m2", "MB", "B"),
-        task("B", "m2", "fb"),
-        flow("fb", "B", "J"),
         and("J"),
-        flow("j1", "J", "C"),
-        task("C", "j1", "c1"),
-        flow("c1", "C", "X"),
-        xor_default("X", "out"),
-        cond_flow("back", "X", "MB", "again"),
-        flow("out", "X", "e"),
-        end("e"),
+        path("j", &["J", "C", "X"]),
+        tasks(&["A", "B", "C"]),
+        back_or_on("X", "again", "MB", "e"),
+        ends(&["e"]),
     ]));
     assert_eq!(d.start(&[]), ["dispatch A", "dispatch B"]);
     assert_eq!(d.complete("A", &[]), none());
@@ -294,29 +230,40 @@ fn a_parallel_join_reentered_by_a_cycle_on_one_flow_waits_for_the_other() {
     assert!(!finished(&d));
 }
 
-/// s -> IF (inclusive: `x > 0` to A, `x > 1` into the B cycle); A -> J; MB -> B -> XB
-/// -(again)-> MB | J; J (inclusive join) -> C -> e.
-fn join_after_a_cycle() -> String {
-    process(&[
+/// s -> IF (inclusive split: `x > 0` to `first`, `x > 1` to `second`); `between`; J (inclusive
+/// join) -> C -> e.
+fn inclusive_split_and_join(first: &str, second: &str, between: &[String]) -> String {
+    let frame = [
         flow("f0", "s", "IF"),
         or("IF"),
-        cond_flow("i1", "IF", "A", "x &gt; 0"),
-        cond_flow("i2", "IF", "MB", "x &gt; 1"),
-        task("A", "i1", "fa"),
-        flow("fa", "A", "J"),
-        xor("MB"),
-        flow("m1", "MB", "B"),
-        task("B", "m1", "b1"),
-        flow("b1", "B", "XB"),
-        xor_default("XB", "fb"),
-        cond_flow("back", "XB", "MB", "again"),
-        flow("fb", "XB", "J"),
+        cond_flow("i1", "IF", first, "x &gt; 0"),
+        cond_flow("i2", "IF", second, "x &gt; 1"),
         or("J"),
-        flow("j1", "J", "C"),
-        task("C", "j1", "c1"),
-        flow("c1", "C", "e"),
-        end("e"),
-    ])
+        path("j", &["J", "C", "e"]),
+        task("C", "", ""),
+        ends(&["e"]),
+    ];
+    process(&[&frame, between].concat())
+}
+
+/// The variable `x`, for `inclusive_split_and_join`.
+fn x(v: i64) -> [(&'static str, Value); 1] {
+    [("x", Value::Int(v))]
+}
+
+/// `inclusive_split_and_join`: A -> J; MB -> B -> XB -(again)-> MB | J.
+fn join_after_a_cycle() -> String {
+    inclusive_split_and_join(
+        "A",
+        "MB",
+        &[
+            flow("fa", "A", "J"),
+            xor("MB"),
+            path("b", &["MB", "B", "XB"]),
+            back_or_on("XB", "again", "MB", "J"),
+            tasks(&["A", "B"]),
+        ],
+    )
 }
 
 /// §13.4.3: an inclusive join after a cycle waits while the token looping in the cycle can still
@@ -324,7 +271,6 @@ fn join_after_a_cycle() -> String {
 /// arrives; without a token in the cycle it does not wait for it.
 #[test]
 fn an_inclusive_join_after_a_cycle_waits_for_the_looping_token_and_only_for_it() {
-    let x = |v| [("x", Value::Int(v))];
     let mut d = Driver::new(&join_after_a_cycle());
     assert_eq!(d.start(&x(2)), ["dispatch A", "dispatch B"]);
     assert_eq!(d.complete("A", &[]), none());
@@ -352,22 +298,18 @@ fn an_inclusive_join_after_a_cycle_waits_for_the_looping_token_and_only_for_it()
 #[test]
 fn an_inclusive_join_inside_a_cycle_synchronises_each_round() {
     let mut d = Driver::new(&process(&[
-        flow("f0", "s", "M"),
+        path("f", &["s", "M", "IF"]),
         xor("M"),
-        flow("f1", "M", "IF"),
         or("IF"),
         cond_flow("i1", "IF", "A", "a"),
         cond_flow("i2", "IF", "B", "b"),
-        task("A", "i1", "fa"),
-        task("B", "i2", "fb"),
+        tasks(&["A", "B"]),
         flow("fa", "A", "J"),
         flow("fb", "B", "J"),
         or("J"),
         flow("j1", "J", "X"),
-        xor_default("X", "out"),
-        cond_flow("back", "X", "M", "again"),
-        flow("out", "X", "e"),
-        end("e"),
+        back_or_on("X", "again", "M", "e"),
+        ends(&["e"]),
     ]));
     assert_eq!(
         d.start(&[b("a", true), b("b", true)]),
@@ -383,47 +325,29 @@ fn an_inclusive_join_inside_a_cycle_synchronises_each_round() {
 /// the loop, one backward flow) fires for every round: no other token can reach it.
 #[test]
 fn an_inclusive_merge_at_the_entry_of_a_loop_fires_every_round() {
-    let mut d = Driver::new(&process(&[
-        flow("f0", "s", "J"),
-        or("J"),
-        flow("f1", "J", "A"),
-        task("A", "f1", "f2"),
-        flow("f2", "A", "X"),
-        xor_default("X", "out"),
-        cond_flow("back", "X", "J", "again"),
-        flow("out", "X", "e"),
-        end("e"),
-    ]));
+    let mut d = Driver::new(&loop_through_a("J", or("J")));
     assert_eq!(d.start(&[]), ["dispatch A"]);
     assert_eq!(d.complete("A", &[b("again", true)]), ["dispatch A"]);
     assert_eq!(d.complete("A", &[b("again", true)]), ["dispatch A"]);
     assert_eq!(d.complete("A", &[b("again", false)]), ["completed"]);
 }
 
-/// s -> IF (inclusive: `x > 0` into the A cycle, `x > 1` to B); MA -> A -> IA (inclusive
-/// split: always to J along `fa`, back to MA when `again`); B -> J along `fb`; J (inclusive
-/// join) -> C -> e.
+/// `inclusive_split_and_join`: MA -> A -> IA (inclusive split: always to J along `fa`, back to
+/// MA when `again`); B -> J along `fb`.
 fn cycle_feeding_an_inclusive_join() -> String {
-    process(&[
-        flow("f0", "s", "IF"),
-        or("IF"),
-        cond_flow("i1", "IF", "MA", "x &gt; 0"),
-        cond_flow("i2", "IF", "B", "x &gt; 1"),
-        xor("MA"),
-        flow("m1", "MA", "A"),
-        task("A", "m1", "a1"),
-        flow("a1", "A", "IA"),
-        or("IA"),
-        flow("fa", "IA", "J"),
-        cond_flow("back", "IA", "MA", "again"),
-        task("B", "i2", "fb"),
-        flow("fb", "B", "J"),
-        or("J"),
-        flow("j1", "J", "C"),
-        task("C", "j1", "c1"),
-        flow("c1", "C", "e"),
-        end("e"),
-    ])
+    inclusive_split_and_join(
+        "MA",
+        "B",
+        &[
+            xor("MA"),
+            path("a", &["MA", "A", "IA"]),
+            or("IA"),
+            flow("fa", "IA", "J"),
+            cond_flow("back", "IA", "MA", "again"),
+            flow("fb", "B", "J"),
+            tasks(&["A", "B"]),
+        ],
+    )
 }
 
 /// §13.4.3, the activation rule exactly: the join is activated when some incoming flow has a
@@ -434,7 +358,6 @@ fn cycle_feeding_an_inclusive_join() -> String {
 /// waited for.
 #[test]
 fn an_inclusive_join_does_not_wait_for_a_looping_token_that_can_only_reach_an_occupied_flow() {
-    let x = |v| [("x", Value::Int(v))];
     let mut d = Driver::new(&cycle_feeding_an_inclusive_join());
     assert_eq!(d.start(&x(1)), ["dispatch A"]);
     // A's token reaches the join on `fa`; the next round of A can only come along `fa` again,
@@ -444,9 +367,7 @@ fn an_inclusive_join_does_not_wait_for_a_looping_token_that_can_only_reach_an_oc
         ["dispatch A", "dispatch C"]
     );
     assert_eq!(d.complete("A", &[b("again", false)]), ["dispatch C"]);
-    for c in keys_of(&d, "C") {
-        complete_key(&mut d, c, &[]);
-    }
+    d.complete_every("C");
     assert!(finished(&d));
 
     // With B running, the join waits for B (it can reach the empty `fb`), but once `fa` and
@@ -465,24 +386,22 @@ fn an_inclusive_join_does_not_wait_for_a_looping_token_that_can_only_reach_an_oc
 #[test]
 fn a_cycle_run_for_many_rounds_keeps_the_state_bounded() {
     let mut d = Driver::new(&process(&[
-        flow("f0", "s", "M"),
+        path("f", &["s", "M", "P"]),
         xor("M"),
-        flow("f1", "M", "P"),
         and("P"),
-        flow("p1", "P", "A"),
-        task("A", "p1", "a1"),
-        r#"<boundaryEvent id="tb" attachedToRef="A"><timerEventDefinition><timeDuration xsi:type="tFormalExpression">PT1H</timeDuration></timerEventDefinition></boundaryEvent>"#.to_owned(),
+        path("a", &["P", "A", "J"]),
+        task("A", "", ""),
+        format!(
+            r#"<boundaryEvent id="tb" attachedToRef="A">{}</boundaryEvent>"#,
+            duration("PT1H")
+        ),
         flow("t1", "tb", "et"),
-        end("et"),
-        flow("a1", "A", "J"),
-        flow("p2", "P", "S"),
-        r#"<subProcess id="S"><startEvent id="ss"/>"#.to_owned(),
-        flow("s1", "ss", "B"),
-        task("B", "s1", "s2"),
-        flow("s2", "B", "se"),
-        end("se"),
-        "</subProcess>".to_owned(),
-        flow("b1", "S", "J"),
+        path("b", &["P", "S", "J"]),
+        format!(
+            r#"<subProcess id="S"><startEvent id="ss"/>{}{}<endEvent id="se"/></subProcess>"#,
+            path("s", &["ss", "B", "se"]),
+            task("B", "", ""),
+        ),
         and("J"),
         flow("j1", "J", "I1"),
         or("I1"),
@@ -493,10 +412,8 @@ fn a_cycle_run_for_many_rounds_keeps_the_state_bounded() {
         flow("o4", "t2x", "I2"),
         or("I2"),
         flow("i1", "I2", "X"),
-        xor_default("X", "out"),
-        cond_flow("back", "X", "M", "again"),
-        flow("out", "X", "e"),
-        end("e"),
+        back_or_on("X", "again", "M", "e"),
+        ends(&["et", "e"]),
     ]));
     let first = d.start(&[("n", Value::Int(0))]);
     assert_eq!(sorted(first), ["dispatch A", "dispatch B", "timer 3600000"]);
@@ -544,15 +461,12 @@ fn a_cycle_without_a_wait_state_stops_at_the_move_bound_with_an_incident() {
     let body = process(&[
         flow("f0", "s", "P"),
         and("P"),
-        flow("p1", "P", "Z"),
-        task("Z", "p1", "z1"),
-        flow("z1", "Z", "e"),
-        end("e"),
-        flow("p2", "P", "M"),
+        path("z", &["P", "Z", "e"]),
+        task("Z", "", ""),
+        ends(&["e"]),
+        path("m", &["P", "M", "N", "M"]),
         xor("M"),
-        flow("m1", "M", "N"),
         xor("N"),
-        flow("n1", "N", "M"),
     ]);
     let mut d = Driver::new(&body);
     // Without move records: a million moves would otherwise record a million entries.

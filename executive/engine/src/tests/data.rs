@@ -4,30 +4,8 @@
 
 use super::*;
 
-fn vars(pairs: &[(&str, Value)]) -> Vars {
-    pairs
-        .iter()
-        .map(|(k, v)| ((*k).to_owned(), v.clone()))
-        .collect()
-}
-
 fn int(i: i64) -> Value {
     Value::Int(i)
-}
-
-/// The goal of the latest dispatch of `node`.
-fn request(d: &Driver, node: &str) -> Vars {
-    let key = d.key(node);
-    match d
-        .e
-        .state()
-        .tokens
-        .get(&key.token)
-        .and_then(|t| t.command.as_deref())
-    {
-        Some(Action::DispatchTask { request, .. }) => request.clone(),
-        other => panic!("{node} is not dispatched: {other:?}"),
-    }
 }
 
 /// The goals of every dispatch of `node` still running, in dispatch order.
@@ -41,16 +19,6 @@ fn requests(d: &Driver, node: &str) -> Vec<Vars> {
             _ => None,
         })
         .collect()
-}
-
-/// Completes one particular dispatch (by its position in `d.tasks`).
-fn complete_nth(d: &mut Driver, i: usize, output: &[(&str, Value)]) -> Vec<String> {
-    let task = d.tasks[i].1;
-    d.step(Event::TaskCompleted {
-        task,
-        output: vars(output),
-    })
-    .expect("accepted")
 }
 
 /// The variables of the instance's process scope (the root scope of the first instance).
@@ -111,7 +79,7 @@ fn process_data_is_visible_inside_nested_sub_processes() {
         &["sp", "b"],
     ));
     assert_eq!(d.start(&[("x", int(1)), ("k", int(10))]), ["dispatch b"]);
-    assert_eq!(request(&d, "b"), vars(&[("y", int(11))]));
+    assert_eq!(d.request("b"), vars(&[("y", int(11))]));
     assert_eq!(d.complete("b", &[]), ["completed"]);
 }
 
@@ -137,7 +105,7 @@ outer = 1</script></scriptTask>{}<endEvent id="e2"/>{}{}{}</subProcess>{}"#,
     ));
     assert_eq!(d.start(&[("note", Value::from("outer"))]), ["dispatch a"]);
     assert_eq!(
-        request(&d, "a"),
+        d.request("a"),
         vars(&[("note", Value::from("inner")), ("tmp", int(5))])
     );
     assert_eq!(d.complete("a", &[]), ["dispatch b"]);
@@ -175,10 +143,10 @@ fn each_multi_instance_sub_process_has_its_own_data_objects() {
     let sites = Value::List(vec![int(7), int(8)]);
     assert_eq!(d.start(&[("sites", sites)]), ["dispatch a", "dispatch a"]);
     // The first instance goes on after the second one wrote its own `tmp`.
-    assert_eq!(complete_nth(&mut d, 0, &[]), ["dispatch b"]);
-    assert_eq!(request(&d, "b"), vars(&[("tmp", int(70))]));
-    assert_eq!(complete_nth(&mut d, 1, &[]), ["dispatch b"]);
-    assert_eq!(request(&d, "b"), vars(&[("tmp", int(80))]));
+    assert_eq!(d.complete_nth(0, &[]), ["dispatch b"]);
+    assert_eq!(d.request("b"), vars(&[("tmp", int(70))]));
+    assert_eq!(d.complete_nth(1, &[]), ["dispatch b"]);
+    assert_eq!(d.request("b"), vars(&[("tmp", int(80))]));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -217,6 +185,15 @@ fn io(input: Option<(&str, &str)>, output: Option<(&str, &str)>) -> String {
 const SITE_AND_DEPTH: &str = r#"<dataObject id="DO_site" name="site"/><dataObjectReference id="R_site" dataObjectRef="DO_site"/>
     <dataObject id="DO_measured" name="measured"/><dataObjectReference id="R_measured" dataObjectRef="DO_measured"/>"#;
 
+/// A `line` with `decls` through the task `a`, then `b`, which reads `measured` as `m`.
+fn a_then_b_reading_measured(decls: &str, a: &str) -> String {
+    line(
+        decls,
+        &format!("{a}{}", bound("b", &[("m", "measured")], "")),
+        &["a", "b"],
+    )
+}
+
 /// §10.4.2, §13.3.2: before the task starts, its data input association copies the data object
 /// (through a data object reference) into the task's data input; a declared ioSpecification
 /// is the task's interface, so the goal holds exactly its data inputs, by name.
@@ -228,7 +205,7 @@ fn data_input_association_fills_the_task_input_before_it_starts() {
         &["a"],
     ));
     assert_eq!(d.start(&[("site", int(5))]), ["dispatch a"]);
-    assert_eq!(request(&d, "a"), vars(&[("target", int(5))]));
+    assert_eq!(d.request("a"), vars(&[("target", int(5))]));
     assert_eq!(d.complete("a", &[]), ["completed"]);
 }
 
@@ -237,18 +214,13 @@ fn data_input_association_fills_the_task_input_before_it_starts() {
 /// task's, not a variable of the process.
 #[test]
 fn data_output_association_copies_the_output_into_the_data_object_on_completion() {
-    let mut d = Driver::new(&line(
+    let mut d = Driver::new(&a_then_b_reading_measured(
         SITE_AND_DEPTH,
-        &format!(
-            "{}{}",
-            bound("a", &[], &io(None, Some(("depth", "R_measured")))),
-            bound("b", &[("m", "measured")], "")
-        ),
-        &["a", "b"],
+        &bound("a", &[], &io(None, Some(("depth", "R_measured")))),
     ));
     assert_eq!(d.start(&[]), ["dispatch a"]);
     assert_eq!(d.complete("a", &[("depth", int(12))]), ["dispatch b"]);
-    assert_eq!(request(&d, "b"), vars(&[("m", int(12))]));
+    assert_eq!(d.request("b"), vars(&[("m", int(12))]));
     assert_eq!(root_vars(&d).get("depth"), None);
     assert_eq!(d.complete("b", &[]), ["completed"]);
 }
@@ -258,8 +230,10 @@ fn data_output_association_copies_the_output_into_the_data_object_on_completion(
 /// element `to` designates. On the way out, the transformation sees the data outputs.
 #[test]
 fn transformation_then_assignments_compute_what_is_copied() {
-    let a = r#"<serviceTask id="a"><extensionElements><trace:task resource="sys.a"/></extensionElements>
-      <ioSpecification><dataInput id="i1" name="doubled"/><dataInput id="i2" name="pos"/><dataOutput id="o1" name="depth"/>
+    let a = bound(
+        "a",
+        &[],
+        r#"<ioSpecification><dataInput id="i1" name="doubled"/><dataInput id="i2" name="pos"/><dataOutput id="o1" name="depth"/>
         <inputSet><dataInputRefs>i1</dataInputRefs><dataInputRefs>i2</dataInputRefs></inputSet>
         <outputSet><dataOutputRefs>o1</dataOutputRefs></outputSet></ioSpecification>
       <dataInputAssociation><sourceRef>R_site</sourceRef><targetRef>i1</targetRef>
@@ -268,21 +242,14 @@ fn transformation_then_assignments_compute_what_is_copied() {
         <assignment><from xsi:type="tFormalExpression">site + 1</from><to xsi:type="tFormalExpression">pos.x</to></assignment>
         <assignment><from xsi:type="tFormalExpression">0</from><to xsi:type="tFormalExpression">pos.y</to></assignment></dataInputAssociation>
       <dataOutputAssociation><sourceRef>o1</sourceRef><targetRef>R_measured</targetRef>
-        <transformation xsi:type="tFormalExpression">depth + 100</transformation></dataOutputAssociation>
-    </serviceTask>"#;
-    let mut d = Driver::new(&line(
-        SITE_AND_DEPTH,
-        &format!("{a}{}", bound("b", &[("m", "measured")], "")),
-        &["a", "b"],
-    ));
+        <transformation xsi:type="tFormalExpression">depth + 100</transformation></dataOutputAssociation>"#,
+    );
+    let mut d = Driver::new(&a_then_b_reading_measured(SITE_AND_DEPTH, &a));
     assert_eq!(d.start(&[("site", int(5))]), ["dispatch a"]);
     let pos = Value::Map(vars(&[("x", int(6)), ("y", int(0))]));
-    assert_eq!(
-        request(&d, "a"),
-        vars(&[("doubled", int(10)), ("pos", pos)])
-    );
+    assert_eq!(d.request("a"), vars(&[("doubled", int(10)), ("pos", pos)]));
     assert_eq!(d.complete("a", &[("depth", int(7))]), ["dispatch b"]);
-    assert_eq!(request(&d, "b"), vars(&[("m", int(107))]));
+    assert_eq!(d.request("b"), vars(&[("m", int(107))]));
 }
 
 /// §10.4.1 Properties and Data Stores: a process property is a variable of the process; a data
@@ -290,17 +257,19 @@ fn transformation_then_assignments_compute_what_is_copied() {
 /// sources of data input associations.
 #[test]
 fn properties_and_data_stores_feed_data_inputs() {
-    let a = r#"<serviceTask id="a"><extensionElements><trace:task resource="sys.a"/></extensionElements>
-      <ioSpecification><dataInput id="i1" name="limit"/><dataInput id="i2" name="soc"/>
+    let a = bound(
+        "a",
+        &[],
+        r#"<ioSpecification><dataInput id="i1" name="limit"/><dataInput id="i2" name="soc"/>
         <inputSet><dataInputRefs>i1</dataInputRefs><dataInputRefs>i2</dataInputRefs></inputSet><outputSet/></ioSpecification>
       <dataInputAssociation><sourceRef>P_budget</sourceRef><targetRef>i1</targetRef></dataInputAssociation>
-      <dataInputAssociation><sourceRef>R_battery</sourceRef><targetRef>i2</targetRef></dataInputAssociation>
-    </serviceTask>"#;
+      <dataInputAssociation><sourceRef>R_battery</sourceRef><targetRef>i2</targetRef></dataInputAssociation>"#,
+    );
     let mut d = Driver::new(&format!(
         r#"<dataStore id="DS_battery" name="battery_soc_pct"/>{}"#,
         line(
             r#"<property id="P_budget" name="budget"/><dataStoreReference id="R_battery" dataStoreRef="DS_battery"/>"#,
-            a,
+            &a,
             &["a"],
         )
     ));
@@ -310,10 +279,7 @@ fn properties_and_data_stores_feed_data_inputs() {
     })
     .expect("accepted");
     assert_eq!(d.start(&[("budget", int(3))]), ["dispatch a"]);
-    assert_eq!(
-        request(&d, "a"),
-        vars(&[("limit", int(3)), ("soc", int(64))])
-    );
+    assert_eq!(d.request("a"), vars(&[("limit", int(3)), ("soc", int(64))]));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -326,19 +292,15 @@ fn properties_and_data_stores_feed_data_inputs() {
 #[test]
 fn an_unavailable_input_set_holds_the_activity_until_its_source_is_written() {
     let mut d = Driver::new(&format!(
-        r#"<process id="p" isExecutable="true">{SITE_AND_DEPTH}<startEvent id="s"/><parallelGateway id="fork"/>{}{}<endEvent id="e1"/><endEvent id="e2"/>{}{}{}{}{}</process>"#,
+        r#"<process id="p" isExecutable="true">{SITE_AND_DEPTH}{}{}{}</process>"#,
+        fork_into(&[&["b"], &["a"]]),
         bound("b", &[], &io(Some(("need", "R_measured")), None)),
         bound("a", &[], &io(None, Some(("depth", "R_measured")))),
-        flow("f0", "s", "fork"),
-        flow("f1", "fork", "b"),
-        flow("f2", "fork", "a"),
-        flow("f3", "b", "e1"),
-        flow("f4", "a", "e2"),
     ));
     // `b` is reached first, but `measured` has no value yet.
     assert_eq!(d.start(&[]), ["dispatch a"]);
     assert_eq!(d.complete("a", &[("depth", int(3))]), ["dispatch b"]);
-    assert_eq!(request(&d, "b"), vars(&[("need", int(3))]));
+    assert_eq!(d.request("b"), vars(&[("need", int(3))]));
     assert_eq!(d.complete("b", &[]), ["completed"]);
 }
 
@@ -349,9 +311,10 @@ fn an_activity_waiting_for_data_is_withdrawn_by_its_boundary_event() {
     let mut d = Driver::new(&line(
         SITE_AND_DEPTH,
         &format!(
-            r#"{}<boundaryEvent id="t" attachedToRef="b"><timerEventDefinition><timeDuration xsi:type="tFormalExpression">PT1M</timeDuration></timerEventDefinition></boundaryEvent>
+            r#"{}<boundaryEvent id="t" attachedToRef="b">{}</boundaryEvent>
             {}<endEvent id="late"/>"#,
             bound("b", &[], &io(Some(("need", "R_measured")), None)),
+            duration("PT1M"),
             flow("ft", "t", "late"),
         ),
         &["b"],
@@ -360,28 +323,39 @@ fn an_activity_waiting_for_data_is_withdrawn_by_its_boundary_event() {
     assert_eq!(d.fire(0, 60_000), ["completed"]);
 }
 
+/// Data objects `x1` and `x2`, and a task `a` whose data inputs `first` (`i1`, fed from `x1`)
+/// and `second` (`i2`, fed from `x2`) are grouped into `input_sets`.
+fn first_and_second(input_sets: &str) -> String {
+    let a = bound(
+        "a",
+        &[],
+        &format!(
+            r#"<ioSpecification><dataInput id="i1" name="first"/><dataInput id="i2" name="second"/>{input_sets}<outputSet/></ioSpecification>
+            <dataInputAssociation><sourceRef>DO_x1</sourceRef><targetRef>i1</targetRef></dataInputAssociation>
+            <dataInputAssociation><sourceRef>DO_x2</sourceRef><targetRef>i2</targetRef></dataInputAssociation>"#
+        ),
+    );
+    line(
+        r#"<dataObject id="DO_x1" name="x1"/><dataObject id="DO_x2" name="x2"/>"#,
+        &a,
+        &["a"],
+    )
+}
+
 /// §10.4.2 / §13.3.2: a data input that is optional in the InputSet does not make the set
 /// unavailable; the activity starts without it.
 #[test]
 fn an_optional_input_may_be_unavailable() {
-    let a = r#"<serviceTask id="a"><extensionElements><trace:task resource="sys.a"/></extensionElements>
-      <ioSpecification><dataInput id="i1" name="first"/><dataInput id="i2" name="second"/>
-        <inputSet><dataInputRefs>i1</dataInputRefs><dataInputRefs>i2</dataInputRefs><optionalInputRefs>i2</optionalInputRefs></inputSet><outputSet/></ioSpecification>
-      <dataInputAssociation><sourceRef>DO_x1</sourceRef><targetRef>i1</targetRef></dataInputAssociation>
-      <dataInputAssociation><sourceRef>DO_x2</sourceRef><targetRef>i2</targetRef></dataInputAssociation>
-    </serviceTask>"#;
-    let body = line(
-        r#"<dataObject id="DO_x1" name="x1"/><dataObject id="DO_x2" name="x2"/>"#,
-        a,
-        &["a"],
+    let body = first_and_second(
+        "<inputSet><dataInputRefs>i1</dataInputRefs><dataInputRefs>i2</dataInputRefs><optionalInputRefs>i2</optionalInputRefs></inputSet>",
     );
     let mut d = Driver::new(&body);
     assert_eq!(d.start(&[("x1", int(1))]), ["dispatch a"]);
-    assert_eq!(request(&d, "a"), vars(&[("first", int(1))]));
+    assert_eq!(d.request("a"), vars(&[("first", int(1))]));
     let mut d = Driver::new(&body);
     assert_eq!(d.start(&[("x1", int(1)), ("x2", int(2))]), ["dispatch a"]);
     assert_eq!(
-        request(&d, "a"),
+        d.request("a"),
         vars(&[("first", int(1)), ("second", int(2))])
     );
     // The required one is still required.
@@ -393,23 +367,15 @@ fn an_optional_input_may_be_unavailable() {
 /// the activity (only its data inputs are filled), later ones are not evaluated.
 #[test]
 fn the_first_available_input_set_starts_the_activity() {
-    let a = r#"<serviceTask id="a"><extensionElements><trace:task resource="sys.a"/></extensionElements>
-      <ioSpecification><dataInput id="i1" name="first"/><dataInput id="i2" name="second"/>
-        <inputSet><dataInputRefs>i1</dataInputRefs></inputSet><inputSet><dataInputRefs>i2</dataInputRefs></inputSet><outputSet/></ioSpecification>
-      <dataInputAssociation><sourceRef>DO_x1</sourceRef><targetRef>i1</targetRef></dataInputAssociation>
-      <dataInputAssociation><sourceRef>DO_x2</sourceRef><targetRef>i2</targetRef></dataInputAssociation>
-    </serviceTask>"#;
-    let body = line(
-        r#"<dataObject id="DO_x1" name="x1"/><dataObject id="DO_x2" name="x2"/>"#,
-        a,
-        &["a"],
+    let body = first_and_second(
+        "<inputSet><dataInputRefs>i1</dataInputRefs></inputSet><inputSet><dataInputRefs>i2</dataInputRefs></inputSet>",
     );
     let mut d = Driver::new(&body);
     assert_eq!(d.start(&[("x2", int(2))]), ["dispatch a"]);
-    assert_eq!(request(&d, "a"), vars(&[("second", int(2))]));
+    assert_eq!(d.request("a"), vars(&[("second", int(2))]));
     let mut d = Driver::new(&body);
     assert_eq!(d.start(&[("x1", int(1)), ("x2", int(2))]), ["dispatch a"]);
-    assert_eq!(request(&d, "a"), vars(&[("first", int(1))]));
+    assert_eq!(d.request("a"), vars(&[("first", int(1))]));
 }
 
 /// §13.3.2: on completion the first OutputSet whose required data outputs are all available is
@@ -418,21 +384,22 @@ fn the_first_available_input_set_starts_the_activity() {
 /// any result that does not fit the task's declared outputs).
 #[test]
 fn an_unavailable_output_set_is_an_exception() {
-    let a = r#"<serviceTask id="a"><extensionElements><trace:task resource="sys.a"/></extensionElements>
-      <ioSpecification><dataOutput id="o1" name="depth"/><dataOutput id="o2" name="note"/><inputSet/>
+    let a = bound(
+        "a",
+        &[],
+        r#"<ioSpecification><dataOutput id="o1" name="depth"/><dataOutput id="o2" name="note"/><inputSet/>
         <outputSet><dataOutputRefs>o1</dataOutputRefs><dataOutputRefs>o2</dataOutputRefs><optionalOutputRefs>o2</optionalOutputRefs></outputSet></ioSpecification>
       <dataOutputAssociation><sourceRef>o1</sourceRef><targetRef>R_measured</targetRef></dataOutputAssociation>
-      <dataOutputAssociation><sourceRef>o2</sourceRef><targetRef>DO_note</targetRef></dataOutputAssociation>
-    </serviceTask>"#;
-    let body = line(
+      <dataOutputAssociation><sourceRef>o2</sourceRef><targetRef>DO_note</targetRef></dataOutputAssociation>"#,
+    );
+    let body = a_then_b_reading_measured(
         &format!(r#"{SITE_AND_DEPTH}<dataObject id="DO_note" name="note"/>"#),
-        &format!("{a}{}", bound("b", &[("m", "measured")], "")),
-        &["a", "b"],
+        &a,
     );
     let mut d = Driver::new(&body);
     d.start(&[]);
     assert_eq!(d.complete("a", &[("depth", int(4))]), ["dispatch b"]);
-    assert_eq!(request(&d, "b"), vars(&[("m", int(4))]));
+    assert_eq!(d.request("b"), vars(&[("m", int(4))]));
     assert_eq!(root_vars(&d).get("note"), None);
     let mut d = Driver::new(&body);
     d.start(&[]);
@@ -454,6 +421,31 @@ const CALLEE: &str = r#"<process id="q" isExecutable="true">
       <sequenceFlow id="q1" sourceRef="qs" targetRef="qa"/><sequenceFlow id="q2" sourceRef="qa" targetRef="qw"/>
       <sequenceFlow id="q3" sourceRef="qw" targetRef="qe"/></process>"#;
 
+/// `CALLEE` and a caller: `c` (the call activity), then `b` (fed `inputs`), with `decls`.
+fn caller(decls: &str, c: &str, inputs: &[(&str, &str)]) -> String {
+    format!(
+        "{CALLEE}{}",
+        line(
+            decls,
+            &format!("{c}{}", bound("b", inputs, "")),
+            &["c", "b"]
+        )
+    )
+}
+
+/// Started with `site` 3 (and a `secret`), the callee sees `arg` 3 and nothing else; `b` then
+/// gets the callee's `res` (6) as `m`, and `res` itself does not come back.
+fn site_goes_in_as_arg_and_res_comes_back_as_measured(d: &mut Driver) {
+    assert_eq!(
+        d.start(&[("site", int(3)), ("secret", int(9))]),
+        ["dispatch qa"]
+    );
+    assert_eq!(d.request("qa"), vars(&[("arg", int(3))]));
+    assert_eq!(d.complete("qa", &[]), ["dispatch b"]);
+    assert_eq!(d.request("b"), vars(&[("m", int(6))]));
+    assert_eq!(root_vars(d).get("res"), None);
+}
+
 /// §10.3.6, §10.4.1 Data Inputs: a call activity passes data to the called process through its
 /// own data inputs (filled by its associations), which are the called process's data inputs of
 /// the same name; the called process sees those and nothing else of the caller; its data
@@ -466,22 +458,8 @@ fn call_activity_passes_data_through_its_io_specification() {
       <dataInputAssociation><sourceRef>R_site</sourceRef><targetRef>c_in</targetRef></dataInputAssociation>
       <dataOutputAssociation><sourceRef>c_out</sourceRef><targetRef>R_measured</targetRef></dataOutputAssociation>
     </callActivity>"#;
-    let mut d = Driver::new(&format!(
-        "{CALLEE}{}",
-        line(
-            SITE_AND_DEPTH,
-            &format!("{c}{}", bound("b", &[("m", "measured")], "")),
-            &["c", "b"]
-        )
-    ));
-    assert_eq!(
-        d.start(&[("site", int(3)), ("secret", int(9))]),
-        ["dispatch qa"]
-    );
-    assert_eq!(request(&d, "qa"), vars(&[("arg", int(3))]));
-    assert_eq!(d.complete("qa", &[]), ["dispatch b"]);
-    assert_eq!(request(&d, "b"), vars(&[("m", int(6))]));
-    assert_eq!(root_vars(&d).get("res"), None);
+    let mut d = Driver::new(&caller(SITE_AND_DEPTH, c, &[("m", "measured")]));
+    site_goes_in_as_arg_and_res_comes_back_as_measured(&mut d);
 }
 
 /// The Camunda mappings on a call activity (`camunda:in` / `camunda:out`): only the named
@@ -490,22 +468,8 @@ fn call_activity_passes_data_through_its_io_specification() {
 fn call_activity_camunda_mappings_pass_only_the_named_variables() {
     let c = r#"<callActivity id="c" calledElement="q"><extensionElements>
       <camunda:in source="site" target="arg"/><camunda:out source="res" target="measured"/></extensionElements></callActivity>"#;
-    let mut d = Driver::new(&format!(
-        "{CALLEE}{}",
-        line(
-            "",
-            &format!("{c}{}", bound("b", &[("m", "measured")], "")),
-            &["c", "b"]
-        )
-    ));
-    assert_eq!(
-        d.start(&[("site", int(3)), ("secret", int(9))]),
-        ["dispatch qa"]
-    );
-    assert_eq!(request(&d, "qa"), vars(&[("arg", int(3))]));
-    assert_eq!(d.complete("qa", &[]), ["dispatch b"]);
-    assert_eq!(request(&d, "b"), vars(&[("m", int(6))]));
-    assert_eq!(root_vars(&d).get("res"), None);
+    let mut d = Driver::new(&caller("", c, &[("m", "measured")]));
+    site_goes_in_as_arg_and_res_comes_back_as_measured(&mut d);
 }
 
 /// Without any mapping the spec passes nothing. TRACE's documented choice (docs/engine-semantics.md,
@@ -513,19 +477,13 @@ fn call_activity_camunda_mappings_pass_only_the_named_variables() {
 /// variables goes in; nothing comes out (as the spec, and Camunda 7 without `camunda:out`).
 #[test]
 fn call_activity_without_mappings_copies_variables_in_and_nothing_out() {
-    let mut d = Driver::new(&format!(
-        "{CALLEE}{}",
-        line(
-            "",
-            &format!(
-                r#"<callActivity id="c" calledElement="q"/>{}"#,
-                bound("b", &[], "")
-            ),
-            &["c", "b"]
-        )
+    let mut d = Driver::new(&caller(
+        "",
+        r#"<callActivity id="c" calledElement="q"/>"#,
+        &[],
     ));
     assert_eq!(d.start(&[("arg", int(3))]), ["dispatch qa"]);
-    assert_eq!(request(&d, "qa"), vars(&[("arg", int(3))]));
+    assert_eq!(d.request("qa"), vars(&[("arg", int(3))]));
     assert_eq!(d.complete("qa", &[]), ["dispatch b"]);
     assert_eq!(root_vars(&d).get("res"), None);
     assert_eq!(root_vars(&d).get("arg"), Some(&int(3)));
@@ -554,7 +512,7 @@ fn a_call_activity_runs_the_global_task_it_calls() {
         )
     ));
     assert_eq!(d.start(&[("site", int(4))]), ["dispatch c1"]);
-    assert_eq!(request(&d, "c1"), vars(&[("site_id", int(4))]));
+    assert_eq!(d.request("c1"), vars(&[("site_id", int(4))]));
     assert_eq!(
         d.complete("c1", &[("score", int(41)), ("noise", int(0))]),
         ["open c2"]
@@ -570,7 +528,7 @@ fn a_call_activity_runs_the_global_task_it_calls() {
         .expect("accepted");
     assert_eq!(out, ["close", "dispatch b"]);
     assert_eq!(
-        request(&d, "b"),
+        d.request("b"),
         vars(&[("ok", Value::Bool(true)), ("total", int(42))])
     );
 }
@@ -605,8 +563,8 @@ fn multi_instance_input_items_are_local_to_each_instance() {
             vars(&[("n", int(2)), ("site", int(8))])
         ]
     );
-    complete_nth(&mut d, 1, &[]);
-    assert_eq!(complete_nth(&mut d, 0, &[]), ["dispatch b"]);
+    d.complete_nth(1, &[]);
+    assert_eq!(d.complete_nth(0, &[]), ["dispatch b"]);
     let root = root_vars(&d);
     assert_eq!(root.get("site"), None);
     assert_eq!(root.get("loopCounter"), None);
@@ -617,16 +575,18 @@ fn multi_instance_input_items_are_local_to_each_instance() {
 /// `inputDataItem` is the source of an association into the instance's own data input.
 #[test]
 fn loop_data_input_ref_names_a_data_input_of_the_activity() {
-    let a = r#"<serviceTask id="a"><extensionElements><trace:task resource="sys.a"/></extensionElements>
-      <ioSpecification><dataInput id="a_sites" name="all"/><dataInput id="a_one" name="target"/>
+    let a = bound(
+        "a",
+        &[],
+        r#"<ioSpecification><dataInput id="a_sites" name="all"/><dataInput id="a_one" name="target"/>
         <inputSet><dataInputRefs>a_sites</dataInputRefs><dataInputRefs>a_one</dataInputRefs></inputSet><outputSet/></ioSpecification>
       <dataInputAssociation><sourceRef>R_sites</sourceRef><targetRef>a_sites</targetRef></dataInputAssociation>
       <dataInputAssociation><sourceRef>a_item</sourceRef><targetRef>a_one</targetRef></dataInputAssociation>
-      <multiInstanceLoopCharacteristics><loopDataInputRef>a_sites</loopDataInputRef><inputDataItem id="a_item" name="site"/></multiInstanceLoopCharacteristics>
-    </serviceTask>"#;
+      <multiInstanceLoopCharacteristics><loopDataInputRef>a_sites</loopDataInputRef><inputDataItem id="a_item" name="site"/></multiInstanceLoopCharacteristics>"#,
+    );
     let mut d = Driver::new(&line(
         r#"<dataObject id="DO_sites" name="sites" isCollection="true"/><dataObjectReference id="R_sites" dataObjectRef="DO_sites"/>"#,
-        a,
+        &a,
         &["a"],
     ));
     let sites = Value::List(vec![int(7), int(8)]);
@@ -659,7 +619,7 @@ fn multi_instance_output_items_are_per_instance_and_collected_in_order() {
     let sites = Value::List(vec![int(7), int(8)]);
     assert_eq!(d.start(&[("sites", sites)]), ["dispatch a", "dispatch a"]);
     assert_eq!(
-        complete_nth(&mut d, 1, &[("depth", int(80))]),
+        d.complete_nth(1, &[("depth", int(80))]),
         Vec::<String>::new()
     );
     assert_eq!(
@@ -667,12 +627,9 @@ fn multi_instance_output_items_are_per_instance_and_collected_in_order() {
         None,
         "an instance's item leaked"
     );
+    assert_eq!(d.complete_nth(0, &[("depth", int(70))]), ["dispatch b"]);
     assert_eq!(
-        complete_nth(&mut d, 0, &[("depth", int(70))]),
-        ["dispatch b"]
-    );
-    assert_eq!(
-        request(&d, "b"),
+        d.request("b"),
         vars(&[("all", Value::List(vec![int(70), int(80)]))])
     );
     assert_eq!(root_vars(&d).get("depth"), None);

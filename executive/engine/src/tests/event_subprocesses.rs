@@ -18,11 +18,11 @@ fn process(body: &str) -> String {
 /// An event sub-process `id` whose start `{id}s` carries `definition` and whose body is one
 /// task `{id}t`.
 fn esp(id: &str, definition: &str, interrupting: bool) -> String {
+    let (start, body, end) = (format!("{id}s"), format!("{id}t"), format!("{id}e"));
     format!(
-        r#"<subProcess id="{id}" triggeredByEvent="true"><startEvent id="{id}s" isInterrupting="{interrupting}">{definition}</startEvent>{}{}{}<endEvent id="{id}e"/></subProcess>"#,
-        flow(&format!("{id}f0"), &format!("{id}s"), &format!("{id}t")),
-        task(&format!("{id}t"), "", ""),
-        flow(&format!("{id}f1"), &format!("{id}t"), &format!("{id}e")),
+        r#"<subProcess id="{id}" triggeredByEvent="true"><startEvent id="{start}" isInterrupting="{interrupting}">{definition}</startEvent>{}{}<endEvent id="{end}"/></subProcess>"#,
+        path(&format!("{id}f"), &[&start, &body, &end]),
+        task(&body, "", ""),
     )
 }
 
@@ -32,33 +32,23 @@ const ERROR: &str = r#"<errorEventDefinition errorRef="err"/>"#;
 const ANY_ERROR: &str = "<errorEventDefinition/>";
 const ESCALATION: &str = r#"<escalationEventDefinition escalationRef="esc"/>"#;
 
-fn timer(kind: &str, value: &str) -> String {
+fn cycle(value: &str) -> String {
     format!(
-        r#"<timerEventDefinition><{kind} xsi:type="tFormalExpression">{value}</{kind}></timerEventDefinition>"#
+        r#"<timerEventDefinition><timeCycle xsi:type="tFormalExpression">{value}</timeCycle></timerEventDefinition>"#
     )
 }
 
 /// start → `a` → end, plus `extra`.
 fn one_task(extra: &str) -> String {
-    process(&format!(
-        r#"<startEvent id="s"/>{}{}{}<endEvent id="e"/>{extra}"#,
-        flow("f0", "s", "a"),
-        task("a", "f0", "f1"),
-        flow("f1", "a", "e"),
-    ))
+    process(&format!("{}{}{extra}", chain(&["a"]), task("a", "", "")))
 }
 
 /// start → fork → `a`, `b` → ends, plus `extra`.
 fn two_tasks(extra: &str) -> String {
     process(&format!(
-        r#"<startEvent id="s"/>{}<parallelGateway id="fork"/>{}{}{}{}{}{}<endEvent id="e1"/><endEvent id="e2"/>{extra}"#,
-        flow("f0", "s", "fork"),
-        flow("f1", "fork", "a"),
-        flow("f2", "fork", "b"),
-        task("a", "f1", "f3"),
-        task("b", "f2", "f4"),
-        flow("f3", "a", "e1"),
-        flow("f4", "b", "e2"),
+        "{}{}{extra}",
+        fork_into(&[&["a"], &["b"]]),
+        tasks(&["a", "b"])
     ))
 }
 
@@ -66,44 +56,28 @@ fn two_tasks(extra: &str) -> String {
 /// (boundary events of `sub`, their paths, event sub-processes of the process).
 fn nested(inner: &str, outer: &str) -> String {
     process(&format!(
-        r#"<startEvent id="s"/>{}{}{}<subProcess id="sub"><startEvent id="ss"/>{}<parallelGateway id="fork"/>{}{}{}{}{}{}<endEvent id="se1"/><endEvent id="se2"/>{inner}</subProcess>{}{}{}<endEvent id="e"/>{outer}"#,
-        flow("f0", "s", "a"),
-        task("a", "f0", "f1"),
-        flow("f1", "a", "sub"),
+        r#"{}{}<subProcess id="sub"><startEvent id="ss"/>{}<parallelGateway id="fork"/>{}{}{}<endEvent id="se1"/><endEvent id="se2"/>{inner}</subProcess>{outer}"#,
+        chain(&["a", "sub", "b"]),
+        tasks(&["a", "b"]),
         flow("i0", "ss", "fork"),
-        flow("i1", "fork", "x"),
-        flow("i2", "fork", "y"),
-        task("x", "i1", "i3"),
-        task("y", "i2", "i4"),
-        flow("i3", "x", "se1"),
-        flow("i4", "y", "se2"),
-        flow("f2", "sub", "b"),
-        task("b", "f2", "f3"),
-        flow("f3", "b", "e"),
+        path("x", &["fork", "x", "se1"]),
+        path("y", &["fork", "y", "se2"]),
+        tasks(&["x", "y"]),
     ))
 }
 
-fn signal(d: &mut Driver, name: &str) -> Vec<String> {
-    d.step(Event::SignalReceived { name: name.into() })
-        .expect("a signal is always accepted")
+/// A boundary event `bd` on `sub` with `definition`, leading to task `h` and its end `eh`.
+fn sub_boundary(definition: &str) -> String {
+    format!(
+        r#"<boundaryEvent id="bd" attachedToRef="sub">{definition}</boundaryEvent>{}{}<endEvent id="eh"/>"#,
+        path("h", &["bd", "h", "eh"]),
+        task("h", "", ""),
+    )
 }
 
-fn message(d: &mut Driver, name: &str) -> Result<Vec<String>, Rejected> {
-    d.step(Event::MessageReceived {
-        name: name.into(),
-        correlation: None,
-        payload: Vars::new(),
-    })
-}
-
-/// Completes the `i`-th dispatched task (dispatch order), whatever its node.
-fn complete_nth(d: &mut Driver, i: usize) -> Vec<String> {
-    let task = d.tasks[i].1;
-    d.step(Event::TaskCompleted {
-        task,
-        output: Vars::new(),
-    })
-    .expect("accepted")
+/// The message `poke` from outside.
+fn poke(d: &mut Driver) -> Result<Vec<String>, Rejected> {
+    d.message("poke", None, &[])
 }
 
 /// §10.5.6 non-interrupting handlers: each occurrence starts one more event sub-process
@@ -113,11 +87,11 @@ fn complete_nth(d: &mut Driver, i: usize) -> Vec<String> {
 fn a_non_interrupting_event_subprocess_runs_once_per_occurrence_beside_the_scope() {
     let mut d = Driver::new(&one_task(&esp("m", MESSAGE, false)));
     assert_eq!(d.start(&[]), ["dispatch a"]);
-    assert_eq!(message(&mut d, "poke").expect("received"), ["dispatch mt"]);
-    assert_eq!(message(&mut d, "poke").expect("received"), ["dispatch mt"]);
+    assert_eq!(poke(&mut d).expect("received"), ["dispatch mt"]);
+    assert_eq!(poke(&mut d).expect("received"), ["dispatch mt"]);
     assert_eq!(d.complete("a", &[]), Vec::<String>::new());
-    assert_eq!(complete_nth(&mut d, 1), Vec::<String>::new());
-    assert_eq!(complete_nth(&mut d, 2), ["completed"]);
+    assert_eq!(d.complete_nth(1, &[]), Vec::<String>::new());
+    assert_eq!(d.complete_nth(2, &[]), ["completed"]);
 }
 
 /// §10.3.5: the event sub-process starts each time its trigger occurs while the parent is
@@ -127,11 +101,11 @@ fn a_non_interrupting_event_subprocess_runs_once_per_occurrence_beside_the_scope
 fn a_scope_waiting_for_its_event_subprocess_still_listens() {
     let mut d = Driver::new(&one_task(&esp("n", SIGNAL, false)));
     assert_eq!(d.start(&[]), ["dispatch a"]);
-    assert_eq!(signal(&mut d, "S"), ["dispatch nt"]);
+    assert_eq!(d.signal("S"), ["dispatch nt"]);
     assert_eq!(d.complete("a", &[]), Vec::<String>::new());
-    assert_eq!(signal(&mut d, "S"), ["dispatch nt"]);
-    assert_eq!(complete_nth(&mut d, 1), Vec::<String>::new());
-    assert_eq!(complete_nth(&mut d, 2), ["completed"]);
+    assert_eq!(d.signal("S"), ["dispatch nt"]);
+    assert_eq!(d.complete_nth(1, &[]), Vec::<String>::new());
+    assert_eq!(d.complete_nth(2, &[]), ["completed"]);
     // The scope has ended: nobody listens any more.
     assert!(d.e.state().waits.is_empty());
 }
@@ -144,8 +118,8 @@ fn a_scope_waiting_for_its_event_subprocess_still_listens() {
 fn an_interrupting_event_subprocess_cancels_the_scope_and_fires_once() {
     let mut d = Driver::new(&two_tasks(&esp("i", SIGNAL, true)));
     assert_eq!(d.start(&[]), ["dispatch a", "dispatch b"]);
-    assert_eq!(signal(&mut d, "S"), ["cancel a", "cancel b", "dispatch it"]);
-    assert_eq!(signal(&mut d, "S"), Vec::<String>::new());
+    assert_eq!(d.signal("S"), ["cancel a", "cancel b", "dispatch it"]);
+    assert_eq!(d.signal("S"), Vec::<String>::new());
     assert_eq!(d.complete("it", &[]), ["completed"]);
 }
 
@@ -160,12 +134,9 @@ fn an_interrupting_event_subprocess_cancels_running_non_interrupting_ones() {
         esp("i", SIGNAL, true)
     )));
     assert_eq!(d.start(&[]), ["dispatch a"]);
-    assert_eq!(message(&mut d, "poke").expect("received"), ["dispatch nt"]);
-    assert_eq!(
-        signal(&mut d, "S"),
-        ["cancel a", "cancel nt", "dispatch it"]
-    );
-    let r = message(&mut d, "poke");
+    assert_eq!(poke(&mut d).expect("received"), ["dispatch nt"]);
+    assert_eq!(d.signal("S"), ["cancel a", "cancel nt", "dispatch it"]);
+    let r = poke(&mut d);
     assert!(matches!(r, Err(Rejected::NoReceiver(_))), "{r:?}");
     assert_eq!(d.complete("it", &[]), ["completed"]);
 }
@@ -180,10 +151,10 @@ fn one_signal_starts_every_non_interrupting_event_subprocess_of_the_scope() {
         esp("n2", SIGNAL, false)
     )));
     assert_eq!(d.start(&[]), ["dispatch a"]);
-    assert_eq!(signal(&mut d, "S"), ["dispatch n1t", "dispatch n2t"]);
+    assert_eq!(d.signal("S"), ["dispatch n1t", "dispatch n2t"]);
     assert_eq!(d.complete("a", &[]), Vec::<String>::new());
-    assert_eq!(complete_nth(&mut d, 1), Vec::<String>::new());
-    assert_eq!(complete_nth(&mut d, 2), ["completed"]);
+    assert_eq!(d.complete_nth(1, &[]), Vec::<String>::new());
+    assert_eq!(d.complete_nth(2, &[]), ["completed"]);
 }
 
 /// One signal reaches event sub-processes in nested scopes: the one inside the running
@@ -196,7 +167,7 @@ fn one_signal_starts_event_subprocesses_in_nested_scopes() {
     ));
     assert_eq!(d.start(&[]), ["dispatch a"]);
     assert_eq!(d.complete("a", &[]), ["dispatch x", "dispatch y"]);
-    assert_eq!(signal(&mut d, "S"), ["dispatch innert", "dispatch outert"]);
+    assert_eq!(d.signal("S"), ["dispatch innert", "dispatch outert"]);
 }
 
 /// When one signal starts a non-interrupting event sub-process inside a sub-process and an
@@ -211,7 +182,7 @@ fn an_interrupting_outer_event_subprocess_cancels_an_inner_one_started_by_the_sa
     ));
     d.start(&[]);
     assert_eq!(d.complete("a", &[]), ["dispatch x", "dispatch y"]);
-    let out = signal(&mut d, "S");
+    let out = d.signal("S");
     assert!(
         out.contains(&"cancel x".to_owned()) && out.contains(&"cancel y".to_owned()),
         "{out:?}"
@@ -231,13 +202,13 @@ fn an_interrupting_outer_event_subprocess_cancels_an_inner_one_started_by_the_sa
 fn an_event_subprocess_in_a_subprocess_listens_only_while_it_runs() {
     let mut d = Driver::new(&nested(&esp("n", SIGNAL, false), ""));
     assert_eq!(d.start(&[]), ["dispatch a"]);
-    assert_eq!(signal(&mut d, "S"), Vec::<String>::new());
+    assert_eq!(d.signal("S"), Vec::<String>::new());
     assert_eq!(d.complete("a", &[]), ["dispatch x", "dispatch y"]);
-    assert_eq!(signal(&mut d, "S"), ["dispatch nt"]);
+    assert_eq!(d.signal("S"), ["dispatch nt"]);
     assert_eq!(d.complete("x", &[]), Vec::<String>::new());
     assert_eq!(d.complete("y", &[]), Vec::<String>::new());
     assert_eq!(d.complete("nt", &[]), ["dispatch b"]);
-    assert_eq!(signal(&mut d, "S"), Vec::<String>::new());
+    assert_eq!(d.signal("S"), Vec::<String>::new());
     assert_eq!(d.complete("b", &[]), ["completed"]);
 }
 
@@ -247,14 +218,14 @@ fn an_event_subprocess_in_a_subprocess_listens_only_while_it_runs() {
 fn a_message_event_subprocess_has_no_receiver_outside_its_scope() {
     let mut d = Driver::new(&nested(&esp("m", MESSAGE, false), ""));
     assert_eq!(d.start(&[]), ["dispatch a"]);
-    let r = message(&mut d, "poke");
+    let r = poke(&mut d);
     assert!(matches!(r, Err(Rejected::NoReceiver(_))), "{r:?}");
     d.complete("a", &[]);
-    assert_eq!(message(&mut d, "poke").expect("received"), ["dispatch mt"]);
+    assert_eq!(poke(&mut d).expect("received"), ["dispatch mt"]);
     d.complete("x", &[]);
     d.complete("y", &[]);
     assert_eq!(d.complete("mt", &[]), ["dispatch b"]);
-    let r = message(&mut d, "poke");
+    let r = poke(&mut d);
     assert!(matches!(r, Err(Rejected::NoReceiver(_))), "{r:?}");
 }
 
@@ -267,7 +238,7 @@ fn an_interrupting_event_subprocess_of_a_subprocess_completes_it_normally() {
     d.start(&[]);
     assert_eq!(d.complete("a", &[]), ["dispatch x", "dispatch y"]);
     assert_eq!(
-        message(&mut d, "poke").expect("received"),
+        poke(&mut d).expect("received"),
         ["cancel x", "cancel y", "dispatch it"]
     );
     assert_eq!(d.complete("it", &[]), ["dispatch b"]);
@@ -279,12 +250,7 @@ fn an_interrupting_event_subprocess_of_a_subprocess_completes_it_normally() {
 /// the sub-process then completes normally.
 #[test]
 fn an_error_event_subprocess_catches_a_task_failure_before_the_boundary() {
-    let boundary = format!(
-        r#"<boundaryEvent id="bd" attachedToRef="sub">{ERROR}</boundaryEvent>{}{}{}<endEvent id="eh"/>"#,
-        flow("fb", "bd", "h"),
-        task("h", "fb", "fh"),
-        flow("fh", "h", "eh"),
-    );
+    let boundary = sub_boundary(ERROR);
     let mut d = Driver::new(&nested(&esp("r", ERROR, true), &boundary));
     d.start(&[]);
     assert_eq!(d.complete("a", &[]), ["dispatch x", "dispatch y"]);
@@ -297,12 +263,7 @@ fn an_error_event_subprocess_catches_a_task_failure_before_the_boundary() {
 /// catch-all boundary of the sub-process, which interrupts it.
 #[test]
 fn an_error_of_another_code_passes_the_event_subprocess_to_the_boundary() {
-    let boundary = format!(
-        r#"<boundaryEvent id="bd" attachedToRef="sub">{ANY_ERROR}</boundaryEvent>{}{}{}<endEvent id="eh"/>"#,
-        flow("fb", "bd", "h"),
-        task("h", "fb", "fh"),
-        flow("fh", "h", "eh"),
-    );
+    let boundary = sub_boundary(ANY_ERROR);
     let mut d = Driver::new(&nested(&esp("r", ERROR, true), &boundary));
     d.start(&[]);
     d.complete("a", &[]);
@@ -316,17 +277,12 @@ fn an_error_of_another_code_passes_the_event_subprocess_to_the_boundary() {
 /// sub-process of the scope catch it) to the parent's boundary events, interrupting it.
 #[test]
 fn an_error_inside_an_event_subprocess_goes_to_the_boundary_of_its_parent() {
-    let boundary = format!(
-        r#"<boundaryEvent id="bd" attachedToRef="sub">{ERROR}</boundaryEvent>{}{}{}<endEvent id="eh"/>"#,
-        flow("fb", "bd", "h"),
-        task("h", "fb", "fh"),
-        flow("fh", "h", "eh"),
-    );
+    let boundary = sub_boundary(ERROR);
     let inner = format!("{}{}", esp("m", MESSAGE, false), esp("r", ERROR, true));
     let mut d = Driver::new(&nested(&inner, &boundary));
     d.start(&[]);
     d.complete("a", &[]);
-    assert_eq!(message(&mut d, "poke").expect("received"), ["dispatch mt"]);
+    assert_eq!(poke(&mut d).expect("received"), ["dispatch mt"]);
     assert_eq!(d.fail("mt", "E"), ["cancel x", "cancel y", "dispatch h"]);
     assert_eq!(d.complete("h", &[]), ["completed"]);
 }
@@ -338,17 +294,9 @@ fn an_error_inside_an_event_subprocess_goes_to_the_boundary_of_its_parent() {
 fn an_escalation_event_subprocess_catches_a_throw_of_its_scope() {
     let body = |interrupting: bool| {
         process(&format!(
-            r#"<startEvent id="s"/>{}<parallelGateway id="fork"/>{}{}{}{}{}<intermediateThrowEvent id="t">{ESCALATION}</intermediateThrowEvent>{}{}{}{}<endEvent id="e1"/><endEvent id="e2"/>{}"#,
-            flow("f0", "s", "fork"),
-            flow("f1", "fork", "a"),
-            task("a", "f1", "f2"),
-            flow("f2", "a", "e1"),
-            flow("f3", "fork", "w"),
-            task("w", "f3", "f4") + &flow("f4", "w", "t"),
-            flow("f5", "t", "c"),
-            task("c", "f5", "f6"),
-            flow("f6", "c", "e2"),
-            "",
+            r#"{}{}<intermediateThrowEvent id="t">{ESCALATION}</intermediateThrowEvent>{}"#,
+            fork_into(&[&["a"], &["w", "t", "c"]]),
+            tasks(&["a", "w", "c"]),
             esp("x", ESCALATION, interrupting),
         ))
     };
@@ -369,7 +317,7 @@ fn an_escalation_event_subprocess_catches_a_throw_of_its_scope() {
 /// timer cancels the scope's work when due; its timer is cancelled if the scope ends first.
 #[test]
 fn an_interrupting_timer_event_subprocess_fires_when_due_or_is_cancelled_with_its_scope() {
-    let extra = esp("t", &timer("timeDuration", "PT10M"), true);
+    let extra = esp("t", &duration("PT10M"), true);
     let mut d = Driver::new(&one_task(&extra));
     assert_eq!(d.start(&[]), ["timer 600000", "dispatch a"]);
     assert_eq!(d.fire(0, 600_000), ["cancel a", "dispatch tt"]);
@@ -384,32 +332,27 @@ fn an_interrupting_timer_event_subprocess_fires_when_due_or_is_cancelled_with_it
 /// scope runs (R2: two firings), beside the scope's work.
 #[test]
 fn a_non_interrupting_timer_cycle_event_subprocess_starts_once_per_firing() {
-    let mut d = Driver::new(&one_task(&esp("t", &timer("timeCycle", "R2/PT1M"), false)));
+    let mut d = Driver::new(&one_task(&esp("t", &cycle("R2/PT1M"), false)));
     assert_eq!(d.start(&[]), ["timer 60000", "dispatch a"]);
     assert_eq!(d.fire(0, 60_000), ["timer 60000", "dispatch tt"]);
     assert_eq!(d.fire(1, 60_000), ["dispatch tt"]);
     d.complete("a", &[]);
-    complete_nth(&mut d, 1);
-    assert_eq!(complete_nth(&mut d, 2), ["completed"]);
+    d.complete_nth(1, &[]);
+    assert_eq!(d.complete_nth(2, &[]), ["completed"]);
 }
 
 /// A running non-interrupting event sub-process instance belongs to its scope: when an
 /// interrupting boundary event cancels the sub-process, the instance is cancelled with it.
 #[test]
 fn a_boundary_interrupting_the_subprocess_cancels_its_running_event_subprocess() {
-    let boundary = format!(
-        r#"<boundaryEvent id="bd" attachedToRef="sub"><timerEventDefinition><timeDuration xsi:type="tFormalExpression">PT1H</timeDuration></timerEventDefinition></boundaryEvent>{}{}{}<endEvent id="eh"/>"#,
-        flow("fb", "bd", "h"),
-        task("h", "fb", "fh"),
-        flow("fh", "h", "eh"),
-    );
+    let boundary = sub_boundary(&duration("PT1H"));
     let mut d = Driver::new(&nested(&esp("n", SIGNAL, false), &boundary));
     d.start(&[]);
     assert_eq!(
         d.complete("a", &[]),
         ["timer 3600000", "dispatch x", "dispatch y"]
     );
-    assert_eq!(signal(&mut d, "S"), ["dispatch nt"]);
+    assert_eq!(d.signal("S"), ["dispatch nt"]);
     d.complete("x", &[]);
     d.complete("y", &[]);
     assert_eq!(d.fire(0, 3_600_000), ["cancel nt", "dispatch h"]);
@@ -425,7 +368,7 @@ fn a_terminate_end_cancels_running_event_subprocess_instances() {
         r#"<endEvent id="e"><terminateEventDefinition/></endEvent>"#,
     ));
     d.start(&[]);
-    assert_eq!(signal(&mut d, "S"), ["dispatch nt"]);
+    assert_eq!(d.signal("S"), ["dispatch nt"]);
     assert_eq!(d.complete("a", &[]), ["cancel nt", "terminated"]);
 }
 
@@ -453,30 +396,9 @@ fn a_message_event_subprocess_sees_the_message_payload() {
     );
     let mut d = Driver::new(&body);
     d.start(&[]);
-    let out = d
-        .step(Event::MessageReceived {
-            name: "poke".into(),
-            correlation: None,
-            payload: [("n".to_owned(), Value::Int(5))].into(),
-        })
-        .expect("received");
-    assert_eq!(out, ["dispatch mt"]);
-    let request =
-        d.e.state()
-            .tokens
-            .values()
-            .find_map(|t| match t.command.as_deref() {
-                Some(Action::DispatchTask { node, request, .. })
-                    if d.e.graph().node(*node).id == "mt" =>
-                {
-                    Some(request.clone())
-                }
-                _ => None,
-            });
-    assert_eq!(
-        request.and_then(|r| r.get("n").cloned()),
-        Some(Value::Int(5))
-    );
+    let out = d.message("poke", None, &[("n", Value::Int(5))]);
+    assert_eq!(out.expect("received"), ["dispatch mt"]);
+    assert_eq!(d.request("mt").get("n"), Some(&Value::Int(5)));
 }
 
 /// §13.5.4: an error event sub-process may rethrow the error to continue outside the
@@ -484,12 +406,7 @@ fn a_message_event_subprocess_sees_the_message_payload() {
 /// itself), after its own work.
 #[test]
 fn an_error_event_subprocess_rethrowing_continues_at_the_boundary() {
-    let boundary = format!(
-        r#"<boundaryEvent id="bd" attachedToRef="sub">{ERROR}</boundaryEvent>{}{}{}<endEvent id="eh"/>"#,
-        flow("fb", "bd", "h"),
-        task("h", "fb", "fh"),
-        flow("fh", "h", "eh"),
-    );
+    let boundary = sub_boundary(ERROR);
     let rethrow = esp("r", ERROR, true).replace(
         r#"<endEvent id="re"/>"#,
         &format!(r#"<endEvent id="re">{ERROR}</endEvent>"#),
@@ -518,16 +435,13 @@ fn an_interrupting_event_subprocess_of_a_multi_instance_subprocess_interrupts_on
         ["dispatch x", "dispatch y", "dispatch x", "dispatch y"]
     );
     assert_eq!(
-        message(&mut d, "poke").expect("received"),
+        poke(&mut d).expect("received"),
         ["cancel x", "cancel y", "dispatch it"]
     );
     // The second body still runs: its task completes; it still listens, and the next message
     // interrupts it alone.
-    assert_eq!(complete_nth(&mut d, 3), Vec::<String>::new());
-    assert_eq!(
-        message(&mut d, "poke").expect("received"),
-        ["cancel y", "dispatch it"]
-    );
-    assert_eq!(complete_nth(&mut d, 5), Vec::<String>::new());
-    assert_eq!(complete_nth(&mut d, 6), ["dispatch b"]);
+    assert_eq!(d.complete_nth(3, &[]), Vec::<String>::new());
+    assert_eq!(poke(&mut d).expect("received"), ["cancel y", "dispatch it"]);
+    assert_eq!(d.complete_nth(5, &[]), Vec::<String>::new());
+    assert_eq!(d.complete_nth(6, &[]), ["dispatch b"]);
 }

@@ -6,6 +6,8 @@
 use super::*;
 
 const PING: &str = r#"<message id="m" name="ping"/>"#;
+const MESSAGE: &str = r#"<messageEventDefinition messageRef="m"/>"#;
+const RECEIVE_TASK: &str = r#"<receiveTask id="rt" messageRef="m"/>"#;
 
 /// A collaboration: `pools` are (participant id, processRef), `flows` are message flows
 /// (source, target).
@@ -26,39 +28,55 @@ fn collab(pools: &[(&str, Option<&str>)], flows: &[(&str, &str)]) -> String {
     out
 }
 
+/// The message `ping`, pool `A` (process `p`, the `sender`) and pool `B` (process `q`, the
+/// `receiver`), and one message flow `source` → `target` between them.
+fn two_pools(source: &str, target: &str, sender: &str, receiver: &str) -> String {
+    format!(
+        "{PING}{}{sender}{receiver}",
+        collab(&[("A", Some("p")), ("B", Some("q"))], &[(source, target)])
+    )
+}
+
+/// Process `id`: a start `{id}s` carrying `start` (an event definition, or `""`), sequence
+/// flows through `nodes` (declared in `decls`), an end `{id}e`.
+fn line(id: &str, start: &str, nodes: &[&str], decls: &str) -> String {
+    let (s, e) = (format!("{id}s"), format!("{id}e"));
+    let all = [&[s.as_str()], nodes, &[e.as_str()]].concat();
+    format!(
+        r#"<process id="{id}" isExecutable="true"><startEvent id="{s}">{start}</startEvent>{}{decls}<endEvent id="{e}"/></process>"#,
+        path(&format!("{id}f"), &all)
+    )
+}
+
+/// An intermediate catch event of the message `ping`.
+fn catch(id: &str) -> String {
+    format!(r#"<intermediateCatchEvent id="{id}">{MESSAGE}</intermediateCatchEvent>"#)
+}
+
 /// Process `p`: start, a send task `st` (message `ping`), end.
 fn sender_send_task() -> String {
-    format!(
-        r#"<process id="p" isExecutable="true"><startEvent id="s"/>{}<sendTask id="st" messageRef="m"/>{}<endEvent id="e"/></process>"#,
-        flow("f0", "s", "st"),
-        flow("f1", "st", "e"),
-    )
+    line("p", "", &["st"], r#"<sendTask id="st" messageRef="m"/>"#)
 }
 
 /// Process `p`: start, an intermediate message throw event `mt`, end.
 fn sender_throw() -> String {
-    format!(
-        r#"<process id="p" isExecutable="true"><startEvent id="s"/>{}<intermediateThrowEvent id="mt"><messageEventDefinition messageRef="m"/></intermediateThrowEvent>{}<endEvent id="e"/></process>"#,
-        flow("f0", "s", "mt"),
-        flow("f1", "mt", "e"),
-    )
+    let throw = format!(r#"<intermediateThrowEvent id="mt">{MESSAGE}</intermediateThrowEvent>"#);
+    line("p", "", &["mt"], &throw)
 }
 
 /// Process `q`: start, a receive task `rt` (message `ping`), a service task `qa`, end.
 fn receiver_task() -> String {
-    format!(
-        r#"<process id="q" isExecutable="true"><startEvent id="qs"/>{}<receiveTask id="rt" messageRef="m"/>{}{}{}<endEvent id="qe"/></process>"#,
-        flow("g0", "qs", "rt"),
-        flow("g1", "rt", "qa"),
-        task("qa", "g1", "g2"),
-        flow("g2", "qa", "qe"),
+    line(
+        "q",
+        "",
+        &["rt", "qa"],
+        &(RECEIVE_TASK.to_owned() + &task("qa", "", "")),
     )
 }
 
-fn vars(v: &[(&str, Value)]) -> Vars {
-    v.iter()
-        .map(|(k, v)| ((*k).to_owned(), v.clone()))
-        .collect()
+/// Process `q`: a start `qs` carrying `start`, a service task `qa`, end.
+fn receiver_start(start: &str) -> String {
+    line("q", start, &["qa"], &task("qa", "", ""))
 }
 
 fn start_process(d: &mut Driver, process: &str, v: &[(&str, Value)]) -> Vec<String> {
@@ -68,19 +86,6 @@ fn start_process(d: &mut Driver, process: &str, v: &[(&str, Value)]) -> Vec<Stri
         start: None,
     })
     .expect("starts")
-}
-
-fn message(
-    d: &mut Driver,
-    name: &str,
-    correlation: Option<Value>,
-    v: &[(&str, Value)],
-) -> Result<Vec<String>, Rejected> {
-    d.step(Event::MessageReceived {
-        name: name.into(),
-        correlation,
-        payload: vars(v),
-    })
 }
 
 /// Every instance in start order: (process id, finished?).
@@ -109,11 +114,11 @@ fn running(v: &[(&str, bool)]) -> Vec<(String, bool)> {
 // travels as the payload and lands in the receiving instance.
 #[test]
 fn send_task_along_message_flow_completes_the_waiting_receive_task() {
-    let mut d = Driver::new(&format!(
-        "{PING}{}{}{}",
-        collab(&[("A", Some("p")), ("B", Some("q"))], &[("st", "rt")]),
-        sender_send_task(),
-        receiver_task()
+    let mut d = Driver::new(&two_pools(
+        "st",
+        "rt",
+        &sender_send_task(),
+        &receiver_task(),
     ));
     assert_eq!(start_process(&mut d, "q", &[]), Vec::<String>::new());
     let out = d.start(&[("x", Value::Int(5))]);
@@ -127,16 +132,11 @@ fn send_task_along_message_flow_completes_the_waiting_receive_task() {
 // the message flow from the throw event of the other pool delivers it; nothing leaves the engine.
 #[test]
 fn message_throw_along_flow_to_message_start_event_starts_the_other_pool() {
-    let receiver = format!(
-        r#"<process id="q" isExecutable="true"><startEvent id="qs"><messageEventDefinition messageRef="m"/></startEvent>{}{}{}<endEvent id="qe"/></process>"#,
-        flow("g0", "qs", "qa"),
-        task("qa", "g0", "g1"),
-        flow("g1", "qa", "qe"),
-    );
-    let mut d = Driver::new(&format!(
-        "{PING}{}{}{receiver}",
-        collab(&[("A", Some("p")), ("B", Some("q"))], &[("mt", "qs")]),
-        sender_throw(),
+    let mut d = Driver::new(&two_pools(
+        "mt",
+        "qs",
+        &sender_throw(),
+        &receiver_start(MESSAGE),
     ));
     // The sender's token ends before the new instance's first token reaches its task.
     assert_eq!(
@@ -161,18 +161,11 @@ fn message_throw_along_flow_to_message_start_event_starts_the_other_pool() {
 #[test]
 fn message_end_event_along_flow_releases_an_intermediate_catch_event() {
     let sender = format!(
-        r#"<process id="p" isExecutable="true"><startEvent id="s"/>{}<endEvent id="me"><messageEventDefinition messageRef="m"/></endEvent></process>"#,
+        r#"<process id="p" isExecutable="true"><startEvent id="s"/>{}<endEvent id="me">{MESSAGE}</endEvent></process>"#,
         flow("f0", "s", "me"),
     );
-    let receiver = format!(
-        r#"<process id="q" isExecutable="true"><startEvent id="qs"/>{}<intermediateCatchEvent id="qc"><messageEventDefinition messageRef="m"/></intermediateCatchEvent>{}<endEvent id="qe"/></process>"#,
-        flow("g0", "qs", "qc"),
-        flow("g1", "qc", "qe"),
-    );
-    let mut d = Driver::new(&format!(
-        "{PING}{}{sender}{receiver}",
-        collab(&[("A", Some("p")), ("B", Some("q"))], &[("me", "qc")]),
-    ));
+    let receiver = line("q", "", &["qc"], &catch("qc"));
+    let mut d = Driver::new(&two_pools("me", "qc", &sender, &receiver));
     assert_eq!(start_process(&mut d, "q", &[]), Vec::<String>::new());
     assert_eq!(d.start(&[]), ["completed", "completed"]);
     assert_eq!(instances(&d), running(&[("q", true), ("p", true)]));
@@ -194,18 +187,14 @@ fn message_flow_to_a_black_box_pool_leaves_the_engine() {
 // flow does not point at must not take it: the message goes to the black-box pool drawn.
 #[test]
 fn message_flow_to_a_black_box_pool_is_not_taken_by_an_unconnected_catcher_of_the_same_name() {
-    let other = format!(
-        r#"<process id="r" isExecutable="true"><startEvent id="rs"/>{}<intermediateCatchEvent id="rc"><messageEventDefinition messageRef="m"/></intermediateCatchEvent>{}<endEvent id="re"/></process>"#,
-        flow("h0", "rs", "rc"),
-        flow("h1", "rc", "re"),
-    );
     let mut d = Driver::new(&format!(
-        "{PING}{}{}{other}",
+        "{PING}{}{}{}",
         collab(
             &[("A", Some("p")), ("Ground", None), ("R", Some("r"))],
             &[("mt", "Ground")]
         ),
         sender_throw(),
+        line("r", "", &["rc"], &catch("rc")),
     ));
     assert_eq!(start_process(&mut d, "r", &[]), Vec::<String>::new());
     assert_eq!(d.start(&[]), ["send ping", "completed"]);
@@ -216,16 +205,11 @@ fn message_flow_to_a_black_box_pool_is_not_taken_by_an_unconnected_catcher_of_th
 // that process: its message start event for that message starts a new instance there.
 #[test]
 fn message_flow_to_a_pool_starts_its_process_at_the_message_start_event() {
-    let receiver = format!(
-        r#"<process id="q" isExecutable="true"><startEvent id="qs"><messageEventDefinition messageRef="m"/></startEvent>{}{}{}<endEvent id="qe"/></process>"#,
-        flow("g0", "qs", "qa"),
-        task("qa", "g0", "g1"),
-        flow("g1", "qa", "qe"),
-    );
-    let mut d = Driver::new(&format!(
-        "{PING}{}{}{receiver}",
-        collab(&[("A", Some("p")), ("B", Some("q"))], &[("mt", "B")]),
-        sender_throw(),
+    let mut d = Driver::new(&two_pools(
+        "mt",
+        "B",
+        &sender_throw(),
+        &receiver_start(MESSAGE),
     ));
     assert_eq!(d.start(&[]), ["completed", "dispatch qa"]);
     assert_eq!(instances(&d), running(&[("p", true), ("q", false)]));
@@ -235,17 +219,7 @@ fn message_flow_to_a_pool_starts_its_process_at_the_message_start_event() {
 // (the pool is drawn as the receiver; TRACE starts it as `InstanceStarted` would).
 #[test]
 fn message_flow_to_a_pool_with_a_none_start_starts_an_instance() {
-    let receiver = format!(
-        r#"<process id="q" isExecutable="true"><startEvent id="qs"/>{}{}{}<endEvent id="qe"/></process>"#,
-        flow("g0", "qs", "qa"),
-        task("qa", "g0", "g1"),
-        flow("g1", "qa", "qe"),
-    );
-    let mut d = Driver::new(&format!(
-        "{PING}{}{}{receiver}",
-        collab(&[("A", Some("p")), ("B", Some("q"))], &[("mt", "B")]),
-        sender_throw(),
-    ));
+    let mut d = Driver::new(&two_pools("mt", "B", &sender_throw(), &receiver_start("")));
     assert_eq!(
         d.start(&[("x", Value::Int(3))]),
         ["completed", "dispatch qa"]
@@ -259,11 +233,11 @@ fn message_flow_to_a_pool_with_a_none_start_starts_an_instance() {
 // the correlation; Camunda 8 buffers a published message for its time to live.)
 #[test]
 fn message_sent_before_the_receiver_waits_is_not_kept_for_it() {
-    let mut d = Driver::new(&format!(
-        "{PING}{}{}{}",
-        collab(&[("A", Some("p")), ("B", Some("q"))], &[("st", "rt")]),
-        sender_send_task(),
-        receiver_task()
+    let mut d = Driver::new(&two_pools(
+        "st",
+        "rt",
+        &sender_send_task(),
+        &receiver_task(),
     ));
     assert_eq!(d.start(&[]), ["send ping", "completed"]);
     assert_eq!(start_process(&mut d, "q", &[]), Vec::<String>::new());
@@ -272,16 +246,26 @@ fn message_sent_before_the_receiver_waits_is_not_kept_for_it() {
     assert_eq!(d.start(&[]), ["dispatch qa", "completed"]);
 }
 
+/// How many tokens wait at node `id`.
+fn waiting_at(d: &Driver, id: &str) -> usize {
+    let g = d.e.graph();
+    d.e.state()
+        .tokens
+        .values()
+        .filter(|t| g.node(t.node).id == id)
+        .count()
+}
+
 // §13.3.3: a message matches at most one receiver (key-based correlation: one process
 // instance). Without a correlation key TRACE gives it to the oldest waiting instance; the next
 // message goes to the next one. (Camunda 7 `correlate` refuses a message two executions match.)
 #[test]
 fn one_message_releases_exactly_one_of_two_waiting_instances_oldest_first() {
-    let mut d = Driver::new(&format!(
-        "{PING}{}{}{}",
-        collab(&[("A", Some("p")), ("B", Some("q"))], &[("st", "rt")]),
-        sender_send_task(),
-        receiver_task()
+    let mut d = Driver::new(&two_pools(
+        "st",
+        "rt",
+        &sender_send_task(),
+        &receiver_task(),
     ));
     start_process(&mut d, "q", &[("who", Value::from("first"))]);
     start_process(&mut d, "q", &[("who", Value::from("second"))]);
@@ -291,13 +275,7 @@ fn one_message_releases_exactly_one_of_two_waiting_instances_oldest_first() {
         running(&[("q", false), ("q", false), ("p", true)])
     );
     // The first receiver moved on (its task is out), the second still waits at `rt`.
-    let s = d.e.state();
-    let at_rt = s
-        .tokens
-        .values()
-        .filter(|t| d.e.graph().node(t.node).id == "rt")
-        .count();
-    assert_eq!(at_rt, 1);
+    assert_eq!(waiting_at(&d, "rt"), 1);
     assert_eq!(d.start(&[]), ["dispatch qa", "completed"]);
 }
 
@@ -309,23 +287,23 @@ fn correlated_receiver() -> String {
     )
 }
 
+/// Two instances of `correlated_receiver`, waiting for order 1 and order 2.
+fn two_orders_waiting(d: &mut Driver) {
+    start_process(d, "q", &[("orderId", Value::Int(1))]);
+    start_process(d, "q", &[("orderId", Value::Int(2))]);
+}
+
 // §13.3.3, §8.3.2 (key-based correlation): a message from outside with a correlation value goes
 // to the instance whose key evaluates to it, whatever the order the instances wait in.
 #[test]
 fn external_message_goes_to_the_instance_whose_correlation_key_matches() {
     let mut d = Driver::new(&correlated_receiver());
-    start_process(&mut d, "q", &[("orderId", Value::Int(1))]);
-    start_process(&mut d, "q", &[("orderId", Value::Int(2))]);
-    let out = message(
-        &mut d,
-        "ping",
-        Some(Value::Int(2)),
-        &[("paid", Value::Bool(true))],
-    );
+    two_orders_waiting(&mut d);
+    let out = d.message("ping", Some(Value::Int(2)), &[("paid", Value::Bool(true))]);
     assert_eq!(out.expect("accepted"), ["dispatch qa"]);
     assert_eq!(root_var(&d, 1, "paid"), Some(Value::Bool(true)));
     assert_eq!(root_var(&d, 0, "paid"), None);
-    let out = message(&mut d, "ping", Some(Value::Int(1)), &[]);
+    let out = d.message("ping", Some(Value::Int(1)), &[]);
     assert_eq!(out.expect("accepted"), ["dispatch qa"]);
 }
 
@@ -339,8 +317,7 @@ fn message_between_pools_goes_to_the_receiver_whose_correlation_key_matches_the_
         sender_send_task(),
         correlated_receiver(),
     ));
-    start_process(&mut d, "q", &[("orderId", Value::Int(1))]);
-    start_process(&mut d, "q", &[("orderId", Value::Int(2))]);
+    two_orders_waiting(&mut d);
     assert_eq!(
         d.start(&[("orderId", Value::Int(2))]),
         ["dispatch qa", "completed"]
@@ -361,7 +338,7 @@ fn message_between_pools_goes_to_the_receiver_whose_correlation_key_matches_the_
 fn external_message_nobody_waits_for_is_refused() {
     let mut d = Driver::new(&format!("{PING}{}", receiver_task()));
     let before = d.e.state().clone();
-    let r = message(&mut d, "ping", None, &[]);
+    let r = d.message("ping", None, &[]);
     assert!(
         matches!(&r, Err(Rejected::NoReceiver(n)) if n == "ping"),
         "{r:?}"
@@ -377,12 +354,7 @@ fn external_message_whose_correlation_matches_no_instance_reaches_none() {
     let mut d = Driver::new(&correlated_receiver());
     start_process(&mut d, "q", &[("orderId", Value::Int(1))]);
     let before = d.e.state().clone();
-    let r = message(
-        &mut d,
-        "ping",
-        Some(Value::Int(9)),
-        &[("paid", Value::Bool(true))],
-    );
+    let r = d.message("ping", Some(Value::Int(9)), &[("paid", Value::Bool(true))]);
     assert!(
         matches!(&r, Ok(out) if out.is_empty()) || matches!(&r, Err(Rejected::NoReceiver(_))),
         "{r:?}"
@@ -397,25 +369,18 @@ fn external_message_whose_correlation_matches_no_instance_reaches_none() {
 // completes at once.
 #[test]
 fn external_message_starts_instances_at_message_start_and_instantiating_receive_task() {
-    let body = format!(
-        r#"{PING}<process id="q" isExecutable="true"><startEvent id="qs"><messageEventDefinition messageRef="m"/></startEvent>{}{}{}<endEvent id="qe"/></process>"#,
-        flow("g0", "qs", "qa"),
-        task("qa", "g0", "g1"),
-        flow("g1", "qa", "qe"),
-    );
-    let mut d = Driver::new(&body);
-    let out = message(&mut d, "ping", None, &[("site", Value::Int(4))]);
+    let mut d = Driver::new(&format!("{PING}{}", receiver_start(MESSAGE)));
+    let out = d.message("ping", None, &[("site", Value::Int(4))]);
     assert_eq!(out.expect("accepted"), ["dispatch qa"]);
     assert_eq!(root_var(&d, 0, "site"), Some(Value::Int(4)));
 
     let body = format!(
-        r#"{PING}<process id="q" isExecutable="true"><receiveTask id="rt" messageRef="m" instantiate="true"/>{}{}{}<endEvent id="qe"/></process>"#,
-        flow("g1", "rt", "qa"),
-        task("qa", "g1", "g2"),
-        flow("g2", "qa", "qe"),
+        r#"{PING}<process id="q" isExecutable="true"><receiveTask id="rt" messageRef="m" instantiate="true"/>{}{}<endEvent id="qe"/></process>"#,
+        path("g", &["rt", "qa", "qe"]),
+        task("qa", "", ""),
     );
     let mut d = Driver::new(&body);
-    let out = message(&mut d, "ping", None, &[]);
+    let out = d.message("ping", None, &[]);
     assert_eq!(out.expect("accepted"), ["dispatch qa"]);
     assert_eq!(d.complete("qa", &[]), ["completed"]);
 }
@@ -427,28 +392,19 @@ fn external_message_starts_instances_at_message_start_and_instantiating_receive_
 fn message_along_flow_wins_an_event_based_gateway_and_withdraws_the_timer() {
     let receiver = format!(
         r#"<process id="q" isExecutable="true"><startEvent id="qs"/>{}<eventBasedGateway id="gw"/>{}{}
-        <intermediateCatchEvent id="qc"><messageEventDefinition messageRef="m"/></intermediateCatchEvent>
-        <intermediateCatchEvent id="qt"><timerEventDefinition><timeDuration xsi:type="tFormalExpression">PT1H</timeDuration></timerEventDefinition></intermediateCatchEvent>
-        {}{}{}{}{}{}<endEvent id="qe"/></process>"#,
+        <intermediateCatchEvent id="qt">{}</intermediateCatchEvent>{}{}<endEvent id="qe"/></process>"#,
         flow("g0", "qs", "gw"),
-        flow("g1", "gw", "qc"),
-        flow("g2", "gw", "qt"),
-        flow("g3", "qc", "qa"),
-        flow("g4", "qt", "qb"),
-        task("qa", "g3", "g5"),
-        task("qb", "g4", "g6"),
-        flow("g5", "qa", "qe"),
-        flow("g6", "qb", "qe"),
+        path("ga", &["gw", "qc", "qa", "qe"]),
+        catch("qc"),
+        duration("PT1H"),
+        path("gb", &["gw", "qt", "qb", "qe"]),
+        tasks(&["qa", "qb"]),
     );
-    let mut d = Driver::new(&format!(
-        "{PING}{}{}{receiver}",
-        collab(&[("A", Some("p")), ("B", Some("q"))], &[("mt", "qc")]),
-        sender_throw(),
-    ));
+    let mut d = Driver::new(&two_pools("mt", "qc", &sender_throw(), &receiver));
     assert_eq!(start_process(&mut d, "q", &[]), ["timer 3600000"]);
     assert_eq!(d.start(&[]), ["untimer", "dispatch qa", "completed"]);
     // The withdrawn timer can no longer fire.
-    let r = d.step(Event::TimerFired { timer: d.timers[0] });
+    let r = d.try_fire(0);
     assert!(matches!(r, Err(Rejected::UnknownTimer(_))), "{r:?}");
 }
 
@@ -457,19 +413,15 @@ fn message_along_flow_wins_an_event_based_gateway_and_withdraws_the_timer() {
 fn receiver_sub_process(interrupting: bool) -> String {
     format!(
         r#"<process id="q" isExecutable="true"><startEvent id="qs"/>{}
-        <subProcess id="sp"><startEvent id="ss"/>{}{}{}<endEvent id="se"/></subProcess>
-        <boundaryEvent id="mb" attachedToRef="sp" cancelActivity="{interrupting}"><messageEventDefinition messageRef="m"/></boundaryEvent>
-        {}{}{}{}{}{}<endEvent id="qe"/></process>"#,
-        flow("g0", "qs", "sp"),
-        flow("h0", "ss", "qa"),
-        task("qa", "h0", "h1"),
-        flow("h1", "qa", "se"),
-        flow("g1", "sp", "qz"),
-        task("qz", "g1", "g2"),
-        flow("g2", "qz", "qe"),
-        flow("g3", "mb", "qh"),
-        task("qh", "g3", "g4"),
-        flow("g4", "qh", "qe"),
+        <subProcess id="sp"><startEvent id="ss"/>{}{}<endEvent id="se"/></subProcess>
+        <boundaryEvent id="mb" attachedToRef="sp" cancelActivity="{interrupting}">{MESSAGE}</boundaryEvent>
+        {}{}{}<endEvent id="qe"/></process>"#,
+        path("g", &["qs", "sp", "qz", "qe"]),
+        path("h", &["ss", "qa", "se"]),
+        task("qa", "", ""),
+        path("b", &["mb", "qh", "qe"]),
+        task("qz", "", ""),
+        task("qh", "", ""),
     )
 }
 
@@ -478,11 +430,11 @@ fn receiver_sub_process(interrupting: bool) -> String {
 // sub-process's normal outgoing flow is not taken.
 #[test]
 fn message_along_flow_to_an_interrupting_boundary_cancels_the_sub_process() {
-    let mut d = Driver::new(&format!(
-        "{PING}{}{}{}",
-        collab(&[("A", Some("p")), ("B", Some("q"))], &[("mt", "mb")]),
-        sender_throw(),
-        receiver_sub_process(true),
+    let mut d = Driver::new(&two_pools(
+        "mt",
+        "mb",
+        &sender_throw(),
+        &receiver_sub_process(true),
     ));
     assert_eq!(start_process(&mut d, "q", &[]), ["dispatch qa"]);
     assert_eq!(d.start(&[]), ["cancel qa", "completed", "dispatch qh"]);
@@ -494,11 +446,11 @@ fn message_along_flow_to_an_interrupting_boundary_cancels_the_sub_process() {
 // sub-process has completed the boundary no longer listens.
 #[test]
 fn message_to_a_non_interrupting_boundary_runs_beside_the_sub_process_each_time() {
-    let mut d = Driver::new(&format!(
-        "{PING}{}{}{}",
-        collab(&[("A", Some("p")), ("B", Some("q"))], &[("mt", "mb")]),
-        sender_throw(),
-        receiver_sub_process(false),
+    let mut d = Driver::new(&two_pools(
+        "mt",
+        "mb",
+        &sender_throw(),
+        &receiver_sub_process(false),
     ));
     assert_eq!(start_process(&mut d, "q", &[]), ["dispatch qa"]);
     assert_eq!(d.start(&[]), ["completed", "dispatch qh"]);
@@ -506,19 +458,7 @@ fn message_to_a_non_interrupting_boundary_runs_beside_the_sub_process_each_time(
     assert_eq!(d.complete("qa", &[]), ["dispatch qz"]);
     // The boundary's subscription ended with the sub-process: the next message finds no one.
     assert_eq!(d.start(&[]), ["send ping", "completed"]);
-    let keys: Vec<TaskKey> = d
-        .tasks
-        .iter()
-        .filter(|(n, _)| n == "qh")
-        .map(|(_, k)| *k)
-        .collect();
-    for k in keys {
-        d.step(Event::TaskCompleted {
-            task: k,
-            output: Vars::new(),
-        })
-        .expect("accepted");
-    }
+    d.complete_every("qh");
     assert_eq!(d.complete("qz", &[]), ["completed"]);
 }
 
@@ -528,7 +468,7 @@ fn message_to_a_non_interrupting_boundary_runs_beside_the_sub_process_each_time(
 fn external_message_interrupts_a_sub_process_through_its_boundary() {
     let mut d = Driver::new(&format!("{PING}{}", receiver_sub_process(true)));
     assert_eq!(start_process(&mut d, "q", &[]), ["dispatch qa"]);
-    let out = message(&mut d, "ping", None, &[("why", Value::from("abort"))]);
+    let out = d.message("ping", None, &[("why", Value::from("abort"))]);
     assert_eq!(out.expect("accepted"), ["cancel qa", "dispatch qh"]);
     assert_eq!(root_var(&d, 0, "why"), Some(Value::from("abort")));
 }
@@ -538,21 +478,16 @@ fn external_message_interrupts_a_sub_process_through_its_boundary() {
 // Camunda 7's correlation likewise looks for a waiting execution before a message start event).
 #[test]
 fn external_message_goes_to_a_waiting_instance_before_starting_a_new_one() {
-    let body = format!(
-        r#"{PING}<process id="q" isExecutable="true"><startEvent id="qs"/>{}<receiveTask id="rt" messageRef="m"/>{}<endEvent id="qe"/></process>
-        <process id="r" isExecutable="true"><startEvent id="rs"><messageEventDefinition messageRef="m"/></startEvent>{}{}{}<endEvent id="re"/></process>"#,
-        flow("g0", "qs", "rt"),
-        flow("g1", "rt", "qe"),
-        flow("h0", "rs", "ra"),
-        task("ra", "h0", "h1"),
-        flow("h1", "ra", "re"),
-    );
-    let mut d = Driver::new(&body);
+    let mut d = Driver::new(&format!(
+        "{PING}{}{}",
+        line("q", "", &["rt"], RECEIVE_TASK),
+        line("r", MESSAGE, &["ra"], &task("ra", "", "")),
+    ));
     start_process(&mut d, "q", &[]);
-    let out = message(&mut d, "ping", None, &[]);
+    let out = d.message("ping", None, &[]);
     assert_eq!(out.expect("accepted"), ["completed"]);
     // Nobody waits now: the next one starts `r`.
-    let out = message(&mut d, "ping", None, &[]);
+    let out = d.message("ping", None, &[]);
     assert_eq!(out.expect("accepted"), ["dispatch ra"]);
 }
 
@@ -561,16 +496,13 @@ fn external_message_goes_to_a_waiting_instance_before_starting_a_new_one() {
 // at gets the message when the connector reports completion.
 #[test]
 fn send_task_run_by_a_connector_delivers_along_its_message_flow_when_it_completes() {
-    let sender = format!(
-        r#"<process id="p" isExecutable="true"><startEvent id="s"/>{}<sendTask id="st" messageRef="m"><extensionElements><trace:task resource="radio.send"/></extensionElements></sendTask>{}<endEvent id="e"/></process>"#,
-        flow("f0", "s", "st"),
-        flow("f1", "st", "e"),
+    let sender = line(
+        "p",
+        "",
+        &["st"],
+        r#"<sendTask id="st" messageRef="m"><extensionElements><trace:task resource="radio.send"/></extensionElements></sendTask>"#,
     );
-    let mut d = Driver::new(&format!(
-        "{PING}{}{sender}{}",
-        collab(&[("A", Some("p")), ("B", Some("q"))], &[("st", "rt")]),
-        receiver_task()
-    ));
+    let mut d = Driver::new(&two_pools("st", "rt", &sender, &receiver_task()));
     start_process(&mut d, "q", &[]);
     assert_eq!(d.start(&[]), ["dispatch st"]);
     let out = d.complete("st", &[]);

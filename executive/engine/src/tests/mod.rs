@@ -167,6 +167,172 @@ fn cond_flow(id: &str, from: &str, to: &str, cond: &str) -> String {
     )
 }
 
+// Helpers shared by the construct modules.
+
+/// Sequence flows along `nodes`, from each node to the next, named `{prefix}0`, `{prefix}1`, ….
+fn path(prefix: &str, nodes: &[&str]) -> String {
+    nodes
+        .windows(2)
+        .enumerate()
+        .map(|(i, w)| flow(&format!("{prefix}{i}"), w[0], w[1]))
+        .collect()
+}
+
+/// A start `s`, sequence flows through `nodes` (declared by the caller), an end `e`.
+fn chain(nodes: &[&str]) -> String {
+    let all = [&["s"], nodes, &["e"]].concat();
+    format!(
+        r#"<startEvent id="s"/>{}<endEvent id="e"/>"#,
+        path("f", &all)
+    )
+}
+
+/// A start `s` and a parallel fork `fork` into `branches`: branch `k` (from 1) flows from
+/// `fork` through its nodes (declared by the caller) to its own end `e{k}`.
+fn fork_into(branches: &[&[&str]]) -> String {
+    let mut out = format!(
+        r#"<startEvent id="s"/>{}{}"#,
+        flow("f0", "s", "fork"),
+        parallel("fork")
+    );
+    for (k, nodes) in branches.iter().enumerate() {
+        let end = format!("e{}", k + 1);
+        let all = [&["fork"], *nodes, &[end.as_str()]].concat();
+        out.push_str(&path(&format!("b{}_", k + 1), &all));
+        out.push_str(&ends(&[&end]));
+    }
+    out
+}
+
+/// Service tasks (see `task`), one per id.
+fn tasks(ids: &[&str]) -> String {
+    ids.iter().map(|id| task(id, "", "")).collect()
+}
+
+/// None end events, one per id.
+fn ends(ids: &[&str]) -> String {
+    ids.iter()
+        .map(|id| format!(r#"<endEvent id="{id}"/>"#))
+        .collect()
+}
+
+fn parallel(id: &str) -> String {
+    format!(r#"<parallelGateway id="{id}"/>"#)
+}
+
+/// A timer event definition due `duration` (ISO 8601) after it starts waiting.
+fn duration(duration: &str) -> String {
+    format!(
+        r#"<timerEventDefinition><timeDuration xsi:type="tFormalExpression">{duration}</timeDuration></timerEventDefinition>"#
+    )
+}
+
+fn vars(pairs: &[(&str, Value)]) -> Vars {
+    pairs
+        .iter()
+        .map(|(k, v)| ((*k).to_owned(), v.clone()))
+        .collect()
+}
+
+/// No action.
+fn none() -> Vec<String> {
+    Vec::new()
+}
+
+/// Actions whose order the rule does not fix, sorted.
+fn sorted(mut v: Vec<String>) -> Vec<String> {
+    v.sort();
+    v
+}
+
+impl Driver {
+    fn signal(&mut self, name: &str) -> Vec<String> {
+        self.step(Event::SignalReceived { name: name.into() })
+            .expect("a signal is always accepted")
+    }
+
+    fn message(
+        &mut self,
+        name: &str,
+        correlation: Option<Value>,
+        payload: &[(&str, Value)],
+    ) -> Result<Vec<String>, Rejected> {
+        self.step(Event::MessageReceived {
+            name: name.into(),
+            correlation,
+            payload: vars(payload),
+        })
+    }
+
+    /// System data `key` changes to `value`.
+    fn data(&mut self, key: &str, value: Value) -> Vec<String> {
+        self.step(Event::DataChanged {
+            key: key.into(),
+            value,
+        })
+        .expect("accepted")
+    }
+
+    /// Every task key dispatched for `node`, oldest first.
+    fn keys_of(&self, node: &str) -> Vec<TaskKey> {
+        self.tasks
+            .iter()
+            .filter(|(n, _)| n == node)
+            .map(|(_, k)| *k)
+            .collect()
+    }
+
+    fn try_complete_key(
+        &mut self,
+        task: TaskKey,
+        output: &[(&str, Value)],
+    ) -> Result<Vec<String>, Rejected> {
+        self.step(Event::TaskCompleted {
+            task,
+            output: vars(output),
+        })
+    }
+
+    /// Completes one task by its key.
+    fn complete_key(&mut self, task: TaskKey, output: &[(&str, Value)]) -> Vec<String> {
+        self.try_complete_key(task, output).expect("accepted")
+    }
+
+    /// Completes the `i`-th dispatched task (dispatch order), whatever its node.
+    fn complete_nth(&mut self, i: usize, output: &[(&str, Value)]) -> Vec<String> {
+        self.complete_key(self.tasks[i].1, output)
+    }
+
+    /// Completes every task dispatched for `node`, oldest first; the actions of each.
+    fn complete_every(&mut self, node: &str) -> Vec<Vec<String>> {
+        self.keys_of(node)
+            .into_iter()
+            .map(|k| self.complete_key(k, &[]))
+            .collect()
+    }
+
+    /// The goal of the latest dispatch of `node` (while it runs).
+    fn request(&self, node: &str) -> Vars {
+        let key = self.key(node);
+        match self
+            .e
+            .state()
+            .tokens
+            .get(&key.token)
+            .and_then(|t| t.command.as_deref())
+        {
+            Some(Action::DispatchTask { request, .. }) => request.clone(),
+            other => panic!("{node} is not dispatched: {other:?}"),
+        }
+    }
+
+    /// The `i`-th timer fires (again) without time passing.
+    fn try_fire(&mut self, i: usize) -> Result<Vec<String>, Rejected> {
+        let timer = self.timers[i];
+        self.step(Event::TimerFired { timer })
+    }
+}
+
 #[test]
 fn sequence_of_tasks_runs_in_order() {
     let mut d = Driver::new(&format!(

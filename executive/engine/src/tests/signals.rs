@@ -10,29 +10,38 @@ use super::*;
 
 const SIGNALS: &str = r#"<signal id="sig" name="S"/><signal id="other" name="T"/>"#;
 
-fn process(id: &str, body: &str) -> String {
-    format!(r#"<process id="{id}" isExecutable="true">{body}</process>"#)
+fn process(id: &str, parts: &[String]) -> String {
+    format!(
+        r#"<process id="{id}" isExecutable="true">{}</process>"#,
+        parts.concat()
+    )
+}
+
+/// The signals `S` (`sig`) and `T` (`other`) and a process `p` made of `parts`.
+fn signals(parts: &[String]) -> String {
+    format!("{SIGNALS}{}", process("p", parts))
+}
+
+/// A signal event definition of `signal`, or an anonymous one (`""`).
+fn definition(signal: &str) -> String {
+    if signal.is_empty() {
+        "<signalEventDefinition/>".to_owned()
+    } else {
+        format!(r#"<signalEventDefinition signalRef="{signal}"/>"#)
+    }
 }
 
 fn catch(id: &str, signal: &str) -> String {
-    let r = if signal.is_empty() {
-        String::new()
-    } else {
-        format!(r#" signalRef="{signal}""#)
-    };
     format!(
-        r#"<intermediateCatchEvent id="{id}"><signalEventDefinition{r}/></intermediateCatchEvent>"#
+        r#"<intermediateCatchEvent id="{id}">{}</intermediateCatchEvent>"#,
+        definition(signal)
     )
 }
 
 fn throw(id: &str, signal: &str) -> String {
-    let r = if signal.is_empty() {
-        String::new()
-    } else {
-        format!(r#" signalRef="{signal}""#)
-    };
     format!(
-        r#"<intermediateThrowEvent id="{id}"><signalEventDefinition{r}/></intermediateThrowEvent>"#
+        r#"<intermediateThrowEvent id="{id}">{}</intermediateThrowEvent>"#,
+        definition(signal)
     )
 }
 
@@ -42,49 +51,37 @@ fn boundary(id: &str, on: &str, interrupting: bool) -> String {
     )
 }
 
-fn signal(d: &mut Driver, name: &str) -> Vec<String> {
-    d.step(Event::SignalReceived { name: name.into() })
-        .expect("a signal is always accepted")
+/// Process `q`: a start `qs` on signal `S`, sequence flows through `nodes` (declared in
+/// `decls`), an end `qe`.
+fn started_by_signal(nodes: &[&str], decls: &[String]) -> String {
+    let all = [&["qs"], nodes, &["qe"]].concat();
+    let start = format!(r#"<startEvent id="qs">{}</startEvent>"#, definition("sig"));
+    process(
+        "q",
+        &[&[start, path("g", &all), ends(&["qe"])], decls].concat(),
+    )
 }
 
-/// Completes the `i`-th dispatched task (dispatch order), whatever its node.
-fn complete_nth(d: &mut Driver, i: usize) -> Vec<String> {
-    let task = d.tasks[i].1;
-    d.step(Event::TaskCompleted {
-        task,
-        output: Vars::new(),
-    })
-    .expect("accepted")
-}
-
-fn sorted(mut v: Vec<String>) -> Vec<String> {
-    v.sort();
-    v
+/// A signal boundary `bd` (`interrupting`) on `on`, leading to task `h` and its own end `eh`.
+fn handled_boundary(on: &str, interrupting: bool) -> String {
+    [
+        boundary("bd", on, interrupting),
+        path("h", &["bd", "h", "eh"]),
+        task("h", "", ""),
+        ends(&["eh"]),
+    ]
+    .concat()
 }
 
 /// §13.5.2: a catch event already waiting in the thrower's own instance catches the signal.
 #[test]
 fn a_throw_reaches_a_catch_already_waiting_in_the_same_instance() {
-    let mut d = Driver::new(&format!(
-        "{SIGNALS}{}",
-        process(
-            "p",
-            &format!(
-                r#"<startEvent id="s"/>{}<parallelGateway id="fork"/>{}{}{}{}{}{}{}{}{}{}<endEvent id="e1"/><endEvent id="e2"/>"#,
-                flow("f0", "s", "fork"),
-                flow("f1", "fork", "c"),
-                catch("c", "sig"),
-                flow("f2", "c", "b"),
-                task("b", "f2", "f3"),
-                flow("f3", "b", "e1"),
-                flow("f4", "fork", "a"),
-                task("a", "f4", "f5"),
-                flow("f5", "a", "t"),
-                throw("t", "sig"),
-                flow("f6", "t", "e2"),
-            )
-        )
-    ));
+    let mut d = Driver::new(&signals(&[
+        fork_into(&[&["c", "b"], &["a", "t"]]),
+        catch("c", "sig"),
+        tasks(&["b", "a"]),
+        throw("t", "sig"),
+    ]));
     assert_eq!(d.start(&[]), ["dispatch a"]);
     assert_eq!(d.complete("a", &[]), ["dispatch b"]);
     assert_eq!(d.complete("b", &[]), ["completed"]);
@@ -95,42 +92,24 @@ fn a_throw_reaches_a_catch_already_waiting_in_the_same_instance() {
 #[test]
 fn a_signal_thrown_before_the_catcher_waits_is_lost() {
     // Thrown on the way to the catch event.
-    let mut d = Driver::new(&format!(
-        "{SIGNALS}{}",
-        process(
-            "p",
-            &format!(
-                r#"<startEvent id="s"/>{}{}{}{}{}<endEvent id="e"/>"#,
-                flow("f0", "s", "t"),
-                throw("t", "sig"),
-                flow("f1", "t", "c"),
-                catch("c", "sig"),
-                flow("f2", "c", "e"),
-            )
-        )
-    ));
+    let mut d = Driver::new(&signals(&[
+        chain(&["t", "c"]),
+        throw("t", "sig"),
+        catch("c", "sig"),
+    ]));
     assert_eq!(d.start(&[]), Vec::<String>::new());
-    assert_eq!(signal(&mut d, "S"), ["completed"]);
+    assert_eq!(d.signal("S"), ["completed"]);
 
     // Thrown from outside while the instance still works on the task before the catch event.
-    let mut d = Driver::new(&format!(
-        "{SIGNALS}{}",
-        process(
-            "p",
-            &format!(
-                r#"<startEvent id="s"/>{}{}{}{}{}<endEvent id="e"/>"#,
-                flow("f0", "s", "a"),
-                task("a", "f0", "f1"),
-                flow("f1", "a", "c"),
-                catch("c", "sig"),
-                flow("f2", "c", "e"),
-            )
-        )
-    ));
+    let mut d = Driver::new(&signals(&[
+        chain(&["a", "c"]),
+        task("a", "", ""),
+        catch("c", "sig"),
+    ]));
     assert_eq!(d.start(&[]), ["dispatch a"]);
-    assert_eq!(signal(&mut d, "S"), Vec::<String>::new());
+    assert_eq!(d.signal("S"), Vec::<String>::new());
     assert_eq!(d.complete("a", &[]), Vec::<String>::new());
-    assert_eq!(signal(&mut d, "S"), ["completed"]);
+    assert_eq!(d.signal("S"), ["completed"]);
 }
 
 /// Parallel branches of one step have no order in the specification (§13.4.1 fork: the tokens
@@ -138,23 +117,12 @@ fn a_signal_thrown_before_the_catcher_waits_is_lost() {
 /// thrown, so a catch event reached in the same instant as the throw catches it.
 #[test]
 fn a_throw_waits_for_the_sibling_branches_of_the_same_step_to_settle() {
-    let mut d = Driver::new(&format!(
-        "{SIGNALS}{}",
-        process(
-            "p",
-            &format!(
-                r#"<startEvent id="s"/>{}<parallelGateway id="fork"/>{}{}{}{}{}{}<endEvent id="e1"/><endEvent id="e2"/>"#,
-                flow("f0", "s", "fork"),
-                // The throwing branch comes first in document order.
-                flow("f1", "fork", "t"),
-                throw("t", "sig"),
-                flow("f2", "t", "e1"),
-                flow("f3", "fork", "c"),
-                catch("c", "sig"),
-                flow("f4", "c", "e2"),
-            )
-        )
-    ));
+    let mut d = Driver::new(&signals(&[
+        // The throwing branch comes first in document order.
+        fork_into(&[&["t"], &["c"]]),
+        throw("t", "sig"),
+        catch("c", "sig"),
+    ]));
     assert_eq!(d.start(&[]), ["completed"]);
 }
 
@@ -162,30 +130,18 @@ fn a_throw_waits_for_the_sibling_branches_of_the_same_step_to_settle() {
 /// each catcher consumes its own copy.
 #[test]
 fn a_throw_reaches_every_waiting_catcher_of_every_instance() {
-    let mut d = Driver::new(&format!(
-        "{SIGNALS}{}",
-        process(
-            "p",
-            &format!(
-                r#"<startEvent id="s"/>{}<parallelGateway id="fork"/>{}{}{}{}{}{}{}{}<endEvent id="e1"/><endEvent id="e2"/>"#,
-                flow("f0", "s", "fork"),
-                flow("f1", "fork", "c"),
-                catch("c", "sig"),
-                flow("f2", "c", "e1"),
-                flow("f3", "fork", "a"),
-                task("a", "f3", "f4"),
-                flow("f4", "a", "t"),
-                throw("t", "sig"),
-                flow("f5", "t", "e2"),
-            )
-        )
-    ));
+    let mut d = Driver::new(&signals(&[
+        fork_into(&[&["c"], &["a", "t"]]),
+        catch("c", "sig"),
+        task("a", "", ""),
+        throw("t", "sig"),
+    ]));
     assert_eq!(d.start(&[]), ["dispatch a"]);
     assert_eq!(d.start(&[]), ["dispatch a"]);
     // The first instance throws: its own catch and the second instance's catch both pass.
-    assert_eq!(complete_nth(&mut d, 0), ["completed"]);
+    assert_eq!(d.complete_nth(0, &[]), ["completed"]);
     // The second instance's catch already consumed that signal; its own throw finds nobody.
-    assert_eq!(complete_nth(&mut d, 1), ["completed"]);
+    assert_eq!(d.complete_nth(1, &[]), ["completed"]);
 }
 
 /// §10.5.6, §13.5.1: a signal start event starts a new instance for each signal; the
@@ -195,52 +151,31 @@ fn a_throw_reaches_every_waiting_catcher_of_every_instance() {
 fn a_signal_start_event_starts_one_instance_per_signal() {
     let mut d = Driver::new(&format!(
         "{SIGNALS}{}",
-        process(
-            "q",
-            &format!(
-                r#"<startEvent id="qs"><signalEventDefinition signalRef="sig"/></startEvent>{}{}{}{}{}<endEvent id="qe"/>"#,
-                flow("g0", "qs", "c"),
-                catch("c", "sig"),
-                flow("g1", "c", "b"),
-                task("b", "g1", "g2"),
-                flow("g2", "b", "qe"),
-            )
-        )
+        started_by_signal(&["c", "b"], &[catch("c", "sig"), task("b", "", "")])
     ));
     // The first instance starts and waits at its catch event.
-    assert_eq!(signal(&mut d, "S"), Vec::<String>::new());
+    assert_eq!(d.signal("S"), Vec::<String>::new());
     assert_eq!(d.e.state().instances.len(), 1);
     // The second signal moves the first instance on and starts a second one.
-    assert_eq!(signal(&mut d, "S"), ["dispatch b"]);
+    assert_eq!(d.signal("S"), ["dispatch b"]);
     assert_eq!(d.e.state().instances.len(), 2);
-    assert_eq!(signal(&mut d, "T"), Vec::<String>::new());
+    assert_eq!(d.signal("T"), Vec::<String>::new());
     assert_eq!(d.e.state().instances.len(), 2);
 }
-
 /// §13.5.6: a signal end event throws, then its token is consumed like a none end event; the
 /// thrower's instance completes and the signal starts a process elsewhere.
 #[test]
 fn a_signal_end_event_throws_then_ends_its_token() {
+    let signal_end = format!(r#"<endEvent id="e">{}</endEvent>"#, definition("sig"));
     let mut d = Driver::new(&format!(
-        "{SIGNALS}{}{}",
-        process(
-            "p",
-            &format!(
-                r#"<startEvent id="s"/>{}{}{}<endEvent id="e"><signalEventDefinition signalRef="sig"/></endEvent>"#,
-                flow("f0", "s", "a"),
-                task("a", "f0", "f1"),
-                flow("f1", "a", "e"),
-            )
-        ),
-        process(
-            "q",
-            &format!(
-                r#"<startEvent id="qs"><signalEventDefinition signalRef="sig"/></startEvent>{}{}{}<endEvent id="qe"/>"#,
-                flow("g0", "qs", "b"),
-                task("b", "g0", "g1"),
-                flow("g1", "b", "qe"),
-            )
-        )
+        "{}{}",
+        signals(&[
+            r#"<startEvent id="s"/>"#.to_owned(),
+            path("f", &["s", "a", "e"]),
+            task("a", "", ""),
+            signal_end,
+        ]),
+        started_by_signal(&["b"], &[task("b", "", "")])
     ));
     assert_eq!(d.start(&[]), ["dispatch a"]);
     assert_eq!(d.complete("a", &[]), ["completed", "dispatch b"]);
@@ -251,25 +186,14 @@ fn a_signal_end_event_throws_then_ends_its_token() {
 /// after that the task's boundary no longer listens.
 #[test]
 fn an_interrupting_boundary_on_a_task_cancels_it() {
-    let mut d = Driver::new(&format!(
-        "{SIGNALS}{}",
-        process(
-            "p",
-            &format!(
-                r#"<startEvent id="s"/>{}{}{}{}{}{}{}<endEvent id="e"/>"#,
-                flow("f0", "s", "a"),
-                task("a", "f0", "f1"),
-                boundary("b", "a", true),
-                flow("fb", "b", "h"),
-                task("h", "fb", "f2"),
-                flow("f2", "h", "e"),
-                flow("f1", "a", "e"),
-            )
-        )
-    ));
+    let mut d = Driver::new(&signals(&[
+        chain(&["a"]),
+        task("a", "", ""),
+        handled_boundary("a", true),
+    ]));
     assert_eq!(d.start(&[]), ["dispatch a"]);
-    assert_eq!(signal(&mut d, "S"), ["cancel a", "dispatch h"]);
-    assert_eq!(signal(&mut d, "S"), Vec::<String>::new());
+    assert_eq!(d.signal("S"), ["cancel a", "dispatch h"]);
+    assert_eq!(d.signal("S"), Vec::<String>::new());
     assert_eq!(d.complete("h", &[]), ["completed"]);
 }
 
@@ -278,67 +202,53 @@ fn an_interrupting_boundary_on_a_task_cancels_it() {
 /// instance completes only when the boundary paths have finished too.
 #[test]
 fn a_non_interrupting_boundary_on_a_task_fires_at_each_signal_while_it_runs() {
-    let mut d = Driver::new(&format!(
-        "{SIGNALS}{}",
-        process(
-            "p",
-            &format!(
-                r#"<startEvent id="s"/>{}{}{}{}{}{}{}<endEvent id="e"/><endEvent id="eh"/>"#,
-                flow("f0", "s", "a"),
-                task("a", "f0", "f1"),
-                boundary("b", "a", false),
-                flow("fb", "b", "h"),
-                task("h", "fb", "f2"),
-                flow("f2", "h", "eh"),
-                flow("f1", "a", "e"),
-            )
-        )
-    ));
+    let mut d = Driver::new(&signals(&[
+        chain(&["a"]),
+        task("a", "", ""),
+        handled_boundary("a", false),
+    ]));
     assert_eq!(d.start(&[]), ["dispatch a"]);
-    assert_eq!(signal(&mut d, "S"), ["dispatch h"]);
-    assert_eq!(signal(&mut d, "S"), ["dispatch h"]);
+    assert_eq!(d.signal("S"), ["dispatch h"]);
+    assert_eq!(d.signal("S"), ["dispatch h"]);
     assert_eq!(d.complete("a", &[]), Vec::<String>::new());
-    assert_eq!(signal(&mut d, "S"), Vec::<String>::new());
-    assert_eq!(complete_nth(&mut d, 1), Vec::<String>::new());
-    assert_eq!(complete_nth(&mut d, 2), ["completed"]);
+    assert_eq!(d.signal("S"), Vec::<String>::new());
+    assert_eq!(d.complete_nth(1, &[]), Vec::<String>::new());
+    assert_eq!(d.complete_nth(2, &[]), ["completed"]);
+}
+
+/// Sub-process `sub` (start `ss`, `inner`, end `se`) on the line from the start to the end,
+/// with `handled_boundary` on it.
+fn sub_process(inner: &str, interrupting: bool) -> String {
+    signals(&[
+        chain(&["sub"]),
+        format!(
+            r#"<subProcess id="sub"><startEvent id="ss"/>{inner}<endEvent id="se"/></subProcess>"#
+        ),
+        handled_boundary("sub", interrupting),
+    ])
 }
 
 /// §13.5.3 on a sub-process: interrupting cancels everything inside it; non-interrupting lets
 /// it run on beside the boundary path.
 #[test]
 fn a_boundary_on_a_subprocess_interrupts_it_or_runs_beside_it() {
-    let model = |interrupting: bool| {
-        format!(
-            "{SIGNALS}{}",
-            process(
-                "p",
-                &format!(
-                    r#"<startEvent id="s"/>{}<subProcess id="sub"><startEvent id="ss"/>{}<parallelGateway id="fork"/>{}{}{}{}{}{}<endEvent id="se"/></subProcess>{}{}{}{}<endEvent id="e"/><endEvent id="eh"/>{}"#,
-                    flow("f0", "s", "sub"),
-                    flow("i0", "ss", "fork"),
-                    flow("i1", "fork", "x"),
-                    flow("i2", "fork", "y"),
-                    task("x", "i1", "i3"),
-                    task("y", "i2", "i4"),
-                    flow("i3", "x", "se"),
-                    flow("i4", "y", "se"),
-                    boundary("b", "sub", interrupting),
-                    flow("fb", "b", "h"),
-                    task("h", "fb", "f2"),
-                    flow("f2", "h", "eh"),
-                    flow("f1", "sub", "e"),
-                )
-            )
-        )
-    };
-    let mut d = Driver::new(&model(true));
+    // Inside: a fork into tasks `x` and `y`, each to the end.
+    let inner = [
+        path("i", &["ss", "fork"]),
+        parallel("fork"),
+        path("x", &["fork", "x", "se"]),
+        path("y", &["fork", "y", "se"]),
+        tasks(&["x", "y"]),
+    ]
+    .concat();
+    let mut d = Driver::new(&sub_process(&inner, true));
     assert_eq!(d.start(&[]), ["dispatch x", "dispatch y"]);
-    assert_eq!(signal(&mut d, "S"), ["cancel x", "cancel y", "dispatch h"]);
+    assert_eq!(d.signal("S"), ["cancel x", "cancel y", "dispatch h"]);
     assert_eq!(d.complete("h", &[]), ["completed"]);
 
-    let mut d = Driver::new(&model(false));
+    let mut d = Driver::new(&sub_process(&inner, false));
     assert_eq!(d.start(&[]), ["dispatch x", "dispatch y"]);
-    assert_eq!(signal(&mut d, "S"), ["dispatch h"]);
+    assert_eq!(d.signal("S"), ["dispatch h"]);
     assert_eq!(d.complete("x", &[]), Vec::<String>::new());
     assert_eq!(d.complete("h", &[]), Vec::<String>::new());
     assert_eq!(d.complete("y", &[]), ["completed"]);
@@ -349,59 +259,47 @@ fn a_boundary_on_a_subprocess_interrupts_it_or_runs_beside_it() {
 /// withdrawn and the boundary path runs.
 #[test]
 fn a_signal_thrown_inside_a_subprocess_interrupts_it_through_its_own_boundary() {
-    let mut d = Driver::new(&format!(
-        "{SIGNALS}{}",
-        process(
-            "p",
-            &format!(
-                r#"<startEvent id="s"/>{}<subProcess id="sub"><startEvent id="ss"/>{}{}{}{}{}<endEvent id="se"/></subProcess>{}{}{}{}{}<endEvent id="e"/>"#,
-                flow("f0", "s", "sub"),
-                flow("i0", "ss", "t"),
-                throw("t", "sig"),
-                flow("i1", "t", "x"),
-                task("x", "i1", "i2"),
-                flow("i2", "x", "se"),
-                boundary("b", "sub", true),
-                flow("fb", "b", "h"),
-                task("h", "fb", "f2"),
-                flow("f2", "h", "e"),
-                flow("f1", "sub", "e"),
-            )
-        )
-    ));
+    let inner = [
+        path("i", &["ss", "t", "x", "se"]),
+        throw("t", "sig"),
+        task("x", "", ""),
+    ]
+    .concat();
+    let mut d = Driver::new(&sub_process(&inner, true));
     assert_eq!(d.start(&[]), ["dispatch h"]);
     assert_eq!(d.complete("h", &[]), ["completed"]);
+}
+
+/// An event-based gateway `g` after the start, whose branches each lead through their nodes
+/// (declared by the caller) to the end `e`.
+fn event_based(branches: &[&[&str]]) -> String {
+    let mut out = format!(
+        r#"<startEvent id="s"/>{}<eventBasedGateway id="g"/><endEvent id="e"/>"#,
+        flow("f", "s", "g")
+    );
+    for (k, nodes) in branches.iter().enumerate() {
+        let all = [&["g"], *nodes, &["e"]].concat();
+        out.push_str(&path(&format!("b{k}_"), &all));
+    }
+    out
 }
 
 /// §13.4.4: at an event-based gateway the signal branch wins; the other events are withdrawn
 /// (the timer cancelled).
 #[test]
 fn an_event_based_gateway_takes_the_signal_branch_and_withdraws_the_others() {
-    let mut d = Driver::new(&format!(
-        "{SIGNALS}{}",
-        process(
-            "p",
-            &format!(
-                r#"<startEvent id="s"/>{}<eventBasedGateway id="g"/>{}{}{}{}{}
-                <intermediateCatchEvent id="tm"><timerEventDefinition><timeDuration xsi:type="tFormalExpression">PT1H</timeDuration></timerEventDefinition></intermediateCatchEvent>
-                {}{}{}{}<endEvent id="e"/>"#,
-                flow("f0", "s", "g"),
-                flow("f1", "g", "c"),
-                catch("c", "sig"),
-                flow("f2", "c", "a"),
-                task("a", "f2", "f3"),
-                flow("f3", "a", "e"),
-                flow("f4", "g", "tm"),
-                flow("f5", "tm", "b"),
-                task("b", "f5", "f6"),
-                flow("f6", "b", "e"),
-            )
-        )
-    ));
+    let mut d = Driver::new(&signals(&[
+        event_based(&[&["c", "a"], &["tm", "b"]]),
+        catch("c", "sig"),
+        format!(
+            r#"<intermediateCatchEvent id="tm">{}</intermediateCatchEvent>"#,
+            duration("PT1H")
+        ),
+        tasks(&["a", "b"]),
+    ]));
     assert_eq!(d.start(&[]), ["timer 3600000"]);
-    assert_eq!(signal(&mut d, "S"), ["untimer", "dispatch a"]);
-    let timer = d.timers[0];
-    let late = d.step(Event::TimerFired { timer });
+    assert_eq!(d.signal("S"), ["untimer", "dispatch a"]);
+    let late = d.try_fire(0);
     assert!(matches!(late, Err(Rejected::UnknownTimer(_))), "{late:?}");
     assert_eq!(d.complete("a", &[]), ["completed"]);
 }
@@ -411,28 +309,14 @@ fn an_event_based_gateway_takes_the_signal_branch_and_withdraws_the_others() {
 /// first in document order.
 #[test]
 fn an_event_based_gateway_with_two_branches_on_one_signal_takes_only_one() {
-    let mut d = Driver::new(&format!(
-        "{SIGNALS}{}",
-        process(
-            "p",
-            &format!(
-                r#"<startEvent id="s"/>{}<eventBasedGateway id="g"/>{}{}{}{}{}{}{}{}{}{}<endEvent id="e"/>"#,
-                flow("f0", "s", "g"),
-                flow("f1", "g", "c1"),
-                catch("c1", "sig"),
-                flow("f2", "c1", "a"),
-                task("a", "f2", "f3"),
-                flow("f3", "a", "e"),
-                flow("f4", "g", "c2"),
-                catch("c2", "sig"),
-                flow("f5", "c2", "b"),
-                task("b", "f5", "f6"),
-                flow("f6", "b", "e"),
-            )
-        )
-    ));
+    let mut d = Driver::new(&signals(&[
+        event_based(&[&["c1", "a"], &["c2", "b"]]),
+        catch("c1", "sig"),
+        catch("c2", "sig"),
+        tasks(&["a", "b"]),
+    ]));
     assert_eq!(d.start(&[]), Vec::<String>::new());
-    assert_eq!(signal(&mut d, "S"), ["dispatch a"]);
+    assert_eq!(d.signal("S"), ["dispatch a"]);
     assert_eq!(d.complete("a", &[]), ["completed"]);
 }
 
@@ -440,35 +324,22 @@ fn an_event_based_gateway_with_two_branches_on_one_signal_takes_only_one() {
 /// boundary event and an intermediate catch event of the same instance.
 #[test]
 fn one_signal_reaches_an_event_subprocess_a_boundary_and_a_catch_together() {
-    let mut d = Driver::new(&format!(
-        "{SIGNALS}{}",
-        process(
-            "p",
-            &format!(
-                r#"<startEvent id="s"/>{}<parallelGateway id="fork"/>{}{}{}{}{}{}{}{}{}{}{}
-                <subProcess id="esp" triggeredByEvent="true"><startEvent id="es" isInterrupting="false"><signalEventDefinition signalRef="sig"/></startEvent>{}{}{}<endEvent id="ee"/></subProcess>
-                <endEvent id="e1"/><endEvent id="e2"/><endEvent id="e3"/>"#,
-                flow("f0", "s", "fork"),
-                flow("f1", "fork", "a"),
-                task("a", "f1", "f2"),
-                flow("f2", "a", "e1"),
-                boundary("bd", "a", false),
-                flow("fb", "bd", "h"),
-                task("h", "fb", "fh"),
-                flow("fh", "h", "e2"),
-                flow("f3", "fork", "c"),
-                catch("c", "sig"),
-                flow("f4", "c", "b"),
-                task("b", "f4", "f5") + &flow("f5", "b", "e3"),
-                flow("j0", "es", "k"),
-                task("k", "j0", "j1"),
-                flow("j1", "k", "ee"),
-            )
-        )
-    ));
+    let mut d = Driver::new(&signals(&[
+        fork_into(&[&["a"], &["c", "b"]]),
+        task("a", "", ""),
+        handled_boundary("a", false),
+        catch("c", "sig"),
+        task("b", "", ""),
+        format!(
+            r#"<subProcess id="esp" triggeredByEvent="true"><startEvent id="es" isInterrupting="false">{}</startEvent>{}{}<endEvent id="ee"/></subProcess>"#,
+            definition("sig"),
+            path("j", &["es", "k", "ee"]),
+            task("k", "", ""),
+        ),
+    ]));
     assert_eq!(d.start(&[]), ["dispatch a"]);
     assert_eq!(
-        sorted(signal(&mut d, "S")),
+        sorted(d.signal("S")),
         ["dispatch b", "dispatch h", "dispatch k"]
     );
 }
@@ -481,18 +352,12 @@ fn two_signal_definitions_sharing_a_name_are_one_signal() {
         r#"<signal id="s1" name="S"/><signal id="s2" name="S"/>{}"#,
         process(
             "p",
-            &format!(
-                r#"<startEvent id="s"/>{}<parallelGateway id="fork"/>{}{}{}{}{}{}{}{}<endEvent id="e1"/><endEvent id="e2"/>"#,
-                flow("f0", "s", "fork"),
-                flow("f1", "fork", "c"),
+            &[
+                fork_into(&[&["c"], &["a", "t"]]),
                 catch("c", "s2"),
-                flow("f2", "c", "e1"),
-                flow("f3", "fork", "a"),
-                task("a", "f3", "f4"),
-                flow("f4", "a", "t"),
+                task("a", "", ""),
                 throw("t", "s1"),
-                flow("f5", "t", "e2"),
-            )
+            ]
         )
     ));
     assert_eq!(d.start(&[]), ["dispatch a"]);
@@ -505,19 +370,11 @@ fn two_signal_definitions_sharing_a_name_are_one_signal() {
 fn a_signal_without_a_name_is_known_by_its_id() {
     let mut d = Driver::new(&format!(
         r#"<signal id="noname"/>{}"#,
-        process(
-            "p",
-            &format!(
-                r#"<startEvent id="s"/>{}{}{}<endEvent id="e"/>"#,
-                flow("f0", "s", "c"),
-                catch("c", "noname"),
-                flow("f1", "c", "e"),
-            )
-        )
+        process("p", &[chain(&["c"]), catch("c", "noname")])
     ));
     assert_eq!(d.start(&[]), Vec::<String>::new());
-    assert_eq!(signal(&mut d, "other"), Vec::<String>::new());
-    assert_eq!(signal(&mut d, "noname"), ["completed"]);
+    assert_eq!(d.signal("other"), Vec::<String>::new());
+    assert_eq!(d.signal("noname"), ["completed"]);
 }
 
 /// `signalRef` is optional (§10.5.5: `signalRef` [0..1]) and the specification says nothing of how an
@@ -526,34 +383,16 @@ fn a_signal_without_a_name_is_known_by_its_id() {
 /// named throw never reaches an anonymous catcher.
 #[test]
 fn an_anonymous_signal_reaches_only_anonymous_catchers() {
-    let mut d = Driver::new(&format!(
-        "{SIGNALS}{}",
-        process(
-            "p",
-            &format!(
-                r#"<startEvent id="s"/>{}<parallelGateway id="fork"/>{}{}{}{}{}{}{}{}{}{}{}{}{}{}{}<endEvent id="e1"/><endEvent id="e2"/><endEvent id="e3"/>"#,
-                flow("f0", "s", "fork"),
-                flow("f1", "fork", "ca"),
-                catch("ca", ""),
-                flow("f2", "ca", "a"),
-                task("a", "f2", "f3"),
-                flow("f3", "a", "e1"),
-                flow("f4", "fork", "cn"),
-                catch("cn", "sig"),
-                flow("f5", "cn", "b"),
-                task("b", "f5", "f6"),
-                flow("f6", "b", "e2"),
-                flow("f7", "fork", "w"),
-                task("w", "f7", "f8"),
-                flow("f8", "w", "t"),
-                throw("t", ""),
-                flow("f9", "t", "e3"),
-            )
-        )
-    ));
+    let mut d = Driver::new(&signals(&[
+        fork_into(&[&["ca", "a"], &["cn", "b"], &["w", "t"]]),
+        catch("ca", ""),
+        catch("cn", "sig"),
+        tasks(&["a", "b", "w"]),
+        throw("t", ""),
+    ]));
     assert_eq!(d.start(&[]), ["dispatch w"]);
     assert_eq!(d.complete("w", &[]), ["dispatch a"]);
-    assert_eq!(signal(&mut d, "S"), ["dispatch b"]);
+    assert_eq!(d.signal("S"), ["dispatch b"]);
     d.complete("a", &[]);
     assert_eq!(d.complete("b", &[]), ["completed"]);
 }
@@ -562,21 +401,10 @@ fn an_anonymous_signal_reaches_only_anonymous_catchers() {
 /// changes nothing but the input counter.
 #[test]
 fn an_outside_signal_nobody_waits_for_changes_nothing() {
-    let mut d = Driver::new(&format!(
-        "{SIGNALS}{}",
-        process(
-            "p",
-            &format!(
-                r#"<startEvent id="s"/>{}{}{}<endEvent id="e"/>"#,
-                flow("f0", "s", "a"),
-                task("a", "f0", "f1"),
-                flow("f1", "a", "e"),
-            )
-        )
-    ));
+    let mut d = Driver::new(&signals(&[chain(&["a"]), task("a", "", "")]));
     d.start(&[]);
     let before = d.e.state().clone();
-    assert_eq!(signal(&mut d, "S"), Vec::<String>::new());
+    assert_eq!(d.signal("S"), Vec::<String>::new());
     let after = d.e.state();
     assert_eq!(
         (&after.instances, &after.scopes, &after.tokens, &after.waits),
@@ -595,45 +423,26 @@ fn an_outside_signal_nobody_waits_for_changes_nothing() {
 /// (§13.5.2: waiting starts when the event is reached).
 #[test]
 fn one_occurrence_moves_a_token_past_one_catch_event_only() {
-    let mut d = Driver::new(&format!(
-        "{SIGNALS}{}",
-        process(
-            "p",
-            &format!(
-                r#"<startEvent id="s"/>{}{}{}{}{}<endEvent id="e"/>"#,
-                flow("f0", "s", "c1"),
-                catch("c1", "sig"),
-                flow("f1", "c1", "c2"),
-                catch("c2", "sig"),
-                flow("f2", "c2", "e"),
-            )
-        )
-    ));
+    let mut d = Driver::new(&signals(&[
+        chain(&["c1", "c2"]),
+        catch("c1", "sig"),
+        catch("c2", "sig"),
+    ]));
     assert_eq!(d.start(&[]), Vec::<String>::new());
-    assert_eq!(signal(&mut d, "S"), Vec::<String>::new());
-    assert_eq!(signal(&mut d, "S"), ["completed"]);
+    assert_eq!(d.signal("S"), Vec::<String>::new());
+    assert_eq!(d.signal("S"), ["completed"]);
 }
 
 /// §13.5.3: an interrupting boundary on a multi-instance activity cancels all its instances.
 #[test]
 fn an_interrupting_boundary_on_a_multi_instance_task_cancels_every_instance() {
-    let mut d = Driver::new(&format!(
-        "{SIGNALS}{}",
-        process(
-            "p",
-            &format!(
-                r#"<startEvent id="s"/>{}<serviceTask id="a"><extensionElements><trace:task resource="sys.a"/></extensionElements><multiInstanceLoopCharacteristics><loopCardinality>2</loopCardinality></multiInstanceLoopCharacteristics></serviceTask>{}{}{}{}{}<endEvent id="e"/>"#,
-                flow("f0", "s", "a"),
-                boundary("b", "a", true),
-                flow("fb", "b", "h"),
-                task("h", "fb", "f2"),
-                flow("f2", "h", "e"),
-                flow("f1", "a", "e"),
-            )
-        )
-    ));
+    let mut d = Driver::new(&signals(&[
+        chain(&["a"]),
+        r#"<serviceTask id="a"><extensionElements><trace:task resource="sys.a"/></extensionElements><multiInstanceLoopCharacteristics><loopCardinality>2</loopCardinality></multiInstanceLoopCharacteristics></serviceTask>"#.to_owned(),
+        handled_boundary("a", true),
+    ]));
     assert_eq!(d.start(&[]), ["dispatch a", "dispatch a"]);
-    assert_eq!(signal(&mut d, "S"), ["cancel a", "cancel a", "dispatch h"]);
+    assert_eq!(d.signal("S"), ["cancel a", "cancel a", "dispatch h"]);
     assert_eq!(d.complete("h", &[]), ["completed"]);
 }
 
@@ -642,22 +451,14 @@ fn an_interrupting_boundary_on_a_multi_instance_task_cancels_every_instance() {
 #[test]
 fn a_multiple_catch_event_passes_on_the_signal_and_drops_its_message() {
     let mut d = Driver::new(&format!(
-        r#"{SIGNALS}<message id="m" name="M"/>{}"#,
-        process(
-            "p",
-            &format!(
-                r#"<startEvent id="s"/>{}<intermediateCatchEvent id="c"><signalEventDefinition signalRef="sig"/><messageEventDefinition messageRef="m"/></intermediateCatchEvent>{}<endEvent id="e"/>"#,
-                flow("f0", "s", "c"),
-                flow("f1", "c", "e"),
-            )
-        )
+        r#"<message id="m" name="M"/>{}"#,
+        signals(&[
+            chain(&["c"]),
+            r#"<intermediateCatchEvent id="c"><signalEventDefinition signalRef="sig"/><messageEventDefinition messageRef="m"/></intermediateCatchEvent>"#.to_owned(),
+        ])
     ));
     assert_eq!(d.start(&[]), Vec::<String>::new());
-    assert_eq!(signal(&mut d, "S"), ["completed"]);
-    let r = d.step(Event::MessageReceived {
-        name: "M".into(),
-        correlation: None,
-        payload: Vars::new(),
-    });
+    assert_eq!(d.signal("S"), ["completed"]);
+    let r = d.message("M", None, &[]);
     assert!(matches!(r, Err(Rejected::NoReceiver(_))), "{r:?}");
 }

@@ -20,36 +20,42 @@ fn compensated_by(activity: &str, h: &str) -> String {
     )
 }
 
+/// A task `id` compensated by the handler `c{id}`.
+fn compensable(id: &str) -> String {
+    task(id, "", "") + &compensated_by(id, &format!("c{id}"))
+}
+
 fn cancel_end(id: &str) -> String {
     format!(r#"<endEvent id="{id}"><cancelEventDefinition/></endEvent>"#)
 }
 
-fn end(id: &str) -> String {
-    format!(r#"<endEvent id="{id}"/>"#)
+fn compensation_throw(id: &str, definition: &str) -> String {
+    format!(r#"<intermediateThrowEvent id="{id}">{definition}</intermediateThrowEvent>"#)
 }
 
-fn fork(id: &str) -> String {
-    format!(r#"<parallelGateway id="{id}"/>"#)
-}
+const COMPENSATE: &str = "<compensateEventDefinition/>";
 
-/// A process `p` around `body`.
-fn process(body: &str) -> String {
-    format!(r#"<process id="p" isExecutable="true"><startEvent id="s"/>{body}</process>"#)
+/// A process `p` made of `parts` after its start `s`.
+fn process(parts: &[String]) -> String {
+    format!(
+        r#"<process id="p" isExecutable="true"><startEvent id="s"/>{}</process>"#,
+        parts.concat()
+    )
 }
 
 /// Transaction `T` holding `inner` (with its start event `ts`) and its cancel boundary `bc`
 /// leading to task `after`, then to `after_next` (`"ea"`: an end event declared here); `T`
 /// itself leads along `ft` to `next`.
-fn transaction(inner: &str, next: &str, after_next: &str) -> String {
+fn transaction(inner: &[String], next: &str, after_next: &str) -> String {
     format!(
-        r#"<transaction id="T"><startEvent id="ts"/>{inner}</transaction>
+        r#"<transaction id="T"><startEvent id="ts"/>{}</transaction>
         <boundaryEvent id="bc" attachedToRef="T"><cancelEventDefinition/></boundaryEvent>
-        {}{}{}{}{}"#,
-        flow("fbc", "bc", "after"),
-        task("after", "fbc", "fa"),
-        flow("fa", "after", after_next),
+        {}{}{}{}"#,
+        inner.concat(),
+        path("fbc", &["bc", "after", after_next]),
+        task("after", "", ""),
         if after_next == "ea" {
-            end("ea")
+            ends(&["ea"])
         } else {
             String::new()
         },
@@ -57,17 +63,15 @@ fn transaction(inner: &str, next: &str, after_next: &str) -> String {
     )
 }
 
-/// Every task key dispatched for `node`, oldest first.
-fn keys_of(d: &Driver, node: &str) -> Vec<TaskKey> {
-    d.tasks
-        .iter()
-        .filter(|(n, _)| n == node)
-        .map(|(_, k)| *k)
-        .collect()
-}
-
-fn none() -> Vec<String> {
-    Vec::new()
+/// A process `p`: start → transaction `T` (`inner`, see `transaction`) → end `e`, plus `extra`;
+/// the cancel boundary's path ends at `ea`.
+fn transaction_process(inner: &[String], extra: &str) -> String {
+    process(&[
+        flow("f0", "s", "T"),
+        transaction(inner, "e", "ea"),
+        ends(&["e"]),
+        extra.to_owned(),
+    ])
 }
 
 /// §10.3.5, §13.5.6: a cancel end event aborts the transaction: the task still running in the
@@ -75,32 +79,18 @@ fn none() -> Vec<String> {
 /// handler after the other), and only then is the cancel boundary's flow taken.
 #[test]
 fn cancel_withdraws_the_running_task_compensates_newest_first_then_takes_the_boundary() {
-    let inner = [
-        flow("t0", "ts", "tf"),
-        fork("tf"),
-        flow("t1", "tf", "A"),
-        task("A", "t1", "t2"),
-        compensated_by("A", "cA"),
-        flow("t2", "A", "B"),
-        task("B", "t2", "t3"),
-        compensated_by("B", "cB"),
-        flow("t3", "B", "C"),
-        task("C", "t3", "t4"),
-        flow("t4", "C", "te"),
-        end("te"),
-        flow("t5", "tf", "W"),
-        task("W", "t5", "t6"),
-        flow("t6", "W", "tc"),
-        cancel_end("tc"),
-    ]
-    .concat();
-    let mut d = Driver::new(&process(
+    let mut d = Driver::new(&transaction_process(
         &[
-            flow("f0", "s", "T"),
-            transaction(&inner, "e", "ea"),
-            end("e"),
-        ]
-        .concat(),
+            parallel("tf"),
+            path("t", &["ts", "tf", "A", "B", "C", "te"]),
+            path("u", &["tf", "W", "tc"]),
+            compensable("A"),
+            compensable("B"),
+            tasks(&["C", "W"]),
+            ends(&["te"]),
+            cancel_end("tc"),
+        ],
+        "",
     ));
     assert_eq!(d.start(&[]), ["dispatch A", "dispatch W"]);
     assert_eq!(d.complete("A", &[]), ["dispatch B"]);
@@ -110,11 +100,7 @@ fn cancel_withdraws_the_running_task_compensates_newest_first_then_takes_the_bou
     assert_eq!(d.complete("cA", &[]), ["dispatch after"]);
     assert_eq!(d.complete("after", &[]), ["completed"]);
     // The cancelled task's late answer is refused.
-    let late = d.key("C");
-    let r = d.step(Event::TaskCompleted {
-        task: late,
-        output: Vars::new(),
-    });
+    let r = d.try_complete_key(d.key("C"), &[]);
     assert!(matches!(r, Err(Rejected::UnknownTask(_))), "{r:?}");
 }
 
@@ -123,33 +109,19 @@ fn cancel_withdraws_the_running_task_compensates_newest_first_then_takes_the_bou
 /// completion first, across branches.
 #[test]
 fn cancel_compensates_across_branches_in_reverse_completion_order() {
-    let inner = [
-        flow("t0", "ts", "tf"),
-        fork("tf"),
-        flow("t1", "tf", "A"),
-        task("A", "t1", "t2"),
-        compensated_by("A", "cA"),
-        flow("t2", "A", "B"),
-        task("B", "t2", "t3"),
-        compensated_by("B", "cB"),
-        flow("t3", "B", "te"),
-        end("te"),
-        flow("t4", "tf", "X"),
-        task("X", "t4", "t5"),
-        compensated_by("X", "cX"),
-        flow("t5", "X", "Y"),
-        task("Y", "t5", "t6"),
-        flow("t6", "Y", "tc"),
-        cancel_end("tc"),
-    ]
-    .concat();
-    let mut d = Driver::new(&process(
+    let mut d = Driver::new(&transaction_process(
         &[
-            flow("f0", "s", "T"),
-            transaction(&inner, "e", "ea"),
-            end("e"),
-        ]
-        .concat(),
+            parallel("tf"),
+            path("t", &["ts", "tf", "A", "B", "te"]),
+            path("u", &["tf", "X", "Y", "tc"]),
+            compensable("A"),
+            compensable("B"),
+            compensable("X"),
+            task("Y", "", ""),
+            ends(&["te"]),
+            cancel_end("tc"),
+        ],
+        "",
     ));
     assert_eq!(d.start(&[]), ["dispatch A", "dispatch X"]);
     assert_eq!(d.complete("A", &[]), ["dispatch B"]);
@@ -171,33 +143,19 @@ fn cancel_compensates_across_branches_in_reverse_completion_order() {
 /// handler at most once per completed activity.
 #[test]
 fn cancel_while_a_compensation_throw_runs_interrupts_its_handler_and_compensates_the_rest() {
-    let inner = [
-        flow("t0", "ts", "tf"),
-        fork("tf"),
-        flow("t1", "tf", "A"),
-        task("A", "t1", "t2"),
-        compensated_by("A", "cA"),
-        flow("t2", "A", "B"),
-        task("B", "t2", "t3"),
-        compensated_by("B", "cB"),
-        flow("t3", "B", "th"),
-        r#"<intermediateThrowEvent id="th"><compensateEventDefinition/></intermediateThrowEvent>"#
-            .to_owned(),
-        flow("t4", "th", "te"),
-        end("te"),
-        flow("t5", "tf", "W"),
-        task("W", "t5", "t6"),
-        flow("t6", "W", "tc"),
-        cancel_end("tc"),
-    ]
-    .concat();
-    let mut d = Driver::new(&process(
+    let mut d = Driver::new(&transaction_process(
         &[
-            flow("f0", "s", "T"),
-            transaction(&inner, "e", "ea"),
-            end("e"),
-        ]
-        .concat(),
+            parallel("tf"),
+            path("t", &["ts", "tf", "A", "B", "th", "te"]),
+            path("u", &["tf", "W", "tc"]),
+            compensable("A"),
+            compensable("B"),
+            compensation_throw("th", COMPENSATE),
+            task("W", "", ""),
+            ends(&["te"]),
+            cancel_end("tc"),
+        ],
+        "",
     ));
     assert_eq!(d.start(&[]), ["dispatch A", "dispatch W"]);
     assert_eq!(d.complete("A", &[]), ["dispatch B"]);
@@ -214,27 +172,19 @@ fn cancel_while_a_compensation_throw_runs_interrupts_its_handler_and_compensates
 #[test]
 fn terminate_outside_while_the_cancelled_transaction_compensates_stops_everything() {
     let inner = [
-        flow("t0", "ts", "A"),
-        task("A", "t0", "t1"),
-        compensated_by("A", "cA"),
-        flow("t1", "A", "tc"),
+        path("t", &["ts", "A", "tc"]),
+        compensable("A"),
         cancel_end("tc"),
-    ]
-    .concat();
-    let mut d = Driver::new(&process(
-        &[
-            flow("f0", "s", "P"),
-            fork("P"),
-            flow("f1", "P", "T"),
-            transaction(&inner, "e", "ea"),
-            end("e"),
-            flow("f2", "P", "Z"),
-            task("Z", "f2", "f3"),
-            flow("f3", "Z", "z"),
-            r#"<endEvent id="z"><terminateEventDefinition/></endEvent>"#.to_owned(),
-        ]
-        .concat(),
-    ));
+    ];
+    let mut d = Driver::new(&process(&[
+        path("f", &["s", "P", "T"]),
+        parallel("P"),
+        transaction(&inner, "e", "ea"),
+        ends(&["e"]),
+        path("g", &["P", "Z", "z"]),
+        task("Z", "", ""),
+        r#"<endEvent id="z"><terminateEventDefinition/></endEvent>"#.to_owned(),
+    ]));
     let out = d.start(&[]);
     assert_eq!(sorted(out), ["dispatch A", "dispatch Z"]);
     assert_eq!(d.complete("A", &[]), ["dispatch cA"]);
@@ -248,33 +198,21 @@ fn terminate_outside_while_the_cancelled_transaction_compensates_stops_everythin
 #[test]
 fn tokens_outside_the_transaction_keep_moving_while_it_is_cancelled() {
     let inner = [
-        flow("t0", "ts", "A"),
-        task("A", "t0", "t1"),
-        compensated_by("A", "cA"),
-        flow("t1", "A", "W"),
-        task("W", "t1", "t2"),
-        flow("t2", "W", "tc"),
+        path("t", &["ts", "A", "W", "tc"]),
+        compensable("A"),
+        task("W", "", ""),
         cancel_end("tc"),
-    ]
-    .concat();
-    let mut d = Driver::new(&process(
-        &[
-            flow("f0", "s", "P"),
-            fork("P"),
-            flow("f1", "P", "T"),
-            transaction(&inner, "e0", "J"),
-            end("e0"),
-            flow("f2", "P", "Z1"),
-            task("Z1", "f2", "f3"),
-            flow("f3", "Z1", "Z2"),
-            task("Z2", "f3", "f4"),
-            flow("f4", "Z2", "J"),
-            fork("J"),
-            flow("f5", "J", "e"),
-            end("e"),
-        ]
-        .concat(),
-    ));
+    ];
+    let mut d = Driver::new(&process(&[
+        path("f", &["s", "P", "T"]),
+        parallel("P"),
+        transaction(&inner, "e0", "J"),
+        ends(&["e0"]),
+        path("g", &["P", "Z1", "Z2", "J", "e"]),
+        tasks(&["Z1", "Z2"]),
+        parallel("J"),
+        ends(&["e"]),
+    ]));
     assert_eq!(sorted(d.start(&[])), ["dispatch A", "dispatch Z1"]);
     assert_eq!(d.complete("A", &[]), ["dispatch W"]);
     assert_eq!(d.complete("W", &[]), ["dispatch cA"]);
@@ -289,15 +227,11 @@ fn tokens_outside_the_transaction_keep_moving_while_it_is_cancelled() {
 /// enclosing scope, then an end.
 fn hazard_path() -> String {
     [
-        r#"<boundaryEvent id="bh" attachedToRef="T"><errorEventDefinition/></boundaryEvent>"#
-            .to_owned(),
-        flow("h0", "bh", "R"),
-        task("R", "h0", "h1"),
-        flow("h1", "R", "hc"),
-        r#"<intermediateThrowEvent id="hc"><compensateEventDefinition/></intermediateThrowEvent>"#
-            .to_owned(),
-        flow("h2", "hc", "eh"),
-        end("eh"),
+        r#"<boundaryEvent id="bh" attachedToRef="T"><errorEventDefinition/></boundaryEvent>"#,
+        &path("h", &["bh", "R", "hc", "eh"]),
+        &task("R", "", ""),
+        &compensation_throw("hc", COMPENSATE),
+        &ends(&["eh"]),
     ]
     .concat()
 }
@@ -308,30 +242,17 @@ fn hazard_path() -> String {
 /// ("presumed abort": its compensation is an empty operation).
 #[test]
 fn a_failing_task_inside_a_transaction_is_a_hazard_without_compensation() {
-    let inner = [
-        flow("t0", "ts", "tf"),
-        fork("tf"),
-        flow("t1", "tf", "A"),
-        task("A", "t1", "t2"),
-        compensated_by("A", "cA"),
-        flow("t2", "A", "E"),
-        task("E", "t2", "t3"),
-        flow("t3", "E", "te"),
-        end("te"),
-        flow("t4", "tf", "W"),
-        task("W", "t4", "t5"),
-        flow("t5", "W", "tc"),
-        cancel_end("tc"),
-    ]
-    .concat();
-    let mut d = Driver::new(&process(
+    let mut d = Driver::new(&transaction_process(
         &[
-            flow("f0", "s", "T"),
-            transaction(&inner, "e", "ea"),
-            end("e"),
-            hazard_path(),
-        ]
-        .concat(),
+            parallel("tf"),
+            path("t", &["ts", "tf", "A", "E", "te"]),
+            path("u", &["tf", "W", "tc"]),
+            compensable("A"),
+            tasks(&["E", "W"]),
+            ends(&["te"]),
+            cancel_end("tc"),
+        ],
+        &hazard_path(),
     ));
     assert_eq!(d.start(&[]), ["dispatch A", "dispatch W"]);
     assert_eq!(d.complete("A", &[]), ["dispatch E"]);
@@ -344,22 +265,13 @@ fn a_failing_task_inside_a_transaction_is_a_hazard_without_compensation() {
 /// boundary, no compensation, even with a completed compensable activity inside.
 #[test]
 fn an_error_end_event_inside_a_transaction_is_a_hazard_not_a_cancel() {
-    let inner = [
-        flow("t0", "ts", "A"),
-        task("A", "t0", "t1"),
-        compensated_by("A", "cA"),
-        flow("t1", "A", "tx"),
-        r#"<endEvent id="tx"><errorEventDefinition/></endEvent>"#.to_owned(),
-    ]
-    .concat();
-    let mut d = Driver::new(&process(
+    let mut d = Driver::new(&transaction_process(
         &[
-            flow("f0", "s", "T"),
-            transaction(&inner, "e", "ea"),
-            end("e"),
-            hazard_path(),
-        ]
-        .concat(),
+            path("t", &["ts", "A", "tx"]),
+            compensable("A"),
+            r#"<endEvent id="tx"><errorEventDefinition/></endEvent>"#.to_owned(),
+        ],
+        &hazard_path(),
     ));
     assert_eq!(d.start(&[]), ["dispatch A"]);
     assert_eq!(d.complete("A", &[]), ["dispatch R"]);
@@ -370,33 +282,23 @@ fn an_error_end_event_inside_a_transaction_is_a_hazard_not_a_cancel() {
 /// a compensation throw `th` (for `activity_ref`, or the whole scope), then the end.
 fn completed_transaction(activity_ref: Option<&str>) -> String {
     let inner = [
-        flow("t0", "ts", "A"),
-        task("A", "t0", "t1"),
-        compensated_by("A", "cA"),
-        flow("t1", "A", "B"),
-        task("B", "t1", "t2"),
-        compensated_by("B", "cB"),
-        flow("t2", "B", "te"),
-        end("te"),
-    ]
-    .concat();
+        path("t", &["ts", "A", "B", "te"]),
+        compensable("A"),
+        compensable("B"),
+        ends(&["te"]),
+    ];
     let def = match activity_ref {
         Some(a) => format!(r#"<compensateEventDefinition activityRef="{a}"/>"#),
-        None => "<compensateEventDefinition/>".to_owned(),
+        None => COMPENSATE.to_owned(),
     };
-    process(
-        &[
-            flow("f0", "s", "T"),
-            transaction(&inner, "X", "ea"),
-            task("X", "ft", "f1"),
-            compensated_by("X", "cX"),
-            flow("f1", "X", "th"),
-            format!(r#"<intermediateThrowEvent id="th">{def}</intermediateThrowEvent>"#),
-            flow("f2", "th", "e"),
-            end("e"),
-        ]
-        .concat(),
-    )
+    process(&[
+        flow("f0", "s", "T"),
+        transaction(&inner, "X", "ea"),
+        compensable("X"),
+        path("g", &["X", "th", "e"]),
+        compensation_throw("th", &def),
+        ends(&["e"]),
+    ])
 }
 
 /// §10.3.5 (successful completion), §13.5.5: a transaction that completes runs no
@@ -425,27 +327,24 @@ fn a_completed_transaction_is_compensated_as_a_whole_by_a_later_throw_outside() 
 /// A transaction whose task `A` has a non-interrupting timer boundary (1 s) leading to `H`
 /// (compensable by `cH` when `h_compensable`); `A` leads to the cancel end event.
 fn boundary_inside(h_compensable: bool) -> String {
-    let inner = [
-        flow("t0", "ts", "A"),
-        task("A", "t0", "t1"),
-        compensated_by("A", "cA"),
-        r#"<boundaryEvent id="tb" attachedToRef="A" cancelActivity="false"><timerEventDefinition><timeDuration xsi:type="tFormalExpression">PT1S</timeDuration></timerEventDefinition></boundaryEvent>"#.to_owned(),
-        flow("t2", "tb", "H"),
-        task("H", "t2", "t3"),
-        if h_compensable { compensated_by("H", "cH") } else { String::new() },
-        flow("t3", "H", "te"),
-        end("te"),
-        flow("t1", "A", "tc"),
-        cancel_end("tc"),
-    ]
-    .concat();
-    process(
+    transaction_process(
         &[
-            flow("f0", "s", "T"),
-            transaction(&inner, "e", "ea"),
-            end("e"),
-        ]
-        .concat(),
+            path("t", &["ts", "A", "tc"]),
+            compensable("A"),
+            format!(
+                r#"<boundaryEvent id="tb" attachedToRef="A" cancelActivity="false">{}</boundaryEvent>"#,
+                duration("PT1S")
+            ),
+            path("u", &["tb", "H", "te"]),
+            if h_compensable {
+                compensable("H")
+            } else {
+                task("H", "", "")
+            },
+            ends(&["te"]),
+            cancel_end("tc"),
+        ],
+        "",
     )
 }
 
@@ -474,29 +373,19 @@ fn cancel_reached_while_a_non_interrupting_boundary_branch_runs_cancels_that_bra
 /// own completed activities, at its place in the reverse completion order.
 #[test]
 fn a_completed_sub_process_inside_a_cancelled_transaction_is_compensated_through_its_content() {
-    let inner = [
-        flow("t0", "ts", "S"),
-        r#"<subProcess id="S"><startEvent id="ss"/>"#.to_owned(),
-        flow("s0", "ss", "A"),
-        task("A", "s0", "s1"),
-        compensated_by("A", "cA"),
-        flow("s1", "A", "se"),
-        end("se"),
-        "</subProcess>".to_owned(),
-        flow("t1", "S", "B"),
-        task("B", "t1", "t2"),
-        compensated_by("B", "cB"),
-        flow("t2", "B", "tc"),
-        cancel_end("tc"),
-    ]
-    .concat();
-    let mut d = Driver::new(&process(
+    let mut d = Driver::new(&transaction_process(
         &[
-            flow("f0", "s", "T"),
-            transaction(&inner, "e", "ea"),
-            end("e"),
-        ]
-        .concat(),
+            path("t", &["ts", "S", "B", "tc"]),
+            format!(
+                r#"<subProcess id="S"><startEvent id="ss"/>{}{}{}</subProcess>"#,
+                path("u", &["ss", "A", "se"]),
+                compensable("A"),
+                ends(&["se"]),
+            ),
+            compensable("B"),
+            cancel_end("tc"),
+        ],
+        "",
     ));
     assert_eq!(d.start(&[]), ["dispatch A"]);
     assert_eq!(d.complete("A", &[]), ["dispatch B"]);
@@ -509,25 +398,16 @@ fn a_completed_sub_process_inside_a_cancelled_transaction_is_compensated_through
 /// compensation, one token on the cancel boundary.
 #[test]
 fn two_cancel_ends_reached_together_cancel_once() {
-    let inner = [
-        flow("t0", "ts", "A"),
-        task("A", "t0", "t1"),
-        compensated_by("A", "cA"),
-        flow("t1", "A", "tf"),
-        fork("tf"),
-        flow("t2", "tf", "tc1"),
-        cancel_end("tc1"),
-        flow("t3", "tf", "tc2"),
-        cancel_end("tc2"),
-    ]
-    .concat();
-    let mut d = Driver::new(&process(
+    let mut d = Driver::new(&transaction_process(
         &[
-            flow("f0", "s", "T"),
-            transaction(&inner, "e", "ea"),
-            end("e"),
-        ]
-        .concat(),
+            path("t", &["ts", "A", "tf", "tc1"]),
+            flow("u", "tf", "tc2"),
+            compensable("A"),
+            parallel("tf"),
+            cancel_end("tc1"),
+            cancel_end("tc2"),
+        ],
+        "",
     ));
     assert_eq!(d.start(&[]), ["dispatch A"]);
     assert_eq!(d.complete("A", &[]), ["dispatch cA"]);
@@ -541,29 +421,22 @@ fn two_cancel_ends_reached_together_cancel_once() {
 #[test]
 fn a_transaction_retried_after_a_cancel_compensates_each_attempt_once() {
     let inner = [
-        flow("t0", "ts", "A"),
-        task("A", "t0", "t1"),
-        compensated_by("A", "cA"),
-        flow("t1", "A", "tg"),
+        path("t", &["ts", "A", "tg"]),
+        compensable("A"),
         r#"<exclusiveGateway id="tg" default="t3"/>"#.to_owned(),
         cond_flow("t2", "tg", "te", "ok"),
-        end("te"),
+        ends(&["te"]),
         flow("t3", "tg", "tc"),
         cancel_end("tc"),
-    ]
-    .concat();
-    let mut d = Driver::new(&process(
-        &[
-            flow("f0", "s", "M"),
-            r#"<exclusiveGateway id="M"/>"#.to_owned(),
-            flow("f1", "M", "T"),
-            transaction(&inner, "th", "M"),
-            r#"<intermediateThrowEvent id="th"><compensateEventDefinition/></intermediateThrowEvent>"#.to_owned(),
-            flow("f2", "th", "e"),
-            end("e"),
-        ]
-        .concat(),
-    ));
+    ];
+    let mut d = Driver::new(&process(&[
+        path("f", &["s", "M", "T"]),
+        r#"<exclusiveGateway id="M"/>"#.to_owned(),
+        transaction(&inner, "th", "M"),
+        compensation_throw("th", COMPENSATE),
+        flow("f2", "th", "e"),
+        ends(&["e"]),
+    ]));
     assert_eq!(d.start(&[]), ["dispatch A"]);
     assert_eq!(
         d.complete("A", &[("ok", Value::Bool(false))]),
@@ -576,7 +449,7 @@ fn a_transaction_retried_after_a_cancel_compensates_each_attempt_once() {
         ["dispatch cA"]
     );
     assert_eq!(d.complete("cA", &[]), ["completed"]);
-    assert_eq!(keys_of(&d, "cA").len(), 2);
+    assert_eq!(d.keys_of("cA").len(), 2);
 }
 
 /// §10.3.5, §13.5.6 (the specification does not say what happens without a cancel boundary
@@ -585,23 +458,16 @@ fn a_transaction_retried_after_a_cancel_compensates_each_attempt_once() {
 /// running with no token and nothing to wait for.
 #[test]
 fn a_cancel_without_a_cancel_boundary_still_compensates_and_the_path_ends() {
-    let inner = [
-        flow("t0", "ts", "A"),
-        task("A", "t0", "t1"),
-        compensated_by("A", "cA"),
-        flow("t1", "A", "tc"),
-        cancel_end("tc"),
-    ]
-    .concat();
-    let mut d = Driver::new(&process(
-        &[
-            flow("f0", "s", "T"),
-            format!(r#"<transaction id="T"><startEvent id="ts"/>{inner}</transaction>"#),
-            flow("ft", "T", "e"),
-            end("e"),
-        ]
-        .concat(),
-    ));
+    let mut d = Driver::new(&process(&[
+        path("f", &["s", "T", "e"]),
+        format!(
+            r#"<transaction id="T"><startEvent id="ts"/>{}{}{}</transaction>"#,
+            path("t", &["ts", "A", "tc"]),
+            compensable("A"),
+            cancel_end("tc"),
+        ),
+        ends(&["e"]),
+    ]));
     assert_eq!(d.start(&[]), ["dispatch A"]);
     assert_eq!(d.complete("A", &[]), ["dispatch cA"]);
     assert_eq!(d.complete("cA", &[]), ["completed"]);
@@ -613,34 +479,26 @@ fn a_cancel_without_a_cancel_boundary_still_compensates_and_the_path_ends() {
 /// runs outside it and is not affected.
 #[test]
 fn cancel_disarms_the_transactions_own_timers_but_not_what_its_boundaries_started() {
-    let inner = [
-        flow("t0", "ts", "A"),
-        task("A", "t0", "t1"),
-        compensated_by("A", "cA"),
-        flow("t1", "A", "W"),
-        task("W", "t1", "t2"),
-        flow("t2", "W", "tc"),
-        cancel_end("tc"),
-    ]
-    .concat();
-    let timer = |id: &str, interrupting: bool, duration: &str| {
+    let timer = |id: &str, interrupting: bool, due: &str| {
         format!(
-            r#"<boundaryEvent id="{id}" attachedToRef="T" cancelActivity="{interrupting}"><timerEventDefinition><timeDuration xsi:type="tFormalExpression">{duration}</timeDuration></timerEventDefinition></boundaryEvent>"#
+            r#"<boundaryEvent id="{id}" attachedToRef="T" cancelActivity="{interrupting}">{}</boundaryEvent>"#,
+            duration(due)
         )
     };
-    let mut d = Driver::new(&process(
+    let mut d = Driver::new(&transaction_process(
         &[
-            flow("f0", "s", "T"),
-            transaction(&inner, "e", "ea"),
-            end("e"),
+            path("t", &["ts", "A", "W", "tc"]),
+            compensable("A"),
+            task("W", "", ""),
+            cancel_end("tc"),
+        ],
+        &[
             timer("nT", false, "PT1S"),
-            flow("n0", "nT", "N"),
-            task("N", "n0", "n1"),
-            flow("n1", "N", "eN"),
-            end("eN"),
+            path("n", &["nT", "N", "eN"]),
+            task("N", "", ""),
             timer("iT", true, "PT1H"),
             flow("i0", "iT", "eI"),
-            end("eI"),
+            ends(&["eN", "eI"]),
         ]
         .concat(),
     ));
@@ -657,15 +515,9 @@ fn cancel_disarms_the_transactions_own_timers_but_not_what_its_boundaries_starte
     assert_eq!(d.fire(short, 1000), ["dispatch N"]);
     assert_eq!(d.complete("A", &[]), ["dispatch W"]);
     assert_eq!(d.complete("W", &[]), ["untimer", "dispatch cA"]);
-    let late = d.timers[1 - short];
-    let r = d.step(Event::TimerFired { timer: late });
+    let r = d.try_fire(1 - short);
     assert!(matches!(r, Err(Rejected::UnknownTimer(_))), "{r:?}");
     assert_eq!(d.complete("N", &[]), none());
     assert_eq!(d.complete("cA", &[]), ["dispatch after"]);
     assert_eq!(d.complete("after", &[]), ["completed"]);
-}
-
-fn sorted(mut v: Vec<String>) -> Vec<String> {
-    v.sort();
-    v
 }
