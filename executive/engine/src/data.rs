@@ -184,7 +184,8 @@ impl Run<'_> {
     pub(crate) fn activate(&mut self, t: TokenId) {
         let tok = &self.s.tokens[&t];
         let (node, scope, body) = (tok.node, tok.scope, tok.body);
-        if !body && !self.decides() {
+        let has_inputs = self.data_io(node).is_some_and(|io| !io.inputs.is_empty());
+        if has_inputs && !body && !self.decides() {
             let items = self.loop_items(node);
             match self.fill_inputs(node, scope, &items) {
                 Ok(Some(_)) => {}

@@ -799,15 +799,7 @@ impl Run<'_> {
         name: String,
         payload: Vars,
     ) {
-        self.record(
-            instance,
-            Entry::Thrown {
-                what: Trigger::Message,
-                name: name.clone(),
-                node,
-            },
-        );
-        let correlation = self.sender_correlation(scope, &name);
+        let correlation = self.thrown_message(instance, node, scope, &name);
         let drawn = node.is_some_and(|n| {
             let id = &self.g.node(n).id;
             self.g
@@ -826,8 +818,23 @@ impl Run<'_> {
         }
     }
 
-    /// The sender's value of a message's correlation key (evaluated in the sender's scope).
-    fn sender_correlation(&self, scope: ScopeId, name: &str) -> Option<Value> {
+    /// Records that `node` sent message `name` and returns the sender's value of the message's
+    /// correlation key (evaluated in the sender's `scope`), if it has one.
+    fn thrown_message(
+        &mut self,
+        instance: InstanceId,
+        node: Option<NodeId>,
+        scope: ScopeId,
+        name: &str,
+    ) -> Option<Value> {
+        self.record(
+            instance,
+            Entry::Thrown {
+                what: Trigger::Message,
+                name: name.to_owned(),
+                node,
+            },
+        );
         let key = self.g.messages.iter().find(|m| m.name == name)?;
         let key = key.correlation_key.as_ref()?;
         self.eval(scope, key, &mut Vars::new()).ok()
@@ -850,15 +857,7 @@ impl Run<'_> {
         }
         let name = self.message_name(task.message);
         let payload = self.visible_vars(scope);
-        self.record(
-            instance,
-            Entry::Thrown {
-                what: Trigger::Message,
-                name: name.clone(),
-                node: Some(node),
-            },
-        );
-        let correlation = self.sender_correlation(scope, &name);
+        let correlation = self.thrown_message(instance, Some(node), scope, &name);
         self.along_message_flows(node, &name, correlation.as_ref(), &payload);
     }
 

@@ -196,6 +196,7 @@ impl Reader<'_> {
     /// Reads every binding on `el` (a task or call activity). `trace:task` wins; several other
     /// dialects on one element are refused, since which one wins would be a guess.
     pub(crate) fn read(&mut self, el: &Element) -> Option<TaskBinding> {
+        self.foreign_scripts(el);
         // Our own binding is addressed to this executive: it wins over the other engines'
         // (a model may carry bindings for several engines).
         if let Some(b) = self.read_trace(el) {
@@ -212,7 +213,7 @@ impl Reader<'_> {
             found.push(b);
         }
         if found.len() > 1 {
-            self.problem(el.offset, "conflicting-bindings", "the task carries bindings in more than one dialect (trace, zeebe, camunda); keep one".to_owned());
+            self.problem(el.offset, "conflicting-bindings", "the task carries bindings in more than one other engine's dialect (zeebe, camunda, spiffworkflow), and which one runs would be a guess; keep one, or add a trace:task".to_owned());
         }
         found.into_iter().next().or_else(|| implementation(el))
     }
@@ -344,6 +345,27 @@ impl Reader<'_> {
         relevant.then_some(b)
     }
 
+    /// Behaviour another engine attaches to the task and TRACE would otherwise drop without a
+    /// word: SpiffWorkflow's pre- and post-scripts (Python), whichever binding runs the task.
+    fn foreign_scripts(&mut self, el: &Element) {
+        for ext in el.extensions().filter(|e| {
+            e.ns == Ns::Spiff
+                && matches!(e.name.as_str(), "preScript" | "postScript")
+                && !e.trimmed_text().is_empty()
+        }) {
+            let when = if ext.name == "preScript" {
+                "before"
+            } else {
+                "after"
+            };
+            self.problem(
+                ext.offset,
+                "unevaluated-language",
+                format!("spiffworkflow:{} is a Python script SpiffWorkflow runs {when} the task, which TRACE does not run", ext.name),
+            );
+        }
+    }
+
     /// SpiffWorkflow: a service task names its operator and parameters
     /// (`spiffworkflow:serviceTaskOperator id=… / parameters / parameter id value`, values in the
     /// process's expression language), a business rule task its decision
@@ -384,19 +406,6 @@ impl Reader<'_> {
                 "calledDecisionId" => {
                     relevant = true;
                     b.resource = Some(ext.trimmed_text().to_owned());
-                }
-                // Behaviour TRACE would otherwise drop without a word.
-                "preScript" | "postScript" if !ext.trimmed_text().is_empty() => {
-                    let when = if ext.name == "preScript" {
-                        "before"
-                    } else {
-                        "after"
-                    };
-                    self.problem(
-                        ext.offset,
-                        "unevaluated-language",
-                        format!("spiffworkflow:{} is a Python script SpiffWorkflow runs {when} the task, which TRACE does not run", ext.name),
-                    );
                 }
                 _ => {}
             }
@@ -455,13 +464,12 @@ impl Reader<'_> {
                             if let Some(nested) = p.children.iter().find(|c| c.ns == Ns::Camunda) {
                                 match camunda_value(nested) {
                                     Ok(cel) => self.expr(nested.offset, &cel, &what),
-                                    Err(why) => {
-                                        let code = if why.contains("camunda:script") {
-                                            "unevaluated-language"
-                                        } else {
-                                            "unsupported"
+                                    Err(f) => {
+                                        let code = match f {
+                                            Failure::Syntax(_) => "unsupported",
+                                            Failure::Unevaluated(_) => "unevaluated-language",
                                         };
-                                        self.problem(nested.offset, code, format!("{what}: {why}"));
+                                        self.problem(nested.offset, code, format!("{what}: {f}"));
                                         continue;
                                     }
                                 }
@@ -565,38 +573,41 @@ fn serde_json_string(value: &str) -> String {
 }
 
 /// A Camunda 7 structured parameter value (`camunda:map`, `camunda:list`, nested, with literal
-/// or `${…}` leaves) as CEL text; a `camunda:script` value is refused with its language.
-fn camunda_value(el: &Element) -> Result<String, String> {
-    let leaf = |e: &Element| -> Result<String, String> {
+/// or `${…}` leaves) as CEL text; a `camunda:script` value is refused with its language, and
+/// anything else that is not a value as unsupported (`Failure::Syntax`).
+fn camunda_value(el: &Element) -> Result<String, Failure> {
+    let leaf = |e: &Element| -> Result<String, Failure> {
         match e.children.iter().find(|c| c.ns == Ns::Camunda) {
             Some(nested) => camunda_value(nested),
             None => {
                 let raw = e.trimmed_text();
-                let inner = ["${", "#{"]
-                    .iter()
-                    .find_map(|w| raw.strip_prefix(w).and_then(|r| r.strip_suffix('}')));
-                match inner {
-                    Some(juel) => crate::juel::to_cel(juel).map(|c| format!("({c})")),
-                    None => Ok(serde_json_string(raw)),
+                // Camunda 7 reads `${…}` / `#{…}` as JUEL and anything else as a literal.
+                match crate::expr::wrapped(raw) {
+                    Some((Language::Juel, _)) => {
+                        Expression::compile(raw, &Language::Cel).map(|x| format!("({})", x.text))
+                    }
+                    _ => Ok(serde_json_string(raw)),
                 }
             }
         }
     };
     match el.name.as_str() {
         "map" => {
-            let entries: Result<Vec<String>, String> = el
+            let entries: Result<Vec<String>, Failure> = el
                 .children
                 .iter()
                 .filter(|c| c.ns == Ns::Camunda && c.name == "entry")
                 .map(|e| {
-                    let key = e.attr("key").ok_or("a camunda:entry has no key")?;
+                    let key = e
+                        .attr("key")
+                        .ok_or_else(|| Failure::Syntax("a camunda:entry has no key".to_owned()))?;
                     Ok(format!("{}: {}", serde_json_string(key), leaf(e)?))
                 })
                 .collect();
             Ok(format!("{{{}}}", entries?.join(", ")))
         }
         "list" => {
-            let values: Result<Vec<String>, String> = el
+            let values: Result<Vec<String>, Failure> = el
                 .children
                 .iter()
                 .filter(|c| c.ns == Ns::Camunda)
@@ -610,11 +621,13 @@ fn camunda_value(el: &Element) -> Result<String, String> {
                 .collect();
             Ok(format!("[{}]", values?.join(", ")))
         }
-        "script" => Err(format!(
+        "script" => Err(Failure::Unevaluated(format!(
             "a camunda:script value (in {}) is not evaluated by TRACE; write the value as an expression",
             el.attr("scriptFormat").unwrap_or("an unnamed language")
-        )),
-        other => Err(format!("camunda:{other} is not a parameter value")),
+        ))),
+        other => Err(Failure::Syntax(format!(
+            "camunda:{other} is not a parameter value"
+        ))),
     }
 }
 

@@ -97,6 +97,15 @@ const PASSIVE: &[&str] = &[
     "categoryValueRef",
 ];
 
+/// Flow elements of the schema that a process can hold but the executive cannot run.
+const UNRUNNABLE_FLOW_ELEMENTS: &[&str] = &[
+    "callChoreography",
+    "choreographyTask",
+    "subChoreography",
+    "event",
+    "implicitThrowEvent",
+];
+
 /// Strips a QName prefix from a reference (`tns:Message_1` -> `Message_1`).
 pub(crate) fn local_ref(r: &str) -> &str {
     let r = r.trim();
@@ -445,6 +454,8 @@ impl<'d> Builder<'d, '_> {
         let pid = ProcessId(self.g.processes.len() as u32);
         let id = el.attr("id").unwrap_or_default().to_owned();
         let strict = el.attr("isExecutable") != Some("false");
+        // Problems found while its elements are first read are reported for this process.
+        self.declared = el.attr("isExecutable") == Some("true");
         if !id.is_empty() {
             self.g.process_ids.entry(id.clone()).or_insert(pid);
             self.scoped_processes
@@ -550,16 +561,7 @@ impl<'d> Builder<'d, '_> {
                 self.flow_src.push((child, scope, strict));
             } else if name == "association" {
                 self.associations.push(child);
-            } else if !PASSIVE.contains(&name)
-                && !matches!(
-                    name,
-                    "callChoreography"
-                        | "choreographyTask"
-                        | "subChoreography"
-                        | "event"
-                        | "implicitThrowEvent"
-                )
-            {
+            } else if !PASSIVE.contains(&name) && !UNRUNNABLE_FLOW_ELEMENTS.contains(&name) {
                 // Not a flow element at all (the schema allows none other here): a misplaced
                 // element that execution never reads.
                 let msg = format!("<{name}> is not a flow element; it is ignored here");
@@ -745,8 +747,10 @@ impl<'d> Builder<'d, '_> {
         if el.trimmed_text().is_empty() {
             return None;
         }
-        self.expr(strict, el, owner, what)
-            .or_else(|| Expression::parse("false").ok())
+        Some(
+            self.expr(strict, el, owner, what)
+                .unwrap_or_else(Expression::never),
+        )
     }
 
     /// Compiles the expression in `el`; a failure is a diagnostic (`bad-expression`, or
@@ -895,10 +899,7 @@ impl<'d> Builder<'d, '_> {
                             None
                         }
                     };
-                    match e.map_or_else(|| Expression::parse("false"), Ok) {
-                        Ok(e) => EventDefinition::Conditional(e),
-                        Err(_) => continue,
-                    }
+                    EventDefinition::Conditional(e.unwrap_or_else(Expression::never))
                 }
                 "timerEventDefinition" => {
                     let parts: Vec<(TimerKind, &Element)> = [
@@ -924,9 +925,8 @@ impl<'d> Builder<'d, '_> {
                     match parse_timer(kind, value.trimmed_text()) {
                         Ok(t) => {
                             let text = value.trimmed_text();
-                            let wrapped = ["${", "#{", "="].iter().any(|w| text.starts_with(w));
                             if matches!(t.value, crate::timer::TimerValue::Expression(_))
-                                && !wrapped
+                                && crate::expr::wrapped(text).is_none()
                             {
                                 let rule = match kind {
                                     TimerKind::Date => "EXT.132",

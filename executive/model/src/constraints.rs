@@ -165,11 +165,6 @@ const SCHEMA_ATTRIBUTES: &[&str] = &[
     "dataInputRefs",
     "dataOutputRefs",
     "correlationPropertyRef",
-    "correlationKeyRef",
-    "supportedInterfaceRef",
-    "evaluatesToTypeRef",
-    "errorRef",
-    "implementationRef",
 ];
 
 /// Allowed target kinds for a reference held in a child element (`<x>id</x>`) or an attribute.
@@ -362,36 +357,27 @@ pub(crate) fn check(root: &Element, sink: &mut Sink) {
                 );
             }
         }
-        // Typed references in attributes.
-        for a in el.attrs.iter().filter(|a| a.ns == Ns::None) {
-            if let Some(kinds) = ref_targets(&el.name, &a.name) {
-                match documentary(&el.name, &a.name) {
-                    Some(why) => check_ref(&ix, &a.name, &a.value, kinds, &mut |code, _, msg| {
-                        soft.push((code, format!("{msg}{why}")));
-                    }),
-                    None => check_ref(&ix, &a.name, &a.value, kinds, &mut err),
-                }
-            }
-        }
-        // Typed references in child elements.
-        for c in el
+        // Typed references, in attributes and in child elements; a dangling one that execution
+        // never follows is a rule bent harmlessly, reported below.
+        let attrs = el
+            .attrs
+            .iter()
+            .filter(|a| a.ns == Ns::None)
+            .map(|a| (a.name.as_str(), a.value.as_str()));
+        let children = el
             .children
             .iter()
             .filter(|c| c.ns == Ns::Bpmn && c.children.is_empty())
-        {
-            if let Some(kinds) = ref_targets(&el.name, &c.name) {
-                match documentary(&el.name, &c.name) {
-                    Some(why) => check_ref(
-                        &ix,
-                        &c.name,
-                        c.trimmed_text(),
-                        kinds,
-                        &mut |code, _, msg| {
-                            soft.push((code, format!("{msg}{why}")));
-                        },
-                    ),
-                    None => check_ref(&ix, &c.name, c.trimmed_text(), kinds, &mut err),
-                }
+            .map(|c| (c.name.as_str(), c.trimmed_text()));
+        for (name, value) in attrs.chain(children) {
+            let Some(kinds) = ref_targets(&el.name, name) else {
+                continue;
+            };
+            match documentary(&el.name, name) {
+                Some(why) => check_ref(&ix, name, value, kinds, &mut |code, _, msg| {
+                    soft.push((code, format!("{msg}{why}")));
+                }),
+                None => check_ref(&ix, name, value, kinds, &mut err),
             }
         }
         if FLOW_NODES.contains(&el.name.as_str()) {

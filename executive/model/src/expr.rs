@@ -70,7 +70,7 @@ impl Language {
             Language::Feel
         } else if matches!(
             l,
-            "juel" | "el" | "uel" | "http://java.sun.com/products/jsp/"
+            "juel" | "el" | "uel" | "http://java.sun.com/products/jsp"
         ) || l.ends_with("/el")
         {
             Language::Juel
@@ -201,6 +201,12 @@ impl Expression {
         })
     }
 
+    /// A condition that never holds: what stands in the graph for one that cannot be evaluated
+    /// (its problem is reported), so that no check mistakes it for a missing condition.
+    pub(crate) fn never() -> Expression {
+        Expression::parse("false").expect("`false` is CEL")
+    }
+
     /// The compiled CEL program.
     pub fn program(&self) -> &cel::Program {
         &self.program
@@ -208,7 +214,7 @@ impl Expression {
 }
 
 /// The language a Camunda wrapper names, and the text inside it.
-fn wrapped(s: &str) -> Option<(Language, &str)> {
+pub(crate) fn wrapped(s: &str) -> Option<(Language, &str)> {
     for open in ["${", "#{"] {
         if let Some(inner) = s.strip_prefix(open).and_then(|r| r.strip_suffix('}')) {
             return Some((Language::Juel, inner));

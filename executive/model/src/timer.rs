@@ -116,17 +116,7 @@ pub fn parse_timer(kind: TimerKind, raw: &str) -> Result<Timer, String> {
     if let Some(inner) = quoted {
         return parse_timer(kind, inner);
     }
-    let iso_like =
-        text.starts_with(['P', 'R', '+', '-']) || text.starts_with(|c: char| c.is_ascii_digit());
-    let name_like = text
-        .chars()
-        .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '.')
-        && text.starts_with(|c: char| c.is_ascii_alphabetic() || c == '_');
-    if text.starts_with("${")
-        || text.starts_with("#{")
-        || text.starts_with('=')
-        || (name_like && !iso_like)
-    {
+    if crate::expr::wrapped(text).is_some() || names_a_variable(text) {
         return Ok(Timer {
             kind,
             value: TimerValue::Expression(Expression::parse(text)?),
@@ -141,6 +131,18 @@ pub fn parse_timer(kind: TimerKind, raw: &str) -> Result<Timer, String> {
         kind,
         value: TimerValue::Fixed(spec),
     })
+}
+
+/// Is a timer value a bare name (`due_time`, `order.deadline`) rather than ISO 8601 text? Text
+/// that starts as ISO 8601 does (`P…`, `R…`, a digit, a sign) is never taken for a name.
+fn names_a_variable(text: &str) -> bool {
+    let iso_like =
+        text.starts_with(['P', 'R', '+', '-']) || text.starts_with(|c: char| c.is_ascii_digit());
+    let name_like = text
+        .chars()
+        .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '.')
+        && text.starts_with(|c: char| c.is_ascii_alphabetic() || c == '_');
+    name_like && !iso_like
 }
 
 /// Parses an ISO 8601 date-time; one without an offset is taken as UTC.
