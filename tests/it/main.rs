@@ -8,6 +8,7 @@ mod connectors;
 mod durability;
 mod engine;
 mod europa;
+mod feel;
 mod ground;
 mod hostile;
 mod missions;

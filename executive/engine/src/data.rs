@@ -71,12 +71,12 @@ impl Run<'_> {
         }
         let lookup = |n: &str| known.get(n).cloned().or_else(|| self.lookup(scope, n));
         let mut value = match &a.transformation {
-            Some(e) => Some(eval::eval(e, &lookup, &mut Vars::new())?),
+            Some(e) => Some(eval::eval(e, self.now, &lookup, &mut Vars::new())?),
             None if a.assignments.is_empty() && values.len() == 1 => values.pop(),
             None => current,
         };
         for (from, to) in &a.assignments {
-            let v = eval::eval(from, &lookup, &mut Vars::new())?;
+            let v = eval::eval(from, self.now, &lookup, &mut Vars::new())?;
             // `to` names the target (or a path inside it); any other path is inside the target.
             let path = if to == target || to.starts_with(&format!("{target}.")) {
                 to.clone()

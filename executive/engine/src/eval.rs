@@ -4,10 +4,10 @@
 use std::sync::{Arc, LazyLock};
 
 use chrono::{DateTime, FixedOffset};
-use executive_model::Expression;
 use executive_model::binding::FieldType;
 use executive_model::timer::Timer;
 use executive_model::timer::{self, TimerKind, TimerSpec, TimerValue};
+use executive_model::{Expression, Program};
 
 use crate::io::Millis;
 use crate::value::{F64, Value, Vars};
@@ -15,39 +15,84 @@ use crate::value::{F64, Value, Vars};
 /// The CEL standard library, built once (building it per evaluation would dominate a step).
 static ENV: LazyLock<Arc<cel::Env>> = LazyLock::new(|| Arc::new(cel::Env::stdlib()));
 
-/// Evaluates `expr`, looking each variable it reads up with `lookup`. Variables that are not
-/// defined are left unbound, so the expression fails with CEL's "undeclared reference" error.
+/// Evaluates `expr` at mission time `now`, looking each variable it reads up with `lookup`.
+/// CEL leaves undefined variables unbound, so the expression fails with CEL's "undeclared
+/// reference" error; FEEL reads them as null, as Camunda does.
 pub(crate) fn eval(
     expr: &Expression,
+    now: Millis,
     lookup: &dyn Fn(&str) -> Option<Value>,
     read: &mut Vars,
 ) -> Result<Value, String> {
-    let mut ctx = cel::Context::with_env(Arc::clone(&ENV));
-    for name in &expr.variables {
-        if let Some(v) = lookup(name) {
-            ctx.add_variable_from_value(name.as_str(), v.to_cel());
-            read.insert(name.clone(), v);
+    match expr.program() {
+        Program::Cel(program) => {
+            let mut ctx = cel::Context::with_env(Arc::clone(&ENV));
+            for name in &expr.variables {
+                if let Some(v) = lookup(name) {
+                    ctx.add_variable_from_value(name.as_str(), v.to_cel());
+                    read.insert(name.clone(), v);
+                }
+            }
+            let out = program
+                .execute(&ctx)
+                .map_err(|e| format!("`{}` failed: {e}", expr.source))?;
+            Value::from_cel(&out).map_err(|e| format!("`{}`: {e}", expr.source))
+        }
+        Program::Feel(feel) => {
+            let seen = std::cell::RefCell::new(Vars::new());
+            let find = |name: &str| {
+                let v = lookup(name)?;
+                seen.borrow_mut().insert(name.to_owned(), v.clone());
+                Some(crate::feel::to_feel(&v))
+            };
+            let env = executive_feel::Env {
+                lookup: &find,
+                now: crate::feel::mission_time(now),
+                budget: executive_feel::BUDGET,
+            };
+            let out = feel
+                .evaluate(&env)
+                .map_err(|e| format!("`{}` failed: {e}", expr.source))?;
+            read.extend(seen.into_inner());
+            crate::feel::from_feel(&out.value).map_err(|e| {
+                let why = out.note.map(|n| format!(" ({n})")).unwrap_or_default();
+                format!("`{}`: {e}{why}", expr.source)
+            })
         }
     }
-    let out = expr
-        .program()
-        .execute(&ctx)
-        .map_err(|e| format!("`{}` failed: {e}", expr.source))?;
-    Value::from_cel(&out).map_err(|e| format!("`{}`: {e}", expr.source))
+}
+
+/// Why a FEEL expression gave null, for messages about a result of the wrong type.
+fn null_reason(expr: &Expression, now: Millis, lookup: &dyn Fn(&str) -> Option<Value>) -> String {
+    let Program::Feel(feel) = expr.program() else {
+        return String::new();
+    };
+    let find = |name: &str| lookup(name).map(|v| crate::feel::to_feel(&v));
+    let env = executive_feel::Env {
+        lookup: &find,
+        now: crate::feel::mission_time(now),
+        budget: executive_feel::BUDGET,
+    };
+    match feel.evaluate(&env) {
+        Ok(e) => e.note.map(|n| format!(": {n}")).unwrap_or_default(),
+        Err(_) => String::new(),
+    }
 }
 
 /// Evaluates a condition: it must give a boolean.
 pub(crate) fn condition(
     expr: &Expression,
+    now: Millis,
     lookup: &dyn Fn(&str) -> Option<Value>,
     read: &mut Vars,
 ) -> Result<bool, String> {
-    match eval(expr, lookup, read)? {
+    match eval(expr, now, lookup, read)? {
         Value::Bool(b) => Ok(b),
         other => Err(format!(
-            "condition `{}` gave {} `{other}`, not a bool",
+            "condition `{}` gave {} `{other}`, not a bool{}",
             expr.source,
-            other.type_name()
+            other.type_name(),
+            null_reason(expr, now, lookup)
         )),
     }
 }
@@ -118,9 +163,15 @@ pub(crate) fn deadline(
     let spec = match &t.value {
         TimerValue::Fixed(s) => s.clone(),
         TimerValue::Expression(e) => {
-            let text = match eval(e, lookup, &mut Vars::new())? {
+            let text = match eval(e, now, lookup, &mut Vars::new())? {
                 Value::String(s) => s,
-                other => return Err(format!("timer expression gave {other}, not ISO 8601 text")),
+                other => {
+                    return Err(format!(
+                        "timer expression `{}` gave {other}, not ISO 8601 text{}",
+                        e.source,
+                        null_reason(e, now, lookup)
+                    ));
+                }
             };
             match t.kind {
                 TimerKind::Date => TimerSpec::Date(timer::parse_date(&text)?),

@@ -236,7 +236,7 @@ impl Run<'_> {
                             self.lookup(scope, n)
                         }
                     };
-                    match crate::eval::condition(expr, &lookup, &mut Vars::new()) {
+                    match crate::eval::condition(expr, self.now, &lookup, &mut Vars::new()) {
                         Ok(b) => b,
                         Err(e) => {
                             self.unpark(t);

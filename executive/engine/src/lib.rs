@@ -25,6 +25,7 @@ mod data;
 mod engine;
 mod eval;
 mod events;
+mod feel;
 mod gateway;
 mod io;
 mod looping;

@@ -46,7 +46,7 @@ impl Run<'_> {
                     // The collection may be a data input of the activity (§10.3.8).
                     let inputs = self.loop_data_inputs(t);
                     let lookup = |n: &str| inputs.get(n).cloned().or_else(|| self.lookup(scope, n));
-                    match crate::eval::eval(c, &lookup, &mut Vars::new()) {
+                    match crate::eval::eval(c, self.now, &lookup, &mut Vars::new()) {
                         Ok(Value::List(items)) => {
                             state.total = Some(items.len() as u64);
                             state.items = Some(items);
@@ -117,7 +117,7 @@ impl Run<'_> {
                 self.lookup(scope, n)
             }
         };
-        crate::eval::condition(c, &lookup, &mut Vars::new())
+        crate::eval::condition(c, self.now, &lookup, &mut Vars::new())
     }
 
     /// Starts one more body of the looping activity of token `t`.
@@ -219,7 +219,8 @@ impl Run<'_> {
                     }
                 };
                 if let Some(e) = &mi.output_element {
-                    let out = crate::eval::eval(e, &|n| with_body(self, n), &mut Vars::new());
+                    let out =
+                        crate::eval::eval(e, self.now, &|n| with_body(self, n), &mut Vars::new());
                     match out {
                         Ok(v) => {
                             let c = match counter {
@@ -244,6 +245,7 @@ impl Run<'_> {
                         for c in &mi.complex {
                             match crate::eval::condition(
                                 c,
+                                self.now,
                                 &|n| with_body(self, n),
                                 &mut Vars::new(),
                             ) {
@@ -263,7 +265,12 @@ impl Run<'_> {
                 let done_by_condition = match &mi.completion {
                     Some(_) if self.decides() => false,
                     Some(c) => {
-                        match crate::eval::condition(c, &|n| with_body(self, n), &mut Vars::new()) {
+                        match crate::eval::condition(
+                            c,
+                            self.now,
+                            &|n| with_body(self, n),
+                            &mut Vars::new(),
+                        ) {
                             Ok(b) => b,
                             Err(e) => return self.incident(t, e),
                         }

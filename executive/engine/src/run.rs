@@ -160,7 +160,7 @@ impl Run<'_> {
         expr: &executive_model::Expression,
         read: &mut Vars,
     ) -> Result<Value, String> {
-        eval::eval(expr, &|n| self.lookup(scope, n), read)
+        eval::eval(expr, self.now, &|n| self.lookup(scope, n), read)
     }
 
     pub(crate) fn condition(
@@ -169,7 +169,7 @@ impl Run<'_> {
         expr: &executive_model::Expression,
         read: &mut Vars,
     ) -> Result<bool, String> {
-        eval::condition(expr, &|n| self.lookup(scope, n), read)
+        eval::condition(expr, self.now, &|n| self.lookup(scope, n), read)
     }
 
     /// The token is stuck: record why and leave it there.
@@ -592,12 +592,17 @@ impl Run<'_> {
             }
             Some(b) => {
                 for m in &b.outputs {
-                    let v = eval::eval(&m.source, &|n| output.get(n).cloned(), &mut Vars::new())
-                        .and_then(|v| match &m.ty {
-                            Some(ty) => eval::convert(v, ty),
-                            None => Ok(v),
-                        })
-                        .map_err(|e| format!("output `{}`: {e}", m.target))?;
+                    let v = eval::eval(
+                        &m.source,
+                        self.now,
+                        &|n| output.get(n).cloned(),
+                        &mut Vars::new(),
+                    )
+                    .and_then(|v| match &m.ty {
+                        Some(ty) => eval::convert(v, ty),
+                        None => Ok(v),
+                    })
+                    .map_err(|e| format!("output `{}`: {e}", m.target))?;
                     self.set_var(scope, &m.target, v);
                 }
             }
@@ -932,9 +937,13 @@ impl Run<'_> {
                     let EventDefinition::Conditional(expr) = d else {
                         continue;
                     };
-                    let now =
-                        eval::condition(expr, &|k| self.s.data.get(k).cloned(), &mut Vars::new())
-                            .unwrap_or(false);
+                    let now = eval::condition(
+                        expr,
+                        self.now,
+                        &|k| self.s.data.get(k).cloned(),
+                        &mut Vars::new(),
+                    )
+                    .unwrap_or(false);
                     let was = if now {
                         !self.s.start_conditions.insert(n)
                     } else {

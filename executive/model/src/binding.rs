@@ -289,28 +289,29 @@ impl Reader<'_> {
             match z.name.as_str() {
                 "taskDefinition" => {
                     relevant = true;
-                    b.resource = z.attr("type").map(str::to_owned);
-                    b.retries = z.attr("retries").and_then(|r| r.parse().ok());
+                    b.resource = self.constant(z, "type");
+                    b.retries = self.constant(z, "retries").and_then(|r| r.parse().ok());
                 }
                 "ioMapping" => {
                     relevant = true;
-                    for m in &z.children {
-                        let (Some(source), Some(target)) = (m.attr("source"), m.attr("target"))
-                        else {
-                            if m.ns == Ns::Zeebe {
-                                self.problem(
-                                    m.offset,
-                                    "bad-binding",
-                                    format!("zeebe:{} needs source and target", m.name),
-                                );
-                            }
+                    for m in z.children.iter().filter(|m| m.ns == Ns::Zeebe) {
+                        let Some(target) = m.attr("target").filter(|t| !t.trim().is_empty()) else {
+                            self.problem(
+                                m.offset,
+                                "bad-binding",
+                                format!("zeebe:{} needs a target", m.name),
+                            );
                             continue;
                         };
                         let what = format!("zeebe:{} {target}", m.name);
-                        let source = if source.trim_start().starts_with('=') {
-                            self.expr(m.offset, source, &what)
-                        } else {
-                            self.literal(m.offset, source, &what)
+                        // Zeebe: a value starting with `=` is FEEL, any other a static string;
+                        // a mapping without a source sets its target to null.
+                        let source = match m.attr("source").map(str::trim) {
+                            None | Some("") => self.expr(m.offset, "null", &what),
+                            Some(source) if source.starts_with('=') => {
+                                self.expr(m.offset, source, &what)
+                            }
+                            Some(source) => self.literal(m.offset, source, &what),
                         };
                         let Some(source) = source else { continue };
                         match m.name.as_str() {
@@ -332,7 +333,7 @@ impl Reader<'_> {
                 // resource a connector serves, as `camunda:decisionRef` is for Camunda 7.
                 "calledDecision" => {
                     relevant = true;
-                    b.resource = z.attr("decisionId").map(str::to_owned);
+                    b.resource = self.constant(z, "decisionId");
                 }
                 "calledElement" => {
                     relevant = true;
@@ -343,6 +344,22 @@ impl Reader<'_> {
             }
         }
         relevant.then_some(b)
+    }
+
+    /// A Zeebe attribute that may be static text or FEEL (`type="=…"`): TRACE routes tasks when
+    /// the mission loads, so an expression must be a constant.
+    fn constant(&mut self, z: &Element, attr: &str) -> Option<String> {
+        match crate::expr::constant_text(z.attr(attr)?) {
+            Ok(v) => Some(v),
+            Err(why) => {
+                self.problem(
+                    z.offset,
+                    "bad-binding",
+                    format!("zeebe:{} {attr}: {why}", z.name),
+                );
+                None
+            }
+        }
     }
 
     /// Behaviour another engine attaches to the task and TRACE would otherwise drop without a

@@ -350,11 +350,27 @@ impl<'d> Builder<'d, '_> {
                         .attr("name")
                         .map(str::to_owned)
                         .unwrap_or_else(|| id.clone());
+                    // Zeebe's correlation key is FEEL, with or without its `=`.
                     let correlation_key = el
                         .extensions()
                         .find(|e| e.ns == Ns::Zeebe && e.name == "subscription")
-                        .and_then(|s| s.attr("correlationKey"))
-                        .and_then(|k| Expression::parse(k).ok());
+                        .and_then(|s| Some((s, s.attr("correlationKey")?)))
+                        .and_then(|(s, k)| match Expression::compile(k, &Language::Feel) {
+                            Ok(e) => Some(e),
+                            Err(f) => {
+                                let code = match f {
+                                    Failure::Syntax(_) => "bad-expression",
+                                    Failure::Unevaluated(_) => "unevaluated-language",
+                                };
+                                self.sink.error(
+                                    code,
+                                    s.offset,
+                                    Some(&id),
+                                    format!("correlation key of message `{id}`: {f}"),
+                                );
+                                None
+                            }
+                        });
                     self.messages
                         .insert(id.clone(), MessageId(self.g.messages.len() as u32));
                     self.g.messages.push(Message {
@@ -1109,11 +1125,27 @@ impl<'d> Builder<'d, '_> {
                 return;
             }
             "callActivity" => {
-                let called_attr = el.attr("calledElement").or_else(|| {
-                    el.extensions()
-                        .find(|e| e.ns == Ns::Zeebe && e.name == "calledElement")
-                        .and_then(|e| e.attr("processId"))
-                });
+                let zeebe_id = el
+                    .extensions()
+                    .find(|e| e.ns == Ns::Zeebe && e.name == "calledElement")
+                    .and_then(|e| e.attr("processId"));
+                // Zeebe may write the process id as FEEL: a constant names the process; one
+                // that reads variables chooses it at run time, which TRACE does not do.
+                let zeebe_id = match zeebe_id.map(crate::expr::constant_text) {
+                    Some(Err(why)) => {
+                        self.problem(
+                            strict,
+                            "missing-called-process",
+                            el.offset,
+                            Some(&owner),
+                            why,
+                        );
+                        None
+                    }
+                    Some(Ok(id)) => Some(id),
+                    None => None,
+                };
+                let called_attr = el.attr("calledElement").or(zeebe_id.as_deref());
                 let doc = self.doc_of(el.offset);
                 // A prefixed reference (`ns1:Process`) prefers an imported document.
                 let prefixed = called_attr.is_some_and(|c| c.contains(':'));
@@ -1399,6 +1431,25 @@ impl<'d> Builder<'d, '_> {
             .filter(|f| !f.trim().is_empty())
             .map(str::to_owned);
         let text = s.trimmed_text().to_owned();
+        // A FEEL script (Camunda 7's `scriptFormat="feel"`) is one expression; its value goes to
+        // `camunda:resultVariable`, or nowhere.
+        if format
+            .as_deref()
+            .is_some_and(|f| Language::named(f) == Language::Feel)
+        {
+            let result = el.attr_ns(&Ns::Camunda, "resultVariable");
+            return match Expression::compile(&text, &Language::Feel) {
+                Ok(e) => Some(Script {
+                    format,
+                    assignments: Some(result.map(|r| (r.to_owned(), e)).into_iter().collect()),
+                    text,
+                }),
+                Err(f) => {
+                    self.expr_problem(strict, s.offset, owner, "FEEL script", f);
+                    None
+                }
+            };
+        }
         let ours = matches!(format.as_deref(), Some("cel" | "text/x-cel" | "trace"));
         let assignments = match parse_assignments(&text) {
             Ok(a) => {
@@ -1513,6 +1564,9 @@ impl<'d> Builder<'d, '_> {
             .as_ref()
             .map(|d| d.inputs.clone())
             .unwrap_or_default();
+        let collection_written = m.bpmn_child("loopDataInputRef").is_some()
+            || m.attr_ns(&Ns::Camunda, "collection").is_some()
+            || zeebe.is_some_and(|z| z.attr("inputCollection").is_some());
         let mut input_collection = m
             .bpmn_child("loopDataInputRef")
             .map(|r| local_ref(&r.text).to_owned())
@@ -1521,19 +1575,21 @@ impl<'d> Builder<'d, '_> {
                 None => r,
             })
             .or_else(|| m.attr_ns(&Ns::Camunda, "collection").map(str::to_owned))
+            .map(|c| (c, Language::Cel))
             .or_else(|| {
                 zeebe
                     .and_then(|z| z.attr("inputCollection"))
-                    .map(str::to_owned)
+                    .map(|c| (c.to_owned(), Language::Feel))
             })
-            .and_then(|c| match Expression::compile(&c, &Language::Cel) {
+            .and_then(|(c, language)| match Expression::compile(&c, &language) {
                 Ok(e) => Some(e),
                 Err(f) => {
                     self.expr_problem(strict, m.offset, owner, "input collection", f);
                     None
                 }
             });
-        if input_collection.is_none() && m.bpmn_child("loopCardinality").is_none() && strict {
+        // A collection that is written but does not compile has its own diagnostic.
+        if !collection_written && m.bpmn_child("loopCardinality").is_none() && strict {
             self.problem(
                 strict,
                 "missing-cardinality",
@@ -1567,13 +1623,19 @@ impl<'d> Builder<'d, '_> {
                     .and_then(|z| z.attr("outputCollection"))
                     .map(str::to_owned)
             });
-        let output_element = item_name("outputDataItem")
-            .or_else(|| {
-                zeebe
-                    .and_then(|z| z.attr("outputElement"))
-                    .map(str::to_owned)
-            })
-            .and_then(|e| Expression::parse(&e).ok());
+        let output_element =
+            match item_name("outputDataItem") {
+                Some(name) => Expression::parse(&name).ok(),
+                None => zeebe.and_then(|z| z.attr("outputElement")).and_then(|e| {
+                    match Expression::compile(e, &Language::Feel) {
+                        Ok(e) => Some(e),
+                        Err(f) => {
+                            self.expr_problem(strict, m.offset, owner, "output element", f);
+                            None
+                        }
+                    }
+                }),
+            };
         let completion = m
             .bpmn_child("completionCondition")
             .and_then(|c| self.expr(strict, c, owner, "completion condition"));

@@ -1,17 +1,19 @@
 //! Expressions: conditions, mappings, loop conditions and scripts, each read in the language it
-//! is written in and compiled to the one language the engine evaluates.
+//! is written in and compiled to one of the two languages the engine evaluates.
 //!
-//! The engine evaluates CEL (Common Expression Language, the `cel` crate): side-effect free,
-//! terminating, no I/O and no clock, so an expression cannot hurt the deterministic engine, and
-//! it reads the plain conditions other BPMN tools write (`test.contains("a")`, `x < 2`) as they
-//! are. Every expression is compiled once at load; a problem is a diagnostic, never a run-time
+//! The engine evaluates CEL (Common Expression Language, the `cel` crate) and FEEL (DMN's
+//! expression language in Camunda 8's dialect, the `executive-feel` crate): both side-effect
+//! free, terminating, with no I/O and no clock of their own, so an expression cannot hurt the
+//! deterministic engine. CEL reads the plain conditions other BPMN tools write
+//! (`test.contains("a")`, `x < 2`) as they are; FEEL is what Camunda Modeler 8 writes. Every
+//! expression is compiled and checked once at load; a problem is a diagnostic, never a run-time
 //! surprise.
 //!
 //! The language of an expression ([`Language`]) comes from where it is written: Camunda's
 //! wrappers name it (JUEL `${…}` / `#{…}` for Camunda 7, a leading `=` for FEEL in Camunda 8),
 //! then the `language` attribute of the expression element, then `expressionLanguage` of the
-//! definitions; with none of these it is CEL. JUEL and FEEL are translated to CEL when they
-//! stay inside a subset whose meaning is the same in both ([`crate::juel`], [`feel_to_cel`]);
+//! definitions; with none of these it is CEL. FEEL runs as FEEL; JUEL is translated to CEL when
+//! it stays inside a subset whose meaning is the same in both ([`crate::juel`]);
 //! XPath, which modelers write as boilerplate around plain values, is read as CEL when the text
 //! is CEL; any other language (JavaScript, Groovy, Python, …) is an *execution* problem naming
 //! the language, so that a binding can be supplied.
@@ -23,11 +25,25 @@ use std::sync::Arc;
 pub struct Expression {
     /// The expression as written in the model (trimmed).
     pub source: String,
-    /// The CEL text compiled (wrappers removed).
+    /// The text compiled: CEL, or FEEL without Camunda's `=` (wrappers removed).
     pub text: String,
     /// Variables the expression reads, sorted: a conditional event re-evaluates when one changes.
     pub variables: Vec<String>,
-    program: Arc<cel::Program>,
+    program: Compiled,
+}
+
+#[derive(Clone)]
+enum Compiled {
+    Cel(Arc<cel::Program>),
+    Feel(Arc<executive_feel::Expression>),
+}
+
+/// The compiled form of an expression, in the language the engine evaluates it in.
+pub enum Program<'a> {
+    /// A CEL program.
+    Cel(&'a cel::Program),
+    /// A FEEL expression.
+    Feel(&'a executive_feel::Expression),
 }
 
 impl std::fmt::Debug for Expression {
@@ -148,11 +164,7 @@ impl Expression {
                     "JUEL expression `{source}` is outside the subset TRACE evaluates: {why}"
                 ))
             })?,
-            Language::Feel => feel_to_cel(body).map_err(|why| {
-                Failure::Unevaluated(format!(
-                    "FEEL expression `{source}` is outside the subset TRACE evaluates so far (names, literals, comparisons, and/or/not): {why}"
-                ))
-            })?,
+            Language::Feel => return compile_feel(source.clone(), body),
             other => {
                 return Err(Failure::Unevaluated(format!(
                     "`{source}` is written in {}, which TRACE does not evaluate; write it in CEL or supply a binding",
@@ -197,7 +209,7 @@ impl Expression {
             source,
             text,
             variables,
-            program: Arc::new(program),
+            program: Compiled::Cel(Arc::new(program)),
         })
     }
 
@@ -207,9 +219,73 @@ impl Expression {
         Expression::parse("false").expect("`false` is CEL")
     }
 
-    /// The compiled CEL program.
-    pub fn program(&self) -> &cel::Program {
-        &self.program
+    /// The compiled program.
+    pub fn program(&self) -> Program<'_> {
+        match &self.program {
+            Compiled::Cel(p) => Program::Cel(p),
+            Compiled::Feel(p) => Program::Feel(p),
+        }
+    }
+
+    /// The expression as CEL text, for tools that read CEL (verification): CEL as written, FEEL
+    /// when it stays inside the subset that means the same in both ([`feel_to_cel`]).
+    pub fn cel_text(&self) -> Result<String, String> {
+        match &self.program {
+            Compiled::Cel(_) => Ok(self.text.clone()),
+            Compiled::Feel(_) => feel_to_cel(&self.text),
+        }
+    }
+}
+
+/// Parses and checks FEEL text; syntax errors and problems found without running (unknown
+/// functions, argument counts, literal arguments a function refuses) name their position.
+fn compile_feel(source: String, body: &str) -> Result<Expression, Failure> {
+    let at = |p: &executive_feel::Problem| {
+        if p.span.start >= body.len() {
+            return format!("{} (FEEL, at the end of `{body}`)", p.message);
+        }
+        let column = body.get(..p.span.start).map_or(0, |b| b.chars().count()) + 1;
+        format!("{} (FEEL, at character {column} of `{body}`)", p.message)
+    };
+    let parsed = executive_feel::parse(body).map_err(|p| Failure::Syntax(at(&p)))?;
+    let problems = parsed.problems();
+    if !problems.is_empty() {
+        let all: Vec<String> = problems.iter().map(at).collect();
+        return Err(Failure::Syntax(all.join("; ")));
+    }
+    Ok(Expression {
+        source,
+        text: body.to_owned(),
+        variables: parsed.variables().to_vec(),
+        program: Compiled::Feel(Arc::new(parsed)),
+    })
+}
+
+/// A Camunda 8 attribute that is static text or a FEEL expression (`=…`) that reads no
+/// variables, as the text it stands for.
+pub(crate) fn constant_text(raw: &str) -> Result<String, String> {
+    let Some(body) = raw.trim().strip_prefix('=') else {
+        return Ok(raw.trim().to_owned());
+    };
+    let e = executive_feel::parse(body).map_err(|p| format!("`{raw}`: {}", p.message))?;
+    if !e.variables().is_empty() {
+        return Err(format!(
+            "`{raw}` reads variables ({}), so it is only known at run time; TRACE resolves it when the mission loads, so write a constant",
+            e.variables().join(", ")
+        ));
+    }
+    let env = executive_feel::Env {
+        lookup: &|_| None,
+        now: executive_feel::DateTime {
+            local: chrono::NaiveDateTime::default(),
+            zone: None,
+        },
+        budget: executive_feel::BUDGET,
+    };
+    match e.evaluate(&env).map(|v| v.value) {
+        Ok(executive_feel::Value::String(s)) => Ok(s),
+        Ok(other) => Err(format!("`{raw}` gives {other}, not text")),
+        Err(stop) => Err(format!("`{raw}`: {stop}")),
     }
 }
 
@@ -225,8 +301,7 @@ pub(crate) fn wrapped(s: &str) -> Option<(Language, &str)> {
 
 /// Translates the part of FEEL that means the same in CEL: names and dotted paths, string,
 /// number and boolean literals, `null`, comparisons (`=` is equality), `and`, `or`, `not(…)` and
-/// parentheses. Where FEEL would give `null` (a missing variable, values of different types),
-/// CEL fails instead, so the token stops with an incident rather than taking a branch by null.
+/// parentheses. Verification reads conditions in this subset; the engine runs FEEL itself.
 pub fn feel_to_cel(feel: &str) -> Result<String, String> {
     let mut out = String::new();
     let mut chars = feel.char_indices().peekable();
@@ -384,7 +459,8 @@ mod tests {
         assert_eq!(
             Expression::parse("=decision = \"yes\" and not(late)")
                 .unwrap()
-                .text,
+                .cel_text()
+                .unwrap(),
             "decision == \"yes\" && !(late)"
         );
     }
@@ -400,9 +476,24 @@ mod tests {
         assert!(unevaluated("a > 1", &Language::named("python")).contains("Python"));
         // A wrapper names the language whatever is declared.
         assert_eq!(Expression::compile("${a}", &js).unwrap().text, "a");
-        // FEEL beyond the subset names FEEL.
-        assert!(unevaluated("= day of week(today())", &Language::Cel).contains("FEEL"));
-        assert!(unevaluated("x in [1..3]", &Language::Feel).contains("FEEL"));
+        // FEEL is FEEL, by its `=` or by declaration; its errors say where.
+        let feel =
+            Expression::compile("= day of week(today()) = \"Monday\"", &Language::Cel).unwrap();
+        assert!(matches!(feel.program(), Program::Feel(_)));
+        assert_eq!(
+            Expression::compile("x in [1..3]", &Language::Feel)
+                .unwrap()
+                .variables,
+            ["x"]
+        );
+        match Expression::compile("=x = = 1", &Language::Cel) {
+            Err(Failure::Syntax(m)) => assert!(m.contains("character 5"), "{m}"),
+            other => panic!("{other:?}"),
+        }
+        match Expression::compile("=count(l) > 0 and frobnicate(l)", &Language::Cel) {
+            Err(Failure::Syntax(m)) => assert!(m.contains("frobnicate"), "{m}"),
+            other => panic!("{other:?}"),
+        }
         // XPath declared as boilerplate around a plain value is read; real XPath is named.
         let xpath = Language::named("http://www.w3.org/1999/XPath");
         assert_eq!(Expression::compile("true", &xpath).unwrap().text, "true");

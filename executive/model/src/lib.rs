@@ -41,7 +41,7 @@ mod xml;
 mod tests;
 
 pub use diagnostic::{Category, Diagnostic, Severity};
-pub use expr::{Expression, Failure, Language, feel_to_cel, parse_assignments};
+pub use expr::{Expression, Failure, Language, Program, feel_to_cel, parse_assignments};
 pub use graph::*;
 pub use xml::{BPMN_NS, CAMUNDA_NS, Limits, SPIFF_NS, TRACE_NS, XmlError, ZEEBE_NS};
 

@@ -465,7 +465,6 @@ fn expressions_in_other_languages_are_execution_problems_naming_the_language() {
         (r#"language="javascript""#, "a &gt; 1", "JavaScript"),
         (r#"language="groovy""#, "a &gt; 1", "Groovy"),
         ("", "${orderService.isValid(order)}", "JUEL"),
-        ("", r#"= day of week(today()) = "Tuesday""#, "FEEL"),
     ] {
         let loaded = load(cond(attrs, text).as_bytes());
         let d = loaded
@@ -482,7 +481,19 @@ fn expressions_in_other_languages_are_execution_problems_naming_the_language() {
                 .all(|d| d.category == Category::Execution || d.severity == Severity::Warning)
         );
     }
-    // Inside the subsets, JUEL and FEEL conditions compile to CEL.
+    // FEEL is evaluated as FEEL; its syntax errors are BPMN-independent expression errors with
+    // their position.
+    let loaded = load(cond("", r#"= day of week(today()) = "Tuesday""#).as_bytes());
+    assert!(
+        loaded.errors().next().is_none(),
+        "{:#?}",
+        loaded.diagnostics
+    );
+    let loaded = load(cond("", "= a &lt; ").as_bytes());
+    let d = loaded.errors().next().expect("a FEEL syntax error");
+    assert_eq!(d.code, "bad-expression");
+    assert!(d.message.contains("at the end of `a <`"), "{}", d.message);
+    // Inside the subset, JUEL conditions compile to CEL; CEL and FEEL compile as they are.
     for text in [
         "${a == 'x' and not b}",
         r#"=a = "x" and not(b)"#,
@@ -645,13 +656,42 @@ fn camunda8_script_tasks_are_one_feel_expression_and_its_variable() {
         .and_then(|s| s.assignments.as_ref())
         .expect("assignments");
     assert_eq!((a[0].0.as_str(), a[0].1.text.as_str()), ("n", "count"));
-    // Beyond the FEEL subset: an execution problem naming FEEL, not a missing script.
-    let loaded = load(xml.replace("=count", "=today()").as_bytes());
-    let d = loaded.errors().next().expect("an error");
-    assert_eq!(
-        (d.code, d.category),
-        ("unevaluated-language", Category::Execution)
+    // Any FEEL runs; an unknown function is found when the model loads.
+    assert!(
+        load(xml.replace("=count", "=today()").as_bytes())
+            .errors()
+            .next()
+            .is_none()
     );
+    let loaded = load(xml.replace("=count", "=tomorrow()").as_bytes());
+    let d = loaded.errors().next().expect("an error");
+    assert_eq!(d.code, "bad-expression");
+    assert!(
+        d.message.contains("no built-in function `tomorrow`"),
+        "{}",
+        d.message
+    );
+}
+
+#[test]
+fn feel_scripts_by_script_format_are_one_expression_and_its_result_variable() {
+    let xml = around(
+        r#"<bpmn:scriptTask id="x" scriptFormat="feel" camunda:resultVariable="total"><bpmn:script>sum(for o in orders return o.amount)</bpmn:script></bpmn:scriptTask>"#,
+    );
+    let g = ok(&xml);
+    let NodeKind::Task(t) = kind(&g, "x") else {
+        panic!("not a task")
+    };
+    let a = t
+        .script
+        .as_ref()
+        .and_then(|s| s.assignments.as_ref())
+        .expect("assignments");
+    assert_eq!(a[0].0, "total");
+    assert_eq!(a[0].1.variables, ["orders"]);
+    let loaded = load(xml.replace("sum(for", "sum(fr").as_bytes());
+    let d = loaded.errors().next().expect("a FEEL syntax error");
+    assert_eq!(d.code, "bad-expression");
 }
 
 #[test]

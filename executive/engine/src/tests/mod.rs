@@ -10,6 +10,7 @@ mod conditional_events;
 mod cycles;
 mod data;
 mod event_subprocesses;
+mod feel;
 mod message_flows;
 mod signals;
 mod transactions;

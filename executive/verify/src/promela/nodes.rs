@@ -19,7 +19,7 @@ impl Tr<'_> {
                 continue;
             }
             let cond = match &self.g.flow(*f).condition {
-                Some(c) => crate::data::expression(&c.text, &self.vars)?,
+                Some(c) => crate::data::expression(&c.cel_text().ok()?, &self.vars)?,
                 None => "true".to_owned(),
             };
             let mut guard: Vec<String> = earlier.iter().map(|e| format!("!{e}")).collect();
@@ -55,7 +55,9 @@ impl Tr<'_> {
                         out.extend(crate::data::assign(
                             name,
                             k,
-                            crate::data::expression(&e.text, &self.vars),
+                            e.cel_text()
+                                .ok()
+                                .and_then(|t| crate::data::expression(&t, &self.vars)),
                         ));
                     }
                 }
