@@ -24,6 +24,17 @@ pub(crate) fn eval(
     lookup: &dyn Fn(&str) -> Option<Value>,
     read: &mut Vars,
 ) -> Result<Value, String> {
+    explained(expr, now, lookup, read).map(|(v, _)| v)
+}
+
+/// [`eval`], with why a FEEL result is null (`: no variable `x``, or empty), for messages about
+/// a result of the wrong type.
+fn explained(
+    expr: &Expression,
+    now: Millis,
+    lookup: &dyn Fn(&str) -> Option<Value>,
+    read: &mut Vars,
+) -> Result<(Value, String), String> {
     match expr.program() {
         Program::Cel(program) => {
             let mut ctx = cel::Context::with_env(Arc::clone(&ENV));
@@ -36,7 +47,8 @@ pub(crate) fn eval(
             let out = program
                 .execute(&ctx)
                 .map_err(|e| format!("`{}` failed: {e}", expr.source))?;
-            Value::from_cel(&out).map_err(|e| format!("`{}`: {e}", expr.source))
+            let v = Value::from_cel(&out).map_err(|e| format!("`{}`: {e}", expr.source))?;
+            Ok((v, String::new()))
         }
         Program::Feel(feel) => {
             let seen = std::cell::RefCell::new(Vars::new());
@@ -54,28 +66,18 @@ pub(crate) fn eval(
                 .evaluate(&env)
                 .map_err(|e| format!("`{}` failed: {e}", expr.source))?;
             read.extend(seen.into_inner());
-            crate::feel::from_feel(&out.value).map_err(|e| {
-                let why = out.note.map(|n| format!(" ({n})")).unwrap_or_default();
-                format!("`{}`: {e}{why}", expr.source)
-            })
+            let why = out.note.map(|n| format!(": {n}")).unwrap_or_default();
+            let v = crate::feel::from_feel(&out.value)
+                .map_err(|e| format!("`{}`: {e}{why}", expr.source))?;
+            Ok((
+                v,
+                if out.value.is_null() {
+                    why
+                } else {
+                    String::new()
+                },
+            ))
         }
-    }
-}
-
-/// Why a FEEL expression gave null, for messages about a result of the wrong type.
-fn null_reason(expr: &Expression, now: Millis, lookup: &dyn Fn(&str) -> Option<Value>) -> String {
-    let Program::Feel(feel) = expr.program() else {
-        return String::new();
-    };
-    let find = |name: &str| lookup(name).map(|v| crate::feel::to_feel(&v));
-    let env = executive_feel::Env {
-        lookup: &find,
-        now: crate::feel::mission_time(now),
-        budget: executive_feel::BUDGET,
-    };
-    match feel.evaluate(&env) {
-        Ok(e) => e.note.map(|n| format!(": {n}")).unwrap_or_default(),
-        Err(_) => String::new(),
     }
 }
 
@@ -86,13 +88,12 @@ pub(crate) fn condition(
     lookup: &dyn Fn(&str) -> Option<Value>,
     read: &mut Vars,
 ) -> Result<bool, String> {
-    match eval(expr, now, lookup, read)? {
-        Value::Bool(b) => Ok(b),
-        other => Err(format!(
-            "condition `{}` gave {} `{other}`, not a bool{}",
+    match explained(expr, now, lookup, read)? {
+        (Value::Bool(b), _) => Ok(b),
+        (other, why) => Err(format!(
+            "condition `{}` gave {} `{other}`, not a bool{why}",
             expr.source,
             other.type_name(),
-            null_reason(expr, now, lookup)
         )),
     }
 }
@@ -163,13 +164,12 @@ pub(crate) fn deadline(
     let spec = match &t.value {
         TimerValue::Fixed(s) => s.clone(),
         TimerValue::Expression(e) => {
-            let text = match eval(e, now, lookup, &mut Vars::new())? {
-                Value::String(s) => s,
-                other => {
+            let text = match explained(e, now, lookup, &mut Vars::new())? {
+                (Value::String(s), _) => s,
+                (other, why) => {
                     return Err(format!(
-                        "timer expression `{}` gave {other}, not ISO 8601 text{}",
-                        e.source,
-                        null_reason(e, now, lookup)
+                        "timer expression `{}` gave {other}, not ISO 8601 text{why}",
+                        e.source
                     ));
                 }
             };

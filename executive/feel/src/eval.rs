@@ -280,15 +280,23 @@ impl Evaluator<'_> {
         })))
     }
 
+    /// The value of a name bound inside the expression (iteration variable, parameter, context
+    /// entry, `item`).
+    fn local(&self, name: &str) -> Option<Value> {
+        self.frames
+            .iter()
+            .rev()
+            .find_map(|frame| frame.iter().rev().find(|(k, _)| k == name))
+            .map(|(_, v)| v.clone())
+    }
+
     /// The value a name or path denotes, or `None` if it does not exist (a missing variable
     /// or context entry: what `is defined` tells apart from a null).
     fn resolve(&mut self, node: &Node) -> Result<Option<Value>, Stop> {
         match &node.kind {
             Kind::Name(name) => {
-                for frame in self.frames.iter().rev() {
-                    if let Some((_, v)) = frame.iter().rev().find(|(k, _)| k == name) {
-                        return Ok(Some(v.clone()));
-                    }
+                if let Some(v) = self.local(name) {
+                    return Ok(Some(v));
                 }
                 if let Some(v) = (self.env.lookup)(name) {
                     return Ok(Some(v));
@@ -398,15 +406,18 @@ impl Evaluator<'_> {
     #[inline(never)]
     fn call(&mut self, callee: &Node, args: &Args) -> Result<Value, Stop> {
         let function = match &callee.kind {
-            Kind::Name(name) => match self.resolve(callee)? {
-                Some(Value::Function(f)) => f,
-                Some(other) => {
+            // A function defined in the expression, else a built-in: a variable of the same
+            // name (`count`, `sum`) does not hide a built-in function (feel-scala).
+            Kind::Name(name) => match (self.local(name), host::overloads(name).next()) {
+                (Some(Value::Function(f)), _) => f,
+                (_, Some(b)) => Function::Builtin(b.name),
+                (Some(other), None) => {
                     return Ok(self.null(format!(
                         "`{name}` is a {}, not a function",
                         other.type_name()
                     )));
                 }
-                None => return Ok(self.null(format!("no function `{name}`"))),
+                (None, None) => return Ok(self.null(format!("no function `{name}`"))),
             },
             _ => match self.eval(callee)? {
                 Value::Function(f) => f,

@@ -168,11 +168,7 @@ impl Reader<'_> {
         match Expression::compile(raw, &Language::Cel) {
             Ok(e) => Some(e),
             Err(f) => {
-                let code = match f {
-                    Failure::Syntax(_) => "bad-expression",
-                    Failure::Unevaluated(_) => "unevaluated-language",
-                };
-                self.problem(offset, code, format!("{what}: {f}"));
+                self.problem(offset, f.code(), format!("{what}: {f}"));
                 None
             }
         }

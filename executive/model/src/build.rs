@@ -358,12 +358,8 @@ impl<'d> Builder<'d, '_> {
                         .and_then(|(s, k)| match Expression::compile(k, &Language::Feel) {
                             Ok(e) => Some(e),
                             Err(f) => {
-                                let code = match f {
-                                    Failure::Syntax(_) => "bad-expression",
-                                    Failure::Unevaluated(_) => "unevaluated-language",
-                                };
                                 self.sink.error(
-                                    code,
+                                    f.code(),
                                     s.offset,
                                     Some(&id),
                                     format!("correlation key of message `{id}`: {f}"),
@@ -783,11 +779,13 @@ impl<'d> Builder<'d, '_> {
     }
 
     fn expr_problem(&mut self, strict: bool, offset: usize, owner: &str, what: &str, f: Failure) {
-        let code = match f {
-            Failure::Syntax(_) => "bad-expression",
-            Failure::Unevaluated(_) => "unevaluated-language",
-        };
-        self.problem(strict, code, offset, Some(owner), format!("{what}: {f}"));
+        self.problem(
+            strict,
+            f.code(),
+            offset,
+            Some(owner),
+            format!("{what}: {f}"),
+        );
     }
 
     fn resolve<T: Copy>(

@@ -132,6 +132,16 @@ pub enum Failure {
     Unevaluated(String),
 }
 
+impl Failure {
+    /// The diagnostic code: `bad-expression` or `unevaluated-language`.
+    pub fn code(&self) -> &'static str {
+        match self {
+            Failure::Syntax(_) => "bad-expression",
+            Failure::Unevaluated(_) => "unevaluated-language",
+        }
+    }
+}
+
 impl std::fmt::Display for Failure {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {

@@ -213,3 +213,23 @@ fn cycle() {
         &[("cycle(retries, duration(\"PT10S\"))", "\"R5/PT10S\"")],
     );
 }
+
+/// A variable named like a built-in (`count`, `sum`: common in process data) does not hide the
+/// function in call position, and the function name does not hide the variable elsewhere
+/// (feel-scala looks functions and variables up separately).
+#[test]
+fn variables_named_like_functions() {
+    check_vars(
+        &[
+            ("count", n(5)),
+            ("sum", n(2)),
+            ("items", list([n(1), n(2)])),
+        ],
+        &[
+            ("count(items)", "2"),
+            ("count + 1", "6"),
+            ("sum(items) + sum", "5"),
+            ("{f: function(x) x + 1, r: f(count)}.r", "6"),
+        ],
+    );
+}
