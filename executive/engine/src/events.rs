@@ -837,7 +837,11 @@ impl Run<'_> {
         );
         let key = self.g.messages.iter().find(|m| m.name == name)?;
         let key = key.correlation_key.as_ref()?;
-        self.eval(scope, key, &mut Vars::new()).ok()
+        // A key that cannot be evaluated is null, which no keyed receiver matches.
+        Some(
+            self.eval(scope, key, &mut Vars::new())
+                .unwrap_or(Value::Null),
+        )
     }
 
     /// A send task run by a connector has sent its message: the receivers inside the engine
@@ -992,7 +996,9 @@ impl Run<'_> {
                     .token
                     .and_then(|t| self.s.tokens.get(&t))
                     .map_or(w.scope, |t| t.scope);
-                self.eval(scope, k, &mut Vars::new()).is_ok_and(|v| &v == c)
+                // A null key matches nothing (Zeebe refuses null correlation keys).
+                !matches!(c, Value::Null)
+                    && self.eval(scope, k, &mut Vars::new()).is_ok_and(|v| &v == c)
             }
             _ => true,
         }

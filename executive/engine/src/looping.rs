@@ -211,10 +211,20 @@ impl Run<'_> {
             Some(Looping::MultiInstance(mi)) => {
                 let parent = self.s.tokens[&t].scope;
                 let with_body = |r: &Run<'_>, n: &str| -> Option<Value> {
+                    // BPMN's (and Camunda 7's) names, and Camunda 8's.
                     match n {
-                        "nrOfCompletedInstances" => Some(Value::Int(completed as i64)),
-                        "nrOfActiveInstances" => Some(Value::Int(running as i64)),
-                        "nrOfInstances" => total.map(|x| Value::Int(x as i64)),
+                        "nrOfCompletedInstances" | "numberOfCompletedInstances" => {
+                            Some(Value::Int(completed as i64))
+                        }
+                        "nrOfActiveInstances" | "numberOfActiveInstances" => {
+                            Some(Value::Int(running as i64))
+                        }
+                        "nrOfInstances" | "numberOfInstances" => {
+                            total.map(|x| Value::Int(x as i64))
+                        }
+                        // Boundary events end the whole activity, so no body is ever
+                        // terminated while the others go on.
+                        "numberOfTerminatedInstances" => Some(Value::Int(0)),
                         _ => vars.get(n).cloned().or_else(|| r.lookup(parent, n)),
                     }
                 };

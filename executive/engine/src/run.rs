@@ -317,7 +317,15 @@ impl Run<'_> {
         vars.extend(data.unwrap_or_default());
         if let Some(b) = binding {
             for m in &b.inputs {
-                match self.eval(scope, &m.source, &mut Vars::new()) {
+                // A mapping sees the targets of the mappings before it (Camunda: "evaluated in
+                // the defined order"), then the scope's variables.
+                let v = eval::eval(
+                    &m.source,
+                    self.now,
+                    &|n| vars.get(n).cloned().or_else(|| self.lookup(scope, n)),
+                    &mut Vars::new(),
+                );
+                match v {
                     Ok(v) => eval::set_path(&mut vars, &m.target, v),
                     Err(e) => {
                         self.incident(t, format!("input `{}`: {e}", m.target));
@@ -457,12 +465,17 @@ impl Run<'_> {
         let tok = &self.s.tokens[&t];
         let (scope, node) = (tok.scope, tok.node);
         for m in &b.inputs {
-            let value = self
-                .eval(scope, &m.source, &mut Vars::new())
-                .and_then(|v| match &m.ty {
-                    Some(ty) => eval::convert(v, ty),
-                    None => Ok(v),
-                });
+            // Earlier targets first, then the scope (as in `call_inputs`).
+            let value = eval::eval(
+                &m.source,
+                self.now,
+                &|n| into.get(n).cloned().or_else(|| self.lookup(scope, n)),
+                &mut Vars::new(),
+            )
+            .and_then(|v| match &m.ty {
+                Some(ty) => eval::convert(v, ty),
+                None => Ok(v),
+            });
             match value {
                 Ok(v) => eval::set_path(&mut into, &m.target, v),
                 Err(e) => {
@@ -591,11 +604,20 @@ impl Run<'_> {
                 }
             }
             Some(b) => {
+                // An output mapping sees the targets of the mappings before it, then the
+                // result's fields, then the scope's variables (Camunda sets the result as local
+                // variables of the task, then applies the output mappings).
+                let mut done = Vars::new();
                 for m in &b.outputs {
                     let v = eval::eval(
                         &m.source,
                         self.now,
-                        &|n| output.get(n).cloned(),
+                        &|n| {
+                            done.get(n)
+                                .or_else(|| output.get(n))
+                                .cloned()
+                                .or_else(|| self.lookup(scope, n))
+                        },
                         &mut Vars::new(),
                     )
                     .and_then(|v| match &m.ty {
@@ -603,6 +625,7 @@ impl Run<'_> {
                         None => Ok(v),
                     })
                     .map_err(|e| format!("output `{}`: {e}", m.target))?;
+                    eval::set_path(&mut done, &m.target, v.clone());
                     self.set_var(scope, &m.target, v);
                 }
             }

@@ -331,6 +331,27 @@ impl Reader<'_> {
                     relevant = true;
                     b.resource = self.constant(z, "decisionId");
                 }
+                // What a Camunda 8 user task says about people and dates: TRACE's ground
+                // stations do not use it, but a FEEL error in it is still named.
+                "assignmentDefinition" | "taskSchedule" => {
+                    for a in &z.attrs {
+                        let (attr, value) = (&a.name, &a.value);
+                        let Some(body) = value.trim().strip_prefix('=') else {
+                            continue;
+                        };
+                        if let Err(p) = executive_feel::parse(body) {
+                            self.sink.warning(
+                                "bad-expression",
+                                z.offset,
+                                Some(self.element_id),
+                                format!(
+                                    "zeebe:{} {attr} (not used by TRACE): {} (FEEL, `{body}`)",
+                                    z.name, p.message
+                                ),
+                            );
+                        }
+                    }
+                }
                 "calledElement" => {
                     relevant = true;
                     b.all_in = z.attr("propagateAllParentVariables") != Some("false");

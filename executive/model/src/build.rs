@@ -338,6 +338,25 @@ impl<'d> Builder<'d, '_> {
         }
     }
 
+    /// A name or code Camunda 8 may write as FEEL (`name="=…"`): static text as it is, a
+    /// constant expression as its value; one that reads variables is an error, since TRACE
+    /// matches names and codes when the mission loads.
+    fn constant(&mut self, el: &Element, attr: &str, owner: &str) -> Option<String> {
+        let raw = el.attr(attr)?;
+        match crate::expr::constant_text(raw) {
+            Ok(v) => Some(v),
+            Err(why) => {
+                self.sink.error(
+                    "bad-expression",
+                    el.offset,
+                    Some(owner),
+                    format!("{attr}: {why}"),
+                );
+                Some(raw.to_owned())
+            }
+        }
+    }
+
     fn globals(&mut self, root: &'d Element) {
         for el in &root.children {
             if el.ns != Ns::Bpmn {
@@ -346,10 +365,7 @@ impl<'d> Builder<'d, '_> {
             let id = el.attr("id").unwrap_or_default().to_owned();
             match el.name.as_str() {
                 "message" => {
-                    let name = el
-                        .attr("name")
-                        .map(str::to_owned)
-                        .unwrap_or_else(|| id.clone());
+                    let name = self.constant(el, "name", &id).unwrap_or_else(|| id.clone());
                     // Zeebe's correlation key is FEEL, with or without its `=`.
                     let correlation_key = el
                         .extensions()
@@ -376,10 +392,7 @@ impl<'d> Builder<'d, '_> {
                     });
                 }
                 "signal" => {
-                    let name = el
-                        .attr("name")
-                        .map(str::to_owned)
-                        .unwrap_or_else(|| id.clone());
+                    let name = self.constant(el, "name", &id).unwrap_or_else(|| id.clone());
                     self.signals
                         .insert(id.clone(), SignalId(self.g.signals.len() as u32));
                     self.g.signals.push(Signal { id, name });
@@ -387,19 +400,21 @@ impl<'d> Builder<'d, '_> {
                 "error" => {
                     self.errors
                         .insert(id.clone(), ErrorId(self.g.errors.len() as u32));
+                    let code = self.constant(el, "errorCode", &id);
                     self.g.errors.push(ErrorDef {
                         id,
                         name: el.attr("name").map(str::to_owned),
-                        code: el.attr("errorCode").map(str::to_owned),
+                        code,
                     });
                 }
                 "escalation" => {
                     self.escalations
                         .insert(id.clone(), EscalationId(self.g.escalations.len() as u32));
+                    let code = self.constant(el, "escalationCode", &id);
                     self.g.escalations.push(Escalation {
                         id,
                         name: el.attr("name").map(str::to_owned),
-                        code: el.attr("escalationCode").map(str::to_owned),
+                        code,
                     });
                 }
                 n if n.ends_with("EventDefinition") => {
@@ -1102,6 +1117,17 @@ impl<'d> Builder<'d, '_> {
                 })
             }
             "subProcess" | "transaction" | "adHocSubProcess" => {
+                if let Some(z) = el
+                    .extensions()
+                    .find(|e| e.ns == Ns::Zeebe && e.name == "adHoc")
+                {
+                    self.sink.warning(
+                        "unsupported",
+                        z.offset,
+                        Some(&owner),
+                        "zeebe:adHoc (Camunda 8's choice of the activities to run, and its output collection) is not read: TRACE runs the ad-hoc sub-process as BPMN describes it, every activity without incoming flows enabled".to_owned(),
+                    );
+                }
                 let sub_kind = match el.name.as_str() {
                     "transaction" => SubProcessKind::Transaction,
                     "adHocSubProcess" => SubProcessKind::AdHoc {

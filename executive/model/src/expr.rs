@@ -272,7 +272,7 @@ fn compile_feel(source: String, body: &str) -> Result<Expression, Failure> {
 }
 
 /// A Camunda 8 attribute that is static text or a FEEL expression (`=…`) that reads no
-/// variables, as the text it stands for.
+/// variables, as the text it stands for (`="survey"` is `survey`, `=3` is `3`).
 pub(crate) fn constant_text(raw: &str) -> Result<String, String> {
     let Some(body) = raw.trim().strip_prefix('=') else {
         return Ok(raw.trim().to_owned());
@@ -293,8 +293,12 @@ pub(crate) fn constant_text(raw: &str) -> Result<String, String> {
         budget: executive_feel::BUDGET,
     };
     match e.evaluate(&env).map(|v| v.value) {
-        Ok(executive_feel::Value::String(s)) => Ok(s),
-        Ok(other) => Err(format!("`{raw}` gives {other}, not text")),
+        Ok(
+            v @ (executive_feel::Value::String(_)
+            | executive_feel::Value::Number(_)
+            | executive_feel::Value::Bool(_)),
+        ) => Ok(executive_feel::plain_text(&v)),
+        Ok(other) => Err(format!("`{raw}` gives {other}, not a text or a number")),
         Err(stop) => Err(format!("`{raw}`: {stop}")),
     }
 }

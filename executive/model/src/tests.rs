@@ -695,6 +695,49 @@ fn feel_scripts_by_script_format_are_one_expression_and_its_result_variable() {
 }
 
 #[test]
+fn camunda_8_names_codes_and_task_types_may_be_constant_feel() {
+    // Camunda 8 lets these be expressions; TRACE matches them when the mission loads, so a
+    // constant is read as its value and one that reads variables is an error.
+    let xml = doc(
+        r#"<bpmn:message id="m" name="=&quot;ready&quot;"/><bpmn:error id="er" errorCode="=&quot;E&quot; + &quot;1&quot;"/>"#,
+        r#"<bpmn:startEvent id="s"/><bpmn:serviceTask id="t"><bpmn:extensionElements><zeebe:taskDefinition type="=&quot;sys.t&quot;" retries="=3"/></bpmn:extensionElements></bpmn:serviceTask>
+        <bpmn:userTask id="u"><bpmn:extensionElements><zeebe:assignmentDefinition assignee="=lookup(" /></bpmn:extensionElements></bpmn:userTask>
+        <bpmn:endEvent id="e"/>
+        <bpmn:sequenceFlow id="f0" sourceRef="s" targetRef="t"/><bpmn:sequenceFlow id="f1" sourceRef="t" targetRef="u"/><bpmn:sequenceFlow id="f2" sourceRef="u" targetRef="e"/>"#,
+    );
+    let loaded = load(xml.as_bytes());
+    assert!(
+        loaded.errors().next().is_none(),
+        "{:#?}",
+        loaded.diagnostics
+    );
+    let g = loaded.graph.expect("valid");
+    assert_eq!(g.messages[0].name, "ready");
+    assert_eq!(g.errors[0].code.as_deref(), Some("E1"));
+    let NodeKind::Task(t) = kind(&g, "t") else {
+        panic!("not a task")
+    };
+    let b = t.binding.as_ref().expect("binding");
+    assert_eq!((b.resource.as_deref(), b.retries), (Some("sys.t"), Some(3)));
+    // The assignee is not used by TRACE; its FEEL error is still named, as a warning.
+    assert!(
+        loaded
+            .diagnostics
+            .iter()
+            .any(|d| d.code == "bad-expression" && d.message.contains("assignee"))
+    );
+    // A name that reads variables is only known at run time.
+    let dynamic = xml.replace("name=\"=&quot;ready&quot;\"", "name=\"=kind\"");
+    let loaded = load(dynamic.as_bytes());
+    let d = loaded.errors().next().expect("an error");
+    assert!(
+        d.message.contains("reads variables (kind)"),
+        "{}",
+        d.message
+    );
+}
+
+#[test]
 fn a_condition_that_cannot_be_evaluated_is_not_mistaken_for_none() {
     let xml = doc(
         "",

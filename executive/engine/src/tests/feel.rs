@@ -171,3 +171,86 @@ fn feel_correlation_keys_match_messages() {
         ["completed"]
     );
 }
+
+#[test]
+fn mappings_see_earlier_targets_then_the_result_then_process_variables() {
+    // Camunda: mappings are evaluated in order, a source sees the targets before it; output
+    // mappings see the result (as local variables) and the process variables.
+    let mut d = Driver::new(&format!(
+        r#"<process id="p" isExecutable="true"><startEvent id="s"/>
+        <serviceTask id="a"><extensionElements><zeebe:taskDefinition type="sys.a"/><zeebe:ioMapping>
+          <zeebe:input source="=data.total" target="t"/>
+          <zeebe:input source="=t + 1" target="u"/>
+          <zeebe:output source="=result + data.total" target="r2"/>
+          <zeebe:output source="=r2 * 2" target="r3"/>
+        </zeebe:ioMapping></extensionElements></serviceTask>
+        {}<endEvent id="e"/>{}{}{}</process>"#,
+        task("b", "f2", "f3"),
+        flow("f1", "s", "a"),
+        flow("f2", "a", "b"),
+        flow("f3", "b", "e"),
+    ));
+    let data = Value::Map([("total".to_owned(), Value::Int(10))].into());
+    d.start(&[("data", data)]);
+    let goal = d.request("a");
+    assert_eq!((&goal["t"], &goal["u"]), (&Value::Int(10), &Value::Int(11)));
+    assert_eq!(
+        d.complete("a", &[("result", Value::Int(5))]),
+        ["dispatch b"]
+    );
+    let vars =
+        &d.e.state()
+            .scopes
+            .values()
+            .next()
+            .expect("the process scope")
+            .vars;
+    assert_eq!(
+        (&vars["r2"], &vars["r3"]),
+        (&Value::Int(15), &Value::Int(30))
+    );
+}
+
+#[test]
+fn camunda_8_completion_conditions_read_number_of_instances() {
+    let mut d = Driver::new(&format!(
+        r#"<process id="p" isExecutable="true"><startEvent id="s"/>
+        <serviceTask id="a"><extensionElements><zeebe:taskDefinition type="sys.a"/></extensionElements>
+          <multiInstanceLoopCharacteristics>
+            <extensionElements><zeebe:loopCharacteristics inputCollection="=[1, 2, 3, 4]" inputElement="i"/></extensionElements>
+            <completionCondition xsi:type="tFormalExpression">=numberOfCompletedInstances / numberOfInstances &gt;= 0.5</completionCondition>
+          </multiInstanceLoopCharacteristics></serviceTask>
+        <endEvent id="e"/>{}{}</process>"#,
+        flow("f1", "s", "a"),
+        flow("f2", "a", "e"),
+    ));
+    assert_eq!(d.start(&[]).len(), 4);
+    assert_eq!(d.complete_nth(0, &[]), none());
+    // Two of four completed: the condition holds, the other two are cancelled.
+    let out = d.complete_nth(1, &[]);
+    assert_eq!(out.last().map(String::as_str), Some("completed"), "{out:?}");
+}
+
+#[test]
+fn a_null_correlation_key_matches_no_keyed_receiver() {
+    let mut d = Driver::new(&format!(
+        r#"<message id="m" name="ready"><extensionElements><zeebe:subscription correlationKey="=site"/></extensionElements></message>
+        <process id="p" isExecutable="true"><startEvent id="s"/>
+        <intermediateCatchEvent id="c"><messageEventDefinition messageRef="m"/></intermediateCatchEvent>
+        <endEvent id="e"/>{}{}</process>"#,
+        flow("f1", "s", "c"),
+        flow("f2", "c", "e"),
+    ));
+    // The instance has no `site`: its key is null, which nothing matches.
+    d.start(&[]);
+    assert_eq!(
+        d.message("ready", Some(Value::Null), &[])
+            .expect("accepted"),
+        none()
+    );
+    assert_eq!(
+        d.message("ready", Some(Value::String("x".into())), &[])
+            .expect("accepted"),
+        none()
+    );
+}
