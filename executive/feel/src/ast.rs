@@ -89,8 +89,10 @@ pub enum Kind {
     String(String),
     /// `@"2026-01-01"`: the text of a temporal literal.
     At(String),
-    /// A name: a variable, or a built-in function used as a value.
+    /// A name: a variable, a name bound inside the expression, or a function defined in it.
     Name(String),
+    /// `?`: the value a test after `in` is testing (`x in contains(?, "a")`).
+    Input,
     /// `a.b`
     Path(Box<Node>, String),
     /// `l[f]`: a filter, or an index when `f` is a number.
@@ -111,6 +113,11 @@ pub enum Kind {
     In(Box<Node>, Vec<Node>),
     /// A unary test inside `in`: `< 5`, `>= x`, `!= 3`.
     UnaryTest(Op, Box<Node>),
+    /// `not(tests)` after `in`: true when none of the tests holds (`x in not(2, 3)`).
+    NotTests(Vec<Node>),
+    /// A test after `in` that mentions `?`: evaluated with `?` bound to the tested value; an
+    /// expression test must then give a boolean, which is the test's result.
+    InputTest(Box<Node>),
     /// `a instance of type`
     InstanceOf(Box<Node>, String),
     /// `[a, b]`

@@ -21,6 +21,11 @@ const CHECKED_ON_LITERALS: &[&str] = &[
     "cycle",
 ];
 
+/// Functions the engine refuses because they are not deterministic (a replay after a crash
+/// would see other values). Multi-word ones are lexed as one name before `(`, so that the
+/// message is this one rather than the one for an unquoted name with a space.
+pub(crate) const NOT_DETERMINISTIC: &[&str] = &["uuid", "random number"];
+
 /// Calls every node of the tree, parents first.
 pub(crate) fn walk(n: &Node, f: &mut dyn FnMut(&Node)) {
     f(n);
@@ -29,13 +34,17 @@ pub(crate) fn walk(n: &Node, f: &mut dyn FnMut(&Node)) {
     }
 }
 
-fn children(n: &Node) -> Vec<&Node> {
+/// A node's direct children.
+pub(crate) fn children(n: &Node) -> Vec<&Node> {
     match &n.kind {
         Kind::Null | Kind::Bool(_) | Kind::Number(_) | Kind::String(_) | Kind::At(_) => vec![],
-        Kind::Name(_) => vec![],
-        Kind::Path(b, _) | Kind::Neg(b) | Kind::InstanceOf(b, _) | Kind::UnaryTest(_, b) => {
-            vec![b]
-        }
+        Kind::Name(_) | Kind::Input => vec![],
+        Kind::Path(b, _)
+        | Kind::Neg(b)
+        | Kind::InstanceOf(b, _)
+        | Kind::UnaryTest(_, b)
+        | Kind::InputTest(b) => vec![b],
+        Kind::NotTests(tests) => tests.iter().collect(),
         Kind::Filter(a, b) | Kind::Binary(_, a, b) | Kind::And(a, b) | Kind::Or(a, b) => vec![a, b],
         Kind::Call(c, args) => {
             let mut v: Vec<&Node> = vec![c];
@@ -86,6 +95,10 @@ impl Scoped<'_> {
             Kind::For(its, body) | Kind::Quantified(_, its, body) => {
                 let mark = self.bound.len();
                 self.iterations(its);
+                // A `for` body sees the results so far as `partial`.
+                if matches!(n.kind, Kind::For(..)) {
+                    self.bound.push("partial".to_owned());
+                }
                 self.node(body);
                 self.bound.truncate(mark);
             }
@@ -178,7 +191,7 @@ pub(crate) fn problems(root: &Node) -> Vec<(String, Span)> {
 }
 
 fn call_problem(name: &str, args: &Args) -> Option<String> {
-    if matches!(name, "uuid" | "random number") {
+    if NOT_DETERMINISTIC.contains(&name) {
         return Some(format!(
             "`{name}()` is not deterministic, so the engine cannot replay it; pass the value in as a variable"
         ));

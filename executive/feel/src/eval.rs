@@ -16,6 +16,10 @@ use crate::{Env, Evaluated, Stop};
 /// The deepest evaluation nesting (syntax depth plus function calls).
 pub(crate) const MAX_NESTING: usize = 320;
 
+/// The local name the tested value is bound to while a test that uses `?` runs: no FEEL text
+/// can name it (a backticked name never contains a backtick), so only `?` reads it.
+const INPUT: &str = "`?`";
+
 /// Evaluates `root` in `env`.
 pub(crate) fn evaluate(root: &Node, env: &Env<'_>) -> Result<Evaluated, Stop> {
     let mut e = Evaluator {
@@ -107,6 +111,10 @@ impl Evaluator<'_> {
             Kind::String(s) => Ok(Value::String(s.clone())),
             Kind::At(text) => Ok(self.at(text)),
             Kind::Name(_) | Kind::Path(..) => self.name(node),
+            Kind::Input => Ok(match self.local(INPUT) {
+                Some(v) => v,
+                None => self.null("`?` stands for the tested value only after `in`".to_owned()),
+            }),
             Kind::Filter(list, filter) => self.filter(list, filter),
             Kind::Call(callee, args) => self.call(callee, args),
             Kind::Neg(inner) => self.negate(inner),
@@ -115,9 +123,9 @@ impl Evaluator<'_> {
             Kind::Or(l, r) => self.logic(l, r, true),
             Kind::Between(v, low, high) => self.between(v, low, high),
             Kind::In(v, tests) => self.in_node(v, tests),
-            Kind::UnaryTest(..) => {
-                Ok(self.null("a unary test such as `< 5` stands only after `in`".to_owned()))
-            }
+            Kind::UnaryTest(..) | Kind::NotTests(_) | Kind::InputTest(_) => Ok(self.null(
+                "a unary test such as `< 5` or `not(2, 3)` stands only after `in`".to_owned(),
+            )),
             Kind::InstanceOf(v, ty) => self.instance(v, ty),
             Kind::List(items) => self.list(items),
             Kind::Context(entries) => self.context(entries),
@@ -130,7 +138,7 @@ impl Evaluator<'_> {
             Kind::If(c, a, b) => self.branch(c, a, b),
             Kind::For(its, body) => self.for_each(its, body),
             Kind::Quantified(q, its, body) => self.quantified(*q, its, body),
-            Kind::Function(params, body) => Ok(self.lambda(params, body)),
+            Kind::Function(params, body) => self.lambda(params, body),
         }
     }
 
@@ -157,6 +165,11 @@ impl Evaluator<'_> {
     fn binary_nodes(&mut self, op: Op, l: &Node, r: &Node) -> Result<Value, Stop> {
         let a = self.eval(l)?;
         let b = self.eval(r)?;
+        // Joining strings pays for the text it makes (as the string functions do), so
+        // doubling a string again and again stops on the budget, not on memory.
+        if let (Op::Add, Value::String(x), Value::String(y)) = (op, &a, &b) {
+            self.spend((x.len() + y.len()) / 64)?;
+        }
         Ok(self.binary(op, a, b))
     }
 
@@ -243,11 +256,27 @@ impl Evaluator<'_> {
         }
     }
 
+    /// `for`: the body's values, in order. A body that reads `partial` sees the values so far
+    /// as a list (Camunda: "the previous elements are assigned to the variable `partial`").
+    /// That list is a copy, made before each iteration, and costs a step per value copied,
+    /// nested values included: `partial` over n numbers costs about n²/2 steps, and a body
+    /// that returns `partial` itself (whose copies double) stops after a few iterations.
     #[inline(never)]
     fn for_each(&mut self, its: &[Iteration], body: &Node) -> Result<Value, Stop> {
+        let partial = reads_partial(body);
         let mut out = Vec::new();
+        // The number of values in `out`, nested ones included (counted only for `partial`).
+        let mut copied = 0usize;
         self.iterate(its, 0, &mut |e| {
-            let v = e.eval(body)?;
+            let v = if partial {
+                e.spend(copied)?;
+                let so_far = vec![("partial".to_owned(), Value::List(out.clone()))];
+                let v = e.with_frame(so_far, |e| e.eval(body))?;
+                copied = copied.saturating_add(weight(&v, e.left));
+                v
+            } else {
+                e.eval(body)?
+            };
             e.spend(1)?;
             out.push(v);
             Ok(true)
@@ -271,13 +300,19 @@ impl Evaluator<'_> {
     }
 
     #[inline(never)]
-    fn lambda(&mut self, params: &[String], body: &Arc<Node>) -> Value {
+    fn lambda(&mut self, params: &[String], body: &Arc<Node>) -> Result<Value, Stop> {
+        // The closure copies every visible local value: paid for by size, as a read is.
+        let mut w = 0usize;
+        for (_, v) in self.frames.iter().flatten() {
+            w = w.saturating_add(weight(v, self.left) - 1);
+        }
+        self.spend(w)?;
         let closure = self.frames.iter().flatten().cloned().collect();
-        Value::Function(Function::Lambda(Arc::new(Lambda {
+        Ok(Value::Function(Function::Lambda(Arc::new(Lambda {
             params: params.to_vec(),
             body: Arc::clone(body),
             closure,
-        })))
+        }))))
     }
 
     /// The value of a name bound inside the expression (iteration variable, parameter, context
@@ -291,19 +326,31 @@ impl Evaluator<'_> {
     }
 
     /// The value a name or path denotes, or `None` if it does not exist (a missing variable
-    /// or context entry: what `is defined` tells apart from a null).
+    /// or context entry: what `is defined` tells apart from a null). A built-in function's
+    /// name is not a value: a missing variable `count` is null, as Camunda documents ("If no
+    /// variable exists with the given name, the expression returns null"); `count(l)` still
+    /// calls the function (see [`Self::call`]).
     fn resolve(&mut self, node: &Node) -> Result<Option<Value>, Stop> {
         match &node.kind {
             Kind::Name(name) => {
-                if let Some(v) = self.local(name) {
-                    return Ok(Some(v));
+                // Reading a value copies it: the copy is paid for by its size, so values that
+                // nest copies of themselves (`{a1: [a0, a0], a2: [a1, a1], …}`) cannot grow
+                // memory exponentially within the step budget.
+                let found = self
+                    .frames
+                    .iter()
+                    .rev()
+                    .find_map(|frame| frame.iter().rev().find(|(k, _)| k == name))
+                    .map(|(_, v)| weight(v, self.left) - 1);
+                if let Some(w) = found {
+                    self.spend(w)?;
+                    return Ok(self.local(name));
                 }
-                if let Some(v) = (self.env.lookup)(name) {
-                    return Ok(Some(v));
+                let v = (self.env.lookup)(name);
+                if let Some(v) = &v {
+                    self.spend(weight(v, self.left) - 1)?;
                 }
-                Ok(host::overloads(name)
-                    .next()
-                    .map(|b| Value::Function(Function::Builtin(b.name))))
+                Ok(v)
             }
             Kind::Path(base, key) => {
                 let base = match &base.kind {
@@ -668,36 +715,11 @@ impl Evaluator<'_> {
         })
     }
 
+    /// `v in tests`: true when a test holds; null when the only test cannot tell.
     fn in_tests(&mut self, v: &Value, tests: &[Node]) -> Result<Value, Stop> {
         let mut unknown = false;
         for t in tests {
-            let hit = match &t.kind {
-                Kind::UnaryTest(op, bound) => {
-                    let b = self.eval(bound)?;
-                    match self.binary(*op, v.clone(), b) {
-                        Value::Bool(x) => Some(x),
-                        _ => None,
-                    }
-                }
-                _ => match self.eval(t)? {
-                    Value::List(items) => {
-                        self.spend(items.len())?;
-                        if matches!(v, Value::List(_))
-                            && v.feel_eq(&Value::List(items.clone())) == Some(true)
-                        {
-                            Some(true)
-                        } else {
-                            Some(items.iter().any(|i| match i {
-                                Value::Range(r) => in_range(v, r) == Some(true),
-                                i => v.feel_eq(i) == Some(true),
-                            }))
-                        }
-                    }
-                    Value::Range(r) => in_range(v, &r),
-                    other => v.feel_eq(&other),
-                },
-            };
-            match hit {
+            match self.unary_test(v, t, false)? {
                 Some(true) => return Ok(Value::Bool(true)),
                 Some(false) => {}
                 None => unknown = true,
@@ -707,6 +729,55 @@ impl Evaluator<'_> {
             self.null(format!("cannot test a {} with `in`", v.type_name()))
         } else {
             Value::Bool(false)
+        })
+    }
+
+    /// Whether `v` passes one test, `None` when it cannot tell. `input`: the test uses `?`
+    /// (bound by the caller), so an expression test must give a boolean, which is the answer.
+    fn unary_test(&mut self, v: &Value, t: &Node, input: bool) -> Result<Option<bool>, Stop> {
+        Ok(match &t.kind {
+            Kind::UnaryTest(op, bound) => {
+                let b = self.eval(bound)?;
+                match self.binary(*op, v.clone(), b) {
+                    Value::Bool(x) => Some(x),
+                    _ => None,
+                }
+            }
+            Kind::NotTests(tests) => match self.in_tests(v, tests)? {
+                Value::Bool(x) => Some(!x),
+                _ => None,
+            },
+            Kind::InputTest(inner) => {
+                let frame = vec![(INPUT.to_owned(), v.clone())];
+                return self.with_frame(frame, |e| e.unary_test(v, inner, true));
+            }
+            _ if input => match self.eval(t)? {
+                Value::Bool(x) => Some(x),
+                other => {
+                    self.null(format!(
+                        "a test that uses `?` must give a boolean, not a {}",
+                        other.type_name()
+                    ));
+                    None
+                }
+            },
+            _ => match self.eval(t)? {
+                Value::List(items) => {
+                    self.spend(items.len())?;
+                    if matches!(v, Value::List(_))
+                        && v.feel_eq(&Value::List(items.clone())) == Some(true)
+                    {
+                        Some(true)
+                    } else {
+                        Some(items.iter().any(|i| match i {
+                            Value::Range(r) => in_range(v, r) == Some(true),
+                            i => v.feel_eq(i) == Some(true),
+                        }))
+                    }
+                }
+                Value::Range(r) => in_range(v, &r),
+                other => v.feel_eq(&other),
+            },
         })
     }
 
@@ -780,6 +851,37 @@ impl Evaluator<'_> {
         }
         Ok(true)
     }
+}
+
+/// Whether a `for` body reads its `partial`: the name outside the bodies of nested `for`s,
+/// which bind their own (their iteration sources still see this one's).
+fn reads_partial(n: &Node) -> bool {
+    match &n.kind {
+        Kind::Name(name) => name == "partial",
+        Kind::For(its, _) => its
+            .iter()
+            .any(|i| reads_partial(&i.source) || i.end.as_ref().is_some_and(reads_partial)),
+        _ => crate::check::children(n).into_iter().any(reads_partial),
+    }
+}
+
+/// How many values `v` holds, itself and nested ones included, counting no further than just
+/// past `cap` (so counting costs no more than the budget left).
+fn weight(v: &Value, cap: usize) -> usize {
+    let mut n = 0usize;
+    let mut stack = vec![v];
+    while let Some(x) = stack.pop() {
+        n += 1;
+        if n > cap {
+            return n;
+        }
+        match x {
+            Value::List(items) => stack.extend(items),
+            Value::Context(c) => stack.extend(c.0.iter().map(|(_, v)| v)),
+            _ => {}
+        }
+    }
+    n
 }
 
 fn whole(v: &Value) -> Option<i64> {

@@ -1,5 +1,7 @@
 //! The FEEL lexer: text → tokens with byte spans. Names are Java identifiers or backticked;
-//! a built-in function's multi-word name (`string join`) is one token when a `(` follows.
+//! a built-in function's multi-word name (`string join`), or that of a function the engine
+//! refuses (`random number`), is one token when a `(` follows. `?` (the tested value inside the
+//! tests after `in`) is a name token of its own.
 
 use rust_decimal::Decimal;
 
@@ -46,6 +48,7 @@ pub(crate) fn lex(text: &str) -> Result<Vec<Token>, (String, Span)> {
     let multi: Vec<&'static str> = {
         let mut m: Vec<&'static str> = crate::host::all()
             .map(|b| b.name)
+            .chain(crate::check::NOT_DETERMINISTIC.iter().copied())
             .filter(|n| n.contains(' '))
             .collect();
         m.sort_by_key(|n| std::cmp::Reverse(n.len()));
@@ -152,6 +155,17 @@ pub(crate) fn lex(text: &str) -> Result<Vec<Token>, (String, Span)> {
             out.push(Token {
                 tok: Tok::Name {
                     text: rest[..len].to_owned(),
+                    quoted: false,
+                },
+                span: span(start, i),
+            });
+            continue;
+        }
+        if c == '?' {
+            i += 1;
+            out.push(Token {
+                tok: Tok::Name {
+                    text: "?".to_owned(),
                     quoted: false,
                 },
                 span: span(start, i),

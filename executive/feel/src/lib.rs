@@ -15,9 +15,10 @@
 //! syntax errors without a position, and lacks 20 of the built-ins Camunda users call. Those
 //! break the engine's invariants (deterministic, total, bounded, positioned diagnostics), so
 //! this crate implements the dialect itself on two well-kept pure-Rust crates: `rust_decimal`
-//! (exact decimal arithmetic, checked operations that never panic) and `chrono` (the temporal
-//! types), plus `regex` (linear-time matching with a compiled-size limit) for `matches`,
-//! `replace` and `split`, and `base64` for `to base64` / `from base64`. JSON (`from json`,
+//! (exact decimal arithmetic, checked operations that never panic) and `chrono` with
+//! `chrono-tz` (the temporal types and the IANA zone database), plus `regex` (linear-time
+//! matching with a compiled-size limit) for `matches`, `replace` and `split`, and `base64` for
+//! `to base64` / `from base64`. JSON (`from json`,
 //! `to json`) has its own small reader and writer: serde_json without workspace-wide features
 //! would sort object keys and read numbers as floats.
 //!
@@ -30,10 +31,16 @@
 //!   `is blank`, `from json`, `to json`, `to base64`, `from base64` built-ins, and Zeebe's
 //!   `cycle`, `fromAi`, `bpmnError`, `jobError`;
 //! - a call may name some parameters only; the others are null;
-//! - string literals may span lines.
+//! - string literals may span lines;
+//! - a `for` body sees the values so far as `partial`;
+//! - `in` takes Camunda's unary tests: comparisons, ranges, lists of tests, `not(…)`, and
+//!   expressions using `?` for the tested value (`x in contains(?, "a")`);
+//! - a missing variable is null even when it is named like a built-in function (`count`): a
+//!   built-in is found only in call position.
 //!
 //! Numbers are decimals with 28 significant digits (feel-scala has 34); a result that does not fit
-//! is null. Zones are offsets, `Z` and `@UTC`; other zone ids are refused when the model loads.
+//! is null. Zones are offsets, `Z` and IANA zone ids (`@Europe/Paris`, with daylight saving, from
+//! `chrono-tz`'s database); unknown ids are refused when the model loads.
 //! Not supported: unary-test syntax outside `in` (DMN decision tables), `external` functions,
 //! `uuid()` and `random number()` (not deterministic).
 

@@ -2,6 +2,10 @@
 //! `if`/`for`/`some`/`every`/`function`, `or`, `and`, comparison (`= != < <= > >=`, `between`,
 //! `in`, `instance of`), `+ -`, `* /`, `**`, unary `-`, then paths, filters and calls.
 //! Nesting is capped (brackets and the tree's depth), so no text can overflow the stack.
+//!
+//! After `in` come unary tests: one test, a parenthesised list `(< 5, 7, [9..10])`, or
+//! `not(…)` of a list; a test may use `?` for the value it tests (`x in contains(?, "a")`),
+//! and `?` anywhere else is a syntax error.
 
 use std::sync::Arc;
 
@@ -32,24 +36,31 @@ const KEYWORDS: &[&str] = &[
     "true",
     "false",
     "external",
+    "?",
 ];
 
-/// Type names after `instance of`, longest first.
-const TYPES: &[&str] = &[
-    "years and months duration",
-    "days and time duration",
-    "date and time",
-    "function",
-    "boolean",
-    "context",
-    "number",
-    "string",
-    "range",
-    "date",
-    "time",
-    "list",
-    "Null",
-    "Any",
+/// Type names after `instance of` as written (a `-` is a token of its own) and the type each
+/// names; a name comes before any name that begins it (`date and time` before `date`). Camunda
+/// documents both `days and time duration` and `day-time-duration` (FEEL boolean expressions,
+/// "Instance of").
+const TYPES: &[(&str, &str)] = &[
+    ("years and months duration", "years and months duration"),
+    ("year-month-duration", "years and months duration"),
+    ("days and time duration", "days and time duration"),
+    ("day-time-duration", "days and time duration"),
+    ("date and time", "date and time"),
+    ("date time", "date and time"),
+    ("function", "function"),
+    ("boolean", "boolean"),
+    ("context", "context"),
+    ("number", "number"),
+    ("string", "string"),
+    ("range", "range"),
+    ("date", "date"),
+    ("time", "time"),
+    ("list", "list"),
+    ("Null", "Null"),
+    ("Any", "Any"),
 ];
 
 type Error = (String, Span);
@@ -63,6 +74,7 @@ pub(crate) fn parse(text: &str) -> Result<Node, Error> {
         depth: 0,
         end: text.len(),
         range_end: false,
+        question: None,
     };
     if p.tokens.is_empty() {
         return Err((
@@ -90,6 +102,9 @@ struct Parser {
     end: usize,
     /// Parsing the upper end of a range, where `[` may close it (`]1..5[`).
     range_end: bool,
+    /// Inside a test after `in`: how many times the test has used `?` so far (`None` outside
+    /// tests, where `?` is an error).
+    question: Option<usize>,
 }
 
 fn describe(t: &Tok) -> String {
@@ -326,14 +341,30 @@ impl Parser {
 
     fn type_name(&mut self) -> Result<String, Error> {
         let start = self.here();
-        // Collect the words ahead and match the longest type name.
-        for ty in TYPES {
-            let words: Vec<&str> = ty.split(' ').collect();
-            let fits = words.iter().enumerate().all(|(k, w)| {
-                matches!(self.peek_at(k), Some(Tok::Name { text, quoted: false }) if text == w)
-            });
+        // Match the tokens ahead against each spelling of a type name.
+        for (spelling, ty) in TYPES {
+            let mut parts: Vec<&str> = Vec::new();
+            for word in spelling.split(' ') {
+                for (k, piece) in word.split('-').enumerate() {
+                    if k > 0 {
+                        parts.push("-");
+                    }
+                    parts.push(piece);
+                }
+            }
+            let fits = parts
+                .iter()
+                .enumerate()
+                .all(|(k, w)| match self.peek_at(k) {
+                    Some(Tok::Punct(p)) => *w == "-" && *p == "-",
+                    Some(Tok::Name {
+                        text,
+                        quoted: false,
+                    }) => text == w,
+                    _ => false,
+                });
             if fits {
-                self.at += words.len();
+                self.at += parts.len();
                 // Parameterised types: `list<number>`, `context<a: number>`.
                 if self.eat_punct("<") {
                     let mut level = 1;
@@ -354,7 +385,7 @@ impl Parser {
         }
         Err((
             format!(
-                "expected a type (number, string, boolean, date, time, date and time, days and time duration, years and months duration, list, context, range, function, Any, Null), found {}",
+                "expected a type (number, string, boolean, date, time, date and time, days and time duration, years and months duration, list, context, range, function, Any, Null; also date time, day-time-duration, year-month-duration), found {}",
                 self.found()
             ),
             start,
@@ -424,20 +455,32 @@ impl Parser {
         }
     }
 
-    /// The right side of `in`: one test, or a parenthesised list of tests `(< 5, 7, [9..10])`.
+    /// The right side of `in`: one test, a parenthesised list of tests `(< 5, 7, [9..10])`, or
+    /// the negation of a list `not(2, 3)` (Camunda's unary tests, which `in` evaluates).
     fn tests(&mut self) -> Result<Vec<Node>, Error> {
+        let start = self.start();
+        if self.is_word("not") && matches!(self.peek_at(1), Some(Tok::Punct("("))) {
+            self.at += 2;
+            let tests = self.test_list("`in not(…)`")?;
+            return Ok(vec![self.node(Kind::NotTests(tests), start)?]);
+        }
         if self.is_punct("(") && self.parenthesised_tests() {
             self.at += 1;
-            let mut tests = Vec::new();
-            loop {
-                tests.push(self.test()?);
-                if self.eat_punct(")") {
-                    return Ok(tests);
-                }
-                self.expect_punct(",", "between the tests of `in (…)`")?;
-            }
+            return self.test_list("`in (…)`");
         }
-        Ok(vec![self.test()?])
+        Ok(vec![self.test(false)?])
+    }
+
+    /// Tests separated by `,` up to `)` (the `(` already read).
+    fn test_list(&mut self, what: &str) -> Result<Vec<Node>, Error> {
+        let mut tests = Vec::new();
+        loop {
+            tests.push(self.test(true)?);
+            if self.eat_punct(")") {
+                return Ok(tests);
+            }
+            self.expect_punct(",", &format!("between the tests of {what}"))?;
+        }
     }
 
     /// Whether the `(` ahead opens a list of tests rather than an expression or open range:
@@ -467,14 +510,38 @@ impl Parser {
         false
     }
 
-    fn test(&mut self) -> Result<Node, Error> {
+    /// One test: a comparison with the tested value (`< 5`), or a value, range, list or
+    /// expression. A test in a parenthesised list is a whole expression (`? > 10`); a lone
+    /// test binds like the operand of a comparison. A test that uses `?` is wrapped in
+    /// [`Kind::InputTest`] (a `?` inside a nested `in`'s tests belongs to that `in`).
+    fn test(&mut self, in_list: bool) -> Result<Node, Error> {
+        let outer = self.question.replace(0);
+        let out = self.bare_test(in_list);
+        let uses_input = self.question.is_some_and(|n| n > 0);
+        self.question = outer;
+        let node = out?;
+        Ok(if uses_input {
+            Node {
+                span: node.span,
+                kind: Kind::InputTest(Box::new(node)),
+            }
+        } else {
+            node
+        })
+    }
+
+    fn bare_test(&mut self, in_list: bool) -> Result<Node, Error> {
         let start = self.start();
         if let Some(op) = self.comparison_op() {
             self.at += 1;
             let v = self.additive()?;
             return self.node(Kind::UnaryTest(op, Box::new(v)), start);
         }
-        self.additive()
+        if in_list {
+            self.expression()
+        } else {
+            self.additive()
+        }
     }
 
     fn additive(&mut self) -> Result<Node, Error> {
@@ -561,7 +628,7 @@ impl Parser {
     /// The key after `.`: a name, a keyword used as a key, or `time offset`.
     fn path_key(&mut self) -> Result<String, Error> {
         match self.peek().map(|t| t.tok.clone()) {
-            Some(Tok::Name { text, .. }) => {
+            Some(Tok::Name { text, quoted }) if quoted || text != "?" => {
                 self.at += 1;
                 if text == "time" && self.is_word("offset") {
                     self.at += 1;
@@ -579,7 +646,8 @@ impl Parser {
     /// Whether the tokens ahead are `words… :` (a named argument or context key).
     fn named_ahead(&self) -> bool {
         let mut k = 0;
-        while let Some(Tok::Name { .. }) = self.peek_at(k) {
+        while matches!(self.peek_at(k), Some(Tok::Name { text, quoted }) if *quoted || text != "?")
+        {
             k += 1;
         }
         k > 0 && matches!(self.peek_at(k), Some(Tok::Punct(":")))
@@ -589,9 +657,10 @@ impl Parser {
     fn words_key(&mut self) -> String {
         let mut words = Vec::new();
         while let Some(Token {
-            tok: Tok::Name { text, .. },
+            tok: Tok::Name { text, quoted },
             ..
         }) = self.peek()
+            && (*quoted || text != "?")
         {
             words.push(text.clone());
             self.at += 1;
@@ -667,6 +736,17 @@ impl Parser {
                             return self.node(Kind::Bool(text == "true"), start);
                         }
                         "if" | "for" | "some" | "every" | "function" => return self.expression(),
+                        "?" => {
+                            let Some(uses) = self.question.as_mut() else {
+                                return Err((
+                                    "`?` stands for the tested value only in the tests after `in` (`x in contains(?, \"a\")`, `x in (< 5, ? > 10)`)".to_owned(),
+                                    token.span,
+                                ));
+                            };
+                            *uses += 1;
+                            self.at += 1;
+                            return self.node(Kind::Input, start);
+                        }
                         // `and(…)` and `or(…)` are also list functions (feel-scala).
                         "and" | "or" if matches!(self.peek_at(1), Some(Tok::Punct("("))) => {
                             self.at += 1;
@@ -756,7 +836,9 @@ impl Parser {
                             self.at += 1;
                             s
                         }
-                        Some(Tok::Name { .. }) => self.words_key(),
+                        Some(Tok::Name { text, quoted }) if quoted || text != "?" => {
+                            self.words_key()
+                        }
                         _ => {
                             return Err((
                                 format!("expected a context key, found {}", self.found()),

@@ -41,10 +41,10 @@ pub enum Value {
     Function(Function),
 }
 
-/// A zone: a fixed offset, and the zone id it was written with (`UTC`), if any.
+/// A zone: an offset, and the zone id it was written with (`UTC`, `Europe/Paris`), if any.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Zone {
-    /// The offset from UTC.
+    /// The offset from UTC (for a zone id, its offset at that date and time).
     pub offset: FixedOffset,
     /// The id written after `@`, if the zone was given by id.
     pub id: Option<String>,

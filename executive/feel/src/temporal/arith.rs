@@ -7,7 +7,7 @@ use chrono::{Months, NaiveDate, NaiveDateTime, NaiveTime, TimeDelta};
 use rust_decimal::Decimal;
 use rust_decimal::prelude::ToPrimitive;
 
-use super::{delta, instant, nanos_of, time_key};
+use super::{delta, instant, nanos_of, offset_delta, time_key, zones};
 use crate::value::{DateTime, Time, Value};
 
 /// `date + duration` for a days and time duration: the date of midnight plus it.
@@ -33,13 +33,42 @@ fn shift_local(local: NaiveDateTime, months: i64) -> Option<NaiveDateTime> {
 }
 
 /// A date and time with another local date-time, same zone.
-fn moved(dt: &DateTime, local: Option<NaiveDateTime>) -> Option<Value> {
-    local.map(|local| {
-        Value::DateTime(DateTime {
-            local,
-            zone: dt.zone.clone(),
-        })
+fn moved(dt: &DateTime, local: NaiveDateTime) -> Value {
+    Value::DateTime(DateTime {
+        local,
+        zone: dt.zone.clone(),
     })
+}
+
+/// A date and time plus a days and time duration. With a zone id, the instant moves and the
+/// offset is the zone's at the new instant (java.time `ZonedDateTime.plus(Duration)`, which
+/// feel-scala uses: `@"2026-03-28T12:00:00@Europe/Berlin" + @"P1D"` is
+/// `2026-03-29T13:00:00@Europe/Berlin`, 24 hours later across the change to summer time);
+/// otherwise the local date-time moves, the offset kept.
+fn plus_time(dt: &DateTime, x: TimeDelta) -> Option<Value> {
+    let local = dt.local.checked_add_signed(x)?;
+    if let Some(zone) = &dt.zone
+        && let (Some(tz), Some(id)) = (zones::rules(zone), zone.id.as_deref())
+    {
+        let utc = local.checked_sub_signed(offset_delta(zone))?;
+        return zones::at_instant(utc, tz, id).map(Value::DateTime);
+    }
+    Some(moved(dt, local))
+}
+
+/// A date and time moved by `months` calendar months (the day clamped to the end of the
+/// month, the time of day kept). With a zone id, the offset is the zone's at the new local
+/// date-time, the old offset kept in an overlap if it is one of the two, a gap's time moved
+/// forward (java.time `ZonedDateTime.plus(Period)`, via `ofLocal` with the old offset
+/// preferred).
+fn plus_months(dt: &DateTime, months: i64) -> Option<Value> {
+    let local = shift_local(dt.local, months)?;
+    if let Some(zone) = &dt.zone
+        && let (Some(tz), Some(id)) = (zones::rules(zone), zone.id.as_deref())
+    {
+        return zones::at_local(local, tz, id, Some(zone.offset)).map(Value::DateTime);
+    }
+    Some(moved(dt, local))
 }
 
 /// A time plus a duration, wrapping around the day; same zone.
@@ -65,11 +94,9 @@ pub(crate) fn add(a: &Value, b: &Value) -> Option<Value> {
             shift_months(*d, *m).map(V::Date)
         }
         (V::Time(t), V::DayTime(x)) | (V::DayTime(x), V::Time(t)) => Some(time_plus(t, *x)),
-        (V::DateTime(dt), V::DayTime(x)) | (V::DayTime(x), V::DateTime(dt)) => {
-            moved(dt, dt.local.checked_add_signed(*x))
-        }
+        (V::DateTime(dt), V::DayTime(x)) | (V::DayTime(x), V::DateTime(dt)) => plus_time(dt, *x),
         (V::DateTime(dt), V::YearMonth(m)) | (V::YearMonth(m), V::DateTime(dt)) => {
-            moved(dt, shift_local(dt.local, *m))
+            plus_months(dt, *m)
         }
         (V::DayTime(x), V::DayTime(y)) => x.checked_add(y).map(V::DayTime),
         (V::YearMonth(x), V::YearMonth(y)) => x.checked_add(*y).map(V::YearMonth),
@@ -97,8 +124,8 @@ pub(crate) fn sub(a: &Value, b: &Value) -> Option<Value> {
             (Some(zx), Some(zy)) => delta(instant(x, zx) - instant(y, zy)).map(V::DayTime),
             _ => None,
         },
-        (V::DateTime(dt), V::DayTime(x)) => moved(dt, dt.local.checked_sub_signed(*x)),
-        (V::DateTime(dt), V::YearMonth(m)) => moved(dt, shift_local(dt.local, m.checked_neg()?)),
+        (V::DateTime(dt), V::DayTime(x)) => plus_time(dt, neg(*x)?),
+        (V::DateTime(dt), V::YearMonth(m)) => plus_months(dt, m.checked_neg()?),
         (V::DayTime(x), V::DayTime(y)) => x.checked_sub(y).map(V::DayTime),
         (V::YearMonth(x), V::YearMonth(y)) => x.checked_sub(*y).map(V::YearMonth),
         _ => None,

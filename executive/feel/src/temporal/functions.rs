@@ -11,7 +11,7 @@ use chrono::{Datelike, NaiveDate, NaiveTime};
 use rust_decimal::Decimal;
 use rust_decimal::prelude::ToPrimitive;
 
-use super::parse;
+use super::{parse, zones};
 use crate::host::{Builtin, Host, Stop};
 use crate::value::{DateTime, Time, Value, Zone, number_text};
 
@@ -283,7 +283,10 @@ fn time_from(host: &mut dyn Host, args: Vec<Value>) -> Run {
         })),
         [Value::Date(_)] => Ok(Value::Time(Time {
             time: NaiveTime::MIN,
-            zone: parse::zone("Z").ok(),
+            zone: Some(Zone {
+                offset: chrono::Offset::fix(&chrono::Utc),
+                id: None,
+            }),
         })),
         [v] => fail(
             host,
@@ -353,8 +356,10 @@ fn date_time_from(host: &mut dyn Host, args: Vec<Value>) -> Run {
 }
 
 /// `date and time(date, time)`: the date of a date or date and time at a time (zoned when the
-/// time is); and Camunda's `date and time(date, timezone)`: a date and time in a zone (a local
-/// one gets the zone; a zoned one is the same instant in the new zone).
+/// time is; with a zone id, at the zone's offset on that date, as feel-scala's
+/// `ZonedTime.withDate`); and Camunda's `date and time(date, timezone)`: a date and time in a
+/// zone (a local one gets the zone, as java.time's `atZone`; a zoned one is the same instant in
+/// the new zone, as `withZoneSameInstant`).
 fn date_time_of(host: &mut dyn Host, args: Vec<Value>) -> Run {
     const NAME: &str = "date and time";
     let [date, second] = args.as_slice() else {
@@ -367,12 +372,13 @@ fn date_time_of(host: &mut dyn Host, args: Vec<Value>) -> Run {
             "a date and time when a timezone is given",
             date,
         )),
-        (_, Value::Time(t)) => match calendar(date) {
-            Some(d) => Ok(DateTime {
+        (_, Value::Time(t)) => match (calendar(date), &t.zone) {
+            (Some(d), Some(zone)) => parse::place(d.and_time(t.time), zone.clone()),
+            (Some(d), None) => Ok(DateTime {
                 local: d.and_time(t.time),
-                zone: t.zone.clone(),
+                zone: None,
             }),
-            None => Err(wrong("date", "a date or a date and time", date)),
+            (None, _) => Err(wrong("date", "a date or a date and time", date)),
         },
         (_, other) => Err(wrong("time", "a time (or a timezone string)", other)),
     };
@@ -382,19 +388,23 @@ fn date_time_of(host: &mut dyn Host, args: Vec<Value>) -> Run {
 /// A date and time in the zone `id` (see [`date_time_of`]).
 fn in_zone(dt: &DateTime, id: &str) -> Result<DateTime, String> {
     let zone = parse::zone(id)?;
-    let local = match &dt.zone {
-        None => Some(dt.local),
-        Some(old) => {
-            let shift =
-                i64::from(zone.offset.local_minus_utc()) - i64::from(old.offset.local_minus_utc());
-            chrono::TimeDelta::try_seconds(shift).and_then(|d| dt.local.checked_add_signed(d))
-        }
+    let Some(old) = &dt.zone else {
+        return parse::place(dt.local, zone);
     };
-    let local = local.ok_or_else(|| "out of range".to_owned())?;
-    Ok(DateTime {
-        local,
-        zone: Some(zone),
-    })
+    let out_of_range = || "out of range".to_owned();
+    let utc = dt
+        .local
+        .checked_sub_signed(super::offset_delta(old))
+        .ok_or_else(out_of_range)?;
+    match (zones::rules(&zone), zone.id.as_deref()) {
+        (Some(tz), Some(id)) => zones::at_instant(utc, tz, id).ok_or_else(out_of_range),
+        _ => Ok(DateTime {
+            local: utc
+                .checked_add_signed(super::offset_delta(&zone))
+                .ok_or_else(out_of_range)?,
+            zone: Some(zone),
+        }),
+    }
 }
 
 /// `duration(from)`: a duration string, of either kind.

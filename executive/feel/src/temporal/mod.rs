@@ -2,8 +2,10 @@
 //! durations. Equality and ordering, the text form feel-scala prints, `@"…"` literals,
 //! properties (`.year`, `.time offset`, …), arithmetic and the temporal built-in functions.
 //!
-//! Zones are fixed offsets (`+01:00`, `Z`) or a UTC zone id (`@UTC`, `@GMT`, `@Etc/UTC`,
-//! `@Etc/GMT`); other zone ids are refused, as the crate has no zone rules.
+//! Zones are fixed offsets (`+01:00`, `Z`) or zone ids of the IANA tz database (`@UTC`,
+//! `@Europe/Paris`; chrono-tz's copy, tzdata 2025b), as feel-scala's `java.time.ZoneId`. A value
+//! with a zone id keeps the id (printed `…@Europe/Paris`, given by `.timezone`) and the offset
+//! it has (`.time offset`); an unknown id (`@Mars/Olympus`) is refused, naming it.
 //!
 //! Semantic choices (DMN 1.3 clauses; where feel-scala differs, it is said):
 //! - A time or date and time with a zone and one without are not comparable: `=`, `<` and `-`
@@ -25,12 +27,34 @@
 //!   §10.3.2.3.5 takes a date as its midnight): `@"2026-01-01" + @"PT36H"` is `2026-01-02`.
 //! - `date - date and time` and the like have no value (feel-scala; DMN 1.5 would convert the
 //!   date to midnight UTC).
+//! - A date and time with a zone id has the zone's offset at its local date-time, daylight
+//!   saving included (java.time `ZonedDateTime.of`, which feel-scala uses): a local time in a
+//!   gap moves forward by the gap (`@"2026-03-29T02:30:00@Europe/Berlin"` is 03:30, +02:00); in
+//!   an overlap the earlier offset is taken (`2026-10-25T02:30:00@Europe/Berlin` is +02:00),
+//!   unless an offset is written before the id in brackets (`…02:30:00+01:00[Europe/Berlin]`),
+//!   which must then be one of the zone's offsets there. Such a value prints with the id only,
+//!   so an overlap's second hour reads back as the first (as in feel-scala). The database lists
+//!   changes up to 2099; later dates keep the last offset (java.time goes on switching).
+//! - Days and time durations move a zoned date and time's instant, the offset then the zone's
+//!   at the new instant (java.time `ZonedDateTime.plus(Duration)`, as feel-scala adds them):
+//!   `@"2026-03-28T12:00:00@Europe/Berlin" + @"P1D"` is `2026-03-29T13:00:00@Europe/Berlin`.
+//!   Years and months move the local date-time, then take the zone's offset there, keeping the
+//!   old offset in an overlap when it is one of the two (`plus(Period)`, i.e. `ofLocal` with
+//!   the old offset preferred). With a fixed offset both keep the offset.
+//! - A time of day with a zone id (`@"10:00:00@Europe/Paris"`) has the zone's standard offset
+//!   (feel-scala: `getStandardOffset(Instant.now)`; with no clock here, under the database's
+//!   latest rules, read at 2100-01-01T00:00:00Z; a negative daylight saving such as
+//!   Europe/Dublin's winter counts as standard, as in java.time's data), so
+//!   `@"10:00:00@Europe/Paris" = @"09:00:00Z"` all year. `time(date and time)` keeps the date
+//!   and time's offset (feel-scala's `ZonedTime.of`), and `date and time(date, time)` with a
+//!   zone id takes the zone's offset at that date (`ZonedTime.withDate`).
 
 mod arith;
 mod functions;
 mod parse;
 #[cfg(test)]
 mod tests;
+mod zones;
 
 use std::cmp::Ordering;
 use std::fmt::Write as _;
@@ -140,7 +164,7 @@ fn write_time(out: &mut String, t: NaiveTime) {
     write_fraction(out, t.nanosecond() % 1_000_000_000);
 }
 
-/// Writes a zone suffix: `@UTC`, `Z` (offset 0 without an id), `+01:00`, `-05:30`.
+/// Writes a zone suffix: `@Europe/Paris`, `@UTC`, `Z` (offset 0 without an id), `+01:00`, `-05:30`.
 fn write_zone(out: &mut String, zone: Option<&Zone>) {
     let Some(zone) = zone else { return };
     if let Some(id) = &zone.id {
@@ -217,7 +241,8 @@ fn write_year_month(out: &mut String, months: i64) {
 }
 
 /// The text of a temporal value as feel-scala prints it (`string()`, messages): date
-/// `2026-11-23`; time `10:00:00`, `10:00:00.5`, `10:00:00Z`, `10:00:00+01:00`, `10:00:00@UTC`;
+/// `2026-11-23`; time `10:00:00`, `10:00:00.5`, `10:00:00Z`, `10:00:00+01:00`,
+/// `10:00:00@Europe/Paris` (a zone id without the offset);
 /// date and time `2026-11-23T10:00:00` with the same zone suffixes; days and time duration
 /// `P1DT2H3M4.5S`, `PT0S`, `-PT1H`; years and months duration `P1Y2M`, `P0M`, `-P1Y`.
 /// Other values print as [`Value`]'s `Display`.

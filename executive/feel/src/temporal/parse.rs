@@ -2,18 +2,17 @@
 //! zones (feel-scala's grammar). Every function returns what the text is, or a short reason
 //! saying what is wrong ("no such date"); callers put the function call in front of it.
 
-use chrono::{Datelike, FixedOffset, NaiveDate, NaiveTime};
+use chrono::{Datelike, FixedOffset, NaiveDate, NaiveDateTime, NaiveTime};
 
-use super::NANOS;
+use super::{NANOS, zones};
 use crate::value::{DateTime, Time, Value, Zone};
 
 /// What a text that is not a date is expected to look like.
 const DATE_SHAPE: &str = "not a date (expected YYYY-MM-DD)";
 /// What a text that is not a time is expected to look like.
-const TIME_SHAPE: &str =
-    "not a time (expected hh:mm:ss, optionally with a fraction and Z, +hh:mm or @UTC)";
+const TIME_SHAPE: &str = "not a time (expected hh:mm:ss, optionally with a fraction and Z, +hh:mm or @zone id such as @Europe/Paris)";
 /// What a text that is not a date and time is expected to look like.
-const DATE_TIME_SHAPE: &str = "not a date and time (expected YYYY-MM-DDThh:mm:ss, optionally with a fraction and Z, +hh:mm or @UTC)";
+const DATE_TIME_SHAPE: &str = "not a date and time (expected YYYY-MM-DDThh:mm:ss, optionally with a fraction and Z, +hh:mm or @zone id such as @Europe/Paris)";
 /// What a text that is not a duration is expected to look like.
 const DURATION_SHAPE: &str = "not a duration (expected e.g. P1Y2M or P1DT2H3M4.5S)";
 /// The largest offset from UTC a zone may have (as in `java.time.ZoneOffset`): 18 hours.
@@ -204,15 +203,13 @@ fn utc() -> FixedOffset {
     FixedOffset::east_opt(0).unwrap_or_else(|| unreachable!("zero is a valid offset"))
 }
 
-/// The zone a zone id or offset text names: `UTC`, `GMT`, `Etc/UTC`, `Etc/GMT` (kept as the
-/// zone's id), `Z` or `±hh:mm` (offsets without an id). Other zone ids (`Europe/Paris`) are
-/// refused: this crate has no zone rules, so only UTC and fixed offsets are supported.
+/// The zone a zone id or offset text names: a zone id of the IANA tz database (`Europe/Paris`,
+/// `UTC`, `Etc/GMT+5`; case-sensitive, as java.time's `ZoneId.of`), kept as the zone's id with
+/// the zone's standard offset (what a time of day gets, see [`zones::standard_offset`]; a date
+/// and time takes the offset at its date, see [`place`]); `Z` or `±hh:mm[:ss]` (offsets
+/// without an id).
 pub(crate) fn zone(text: &str) -> Result<Zone, String> {
     match text {
-        "UTC" | "GMT" | "Etc/UTC" | "Etc/GMT" => Ok(Zone {
-            offset: utc(),
-            id: Some(text.to_owned()),
-        }),
         "Z" => Ok(Zone {
             offset: utc(),
             id: None,
@@ -230,25 +227,57 @@ pub(crate) fn zone(text: &str) -> Result<Zone, String> {
             }
             Ok(Zone { offset, id: None })
         }
-        _ => Err(format!(
-            "time zone `{}` is not supported: only UTC (Z, @UTC) and fixed offsets such as +01:00 are",
-            clip(text)
-        )),
+        _ => match zones::rules_of(text) {
+            Some(tz) => Ok(Zone {
+                offset: zones::standard_offset(tz),
+                id: Some(text.to_owned()),
+            }),
+            None => Err(format!(
+                "unknown time zone `{}` (expected an IANA zone id such as Europe/Paris, Z or an offset such as +01:00)",
+                clip(text)
+            )),
+        },
     }
+}
+
+/// The date and time `local` in `zone`: with a zone id, at the offset the zone has there (a
+/// local time in a gap moved forward, the earlier offset in an overlap; see
+/// [`zones::at_local`]); with a fixed offset, as is.
+pub(crate) fn place(local: NaiveDateTime, zone: Zone) -> Result<DateTime, String> {
+    match (zones::rules(&zone), zone.id.as_deref()) {
+        (Some(tz), Some(id)) => {
+            zones::at_local(local, tz, id, None).ok_or_else(|| "out of range".to_owned())
+        }
+        _ => Ok(DateTime {
+            local,
+            zone: Some(zone),
+        }),
+    }
+}
+
+/// What may follow a time, as written.
+enum Suffix {
+    /// Nothing: a local time.
+    Local,
+    /// `Z`, `±hh:mm` or `@zone`.
+    Zone(Zone),
+    /// `Z[zone id]` or `±hh:mm[zone id]`: an offset and the zone it must be an offset of (and
+    /// the text in brackets, for messages).
+    Both(FixedOffset, Zone, String),
 }
 
 /// Reads what may follow a time: nothing (a local time), `Z`, `±hh:mm` (either optionally
 /// followed by `[zone id]`), or `@zone id`. The cursor must then be at the end.
-fn zone_part(c: &mut Cursor<'_>, shape: &str) -> Result<Option<Zone>, String> {
+fn zone_part(c: &mut Cursor<'_>, shape: &str) -> Result<Suffix, String> {
     let Some(first) = c.peek() else {
-        return Ok(None);
+        return Ok(Suffix::Local);
     };
     let offset = match first {
         b'@' => {
             c.at += 1;
             let id = c.rest();
             c.at = c.bytes.len();
-            return zone(id).map(Some);
+            return zone(id).map(Suffix::Zone);
         }
         b'Z' | b'z' => {
             c.at += 1;
@@ -260,23 +289,23 @@ fn zone_part(c: &mut Cursor<'_>, shape: &str) -> Result<Option<Zone>, String> {
         }
         _ => return Err(shape.to_owned()),
     };
-    let mut found = Zone { offset, id: None };
     if c.eat(b'[') {
         let rest = c.rest();
         let Some(id) = rest.strip_suffix(']') else {
             return Err(shape.to_owned());
         };
         c.at = c.bytes.len();
-        let named = zone(id)?;
-        if named.offset != offset {
-            return Err(format!("offset does not match the zone `{}`", clip(id)));
-        }
-        found.id = named.id;
+        return zone(id).map(|named| Suffix::Both(offset, named, id.to_owned()));
     }
     if !c.done() {
         return Err(shape.to_owned());
     }
-    Ok(Some(found))
+    Ok(Suffix::Zone(Zone { offset, id: None }))
+}
+
+/// Why an offset written before `[id]` is refused.
+fn mismatch(id: &str) -> String {
+    format!("offset does not match the zone `{}`", clip(id))
 }
 
 /// A date `YYYY-MM-DD` (DMN 1.3 §10.3.4.1 `date(from)`; the year may have up to 9 digits and a
@@ -306,7 +335,15 @@ pub(crate) fn time(text: &str) -> Result<Time, String> {
     let mut c = Cursor::new(text);
     c.eat(b'T');
     let time = time_part(&mut c, TIME_SHAPE)?;
-    let zone = zone_part(&mut c, TIME_SHAPE)?;
+    let zone = match zone_part(&mut c, TIME_SHAPE)? {
+        Suffix::Local => None,
+        Suffix::Zone(zone) => Some(zone),
+        Suffix::Both(offset, named, _) if named.offset == offset => Some(Zone {
+            offset,
+            id: named.id,
+        }),
+        Suffix::Both(_, _, id) => return Err(mismatch(&id)),
+    };
     Ok(Time { time, zone })
 }
 
@@ -327,12 +364,27 @@ pub(crate) fn date_time(text: &str) -> Result<DateTime, String> {
     if !c.eat(b'T') {
         return Err(DATE_TIME_SHAPE.to_owned());
     }
-    let time = time_part(&mut c, DATE_TIME_SHAPE)?;
-    let zone = zone_part(&mut c, DATE_TIME_SHAPE)?;
-    Ok(DateTime {
-        local: date.and_time(time),
-        zone,
-    })
+    let local = date.and_time(time_part(&mut c, DATE_TIME_SHAPE)?);
+    match zone_part(&mut c, DATE_TIME_SHAPE)? {
+        Suffix::Local => Ok(DateTime { local, zone: None }),
+        Suffix::Zone(zone) => place(local, zone),
+        Suffix::Both(offset, named, id) => {
+            let valid = match zones::rules(&named) {
+                Some(tz) => zones::offsets_at(local, tz).contains(&offset),
+                None => named.offset == offset,
+            };
+            if !valid {
+                return Err(mismatch(&id));
+            }
+            Ok(DateTime {
+                local,
+                zone: Some(Zone {
+                    offset,
+                    id: named.id,
+                }),
+            })
+        }
+    }
 }
 
 /// A duration `[-]P[nY][nM][nD][T[nH][nM][n[.f]S]]`: with years and months only, a years and

@@ -232,4 +232,25 @@ fn variables_named_like_functions() {
             ("{f: function(x) x + 1, r: f(count)}.r", "6"),
         ],
     );
+    // Without such variables the names are missing variables, null (docs.camunda.io FEEL
+    // variables: "If no variable exists with the given name, the expression returns null"),
+    // not the built-in functions; a call still finds the function.
+    check_vars(
+        &[("items", list([n(1), n(2)]))],
+        &[
+            ("count = null", "true"),
+            ("is defined(count)", "false"),
+            ("if sum = null then 0 else sum", "0"),
+            ("date", "null"),
+            ("string = null", "true"),
+            ("max instance of function", "false"),
+            ("get or else(count, 9)", "9"),
+            ("count(items) + sum(items)", "5"),
+            ("string join([\"a\"], \"\")", "\"a\""),
+        ],
+    );
+    let e = run("count", &[], BUDGET).expect("evaluates");
+    assert_eq!(e.note.as_deref(), Some("no variable `count`"));
+    // The variable is free, so the engine passes it in.
+    assert_eq!(super::variables("count = null"), ["count"]);
 }

@@ -57,6 +57,21 @@ fn syntax_errors_are_positioned() {
         ("x = = 1", 4),
         // feel.md §3.2: `= =` with the marker stripped.
         ("=", 0),
+        // docs.camunda.io FEEL unary-tests, Expressions: `?` is the input value of a test;
+        // outside the tests after `in` it stands for nothing.
+        ("? > 3", 0),
+        ("x + ?", 4),
+        ("? in [1, 2]", 0),
+        ("contains(?, \"a\")", 9),
+        ("for ? in [1] return 1", 4),
+        ("x in [1] and ? > 1", 13),
+        ("{?: 1}", 1),
+        ("a.?", 2),
+        ("x in f(?: 1)", 8),
+        ("x in not()", 9),
+        ("x in not(1, )", 12),
+        // A type name Camunda does not document.
+        ("x instance of datetime", 14),
         // More incomplete or misplaced tokens.
         ("1 +", 3),
         (")", 0),
@@ -101,6 +116,18 @@ fn syntax_error_messages() {
         p.message
     );
     assert_eq!(syntax_error("\"abc").text, "\"abc");
+    let p = syntax_error("? > 3");
+    assert!(
+        p.message.contains("`?`") && p.message.contains("after `in`"),
+        "the message says where `?` belongs: {}",
+        p.message
+    );
+    let p = syntax_error("d instance of datetime");
+    assert!(
+        p.message.contains("day-time-duration"),
+        "the message lists the type names: {}",
+        p.message
+    );
 }
 
 /// `problems()` reports what is wrong beyond syntax, once per cause.
@@ -115,22 +142,32 @@ fn load_time_problems() {
         ("not()", "not"),
         // The message names the unknown parameter or the expected ones.
         ("substring(string: \"a\", begin: 1)", "begin|start position"),
-        ("uuid()", "uuid"),
-        ("random number()", "random number"),
+        // The non-deterministic functions are refused as such, not as a name with a space.
+        ("uuid()", "`uuid()` is not deterministic"),
+        ("random number()", "`random number()` is not deterministic"),
+        ("random  number()", "`random number()` is not deterministic"),
+        (
+            "1 + random number() * 10",
+            "`random number()` is not deterministic",
+        ),
         ("date(\"2026-02-30\")", "2026-02-30"),
         ("duration(\"P1X\")", "P1X"),
         ("time(\"25:00:00\")", "25:00:00"),
         ("@\"2026-02-30\"", "2026-02-30"),
-        // Crate doc: "Zones are offsets, `Z` and `@UTC`; other zone ids are refused when the
-        // model loads."
+        // A zone id the time-zone database does not know is refused when the model loads.
         (
-            "date and time(\"2026-11-23T10:00:00@Europe/Paris\")",
-            "Europe/Paris",
+            "date and time(\"2026-11-23T10:00:00@Mars/Olympus\")",
+            "Mars/Olympus",
         ),
-        ("@\"2026-11-23T10:00:00@Europe/Paris\"", "Europe/Paris"),
-        ("time(\"10:00:00@Europe/Paris\")", "Europe/Paris"),
+        ("@\"2026-11-23T10:00:00@Mars/Olympus\"", "Mars/Olympus"),
+        ("time(\"10:00:00@Mars/Olympus\")", "Mars/Olympus"),
         // feel.md §6.4: invalid regexes in literal arguments.
         ("matches(\"a\", \"(\")", "("),
+        // The `regex` crate matches in linear time: no look-around, no back-references
+        // (Camunda's Java regex has both).
+        ("matches(\"ab\", \"a(?=b)\")", "look-around"),
+        ("replace(\"ab\", \"(?<!a)b\", \"c\")", "look-around"),
+        ("matches(\"aa\", \"(a)\\1\")", "backreferences"),
     ];
     let wrong: Vec<String> = rows
         .iter()
@@ -192,6 +229,9 @@ fn no_false_problems() {
         "matches(x, \"^a.c$\")",
         "for f in [1] return f",
         "not(true)",
+        "x in not(1, 2)",
+        "x in contains(?, \"a\")",
+        "for i in 1..3 return partial",
         "x",
     ] {
         assert_eq!(problems(text), Vec::<String>::new(), "`{text}`");
@@ -230,6 +270,16 @@ fn free_variables() {
         ("now()", &[]),
         ("\"literal\"", &[]),
         ("[1, 2, 3][item > 1]", &[]),
+        // docs.camunda.io FEEL control flow: `partial` is bound inside a `for` body only.
+        ("for i in 1..3 return partial[-1]", &[]),
+        ("for x in xs return count(partial) + y", &["xs", "y"]),
+        ("for x in partial return x", &["partial"]),
+        ("some x in xs satisfies partial", &["partial", "xs"]),
+        ("partial", &["partial"]),
+        // `?` is the tested value, not a variable; a built-in's name outside a call is one.
+        ("x in contains(?, y)", &["x", "y"]),
+        ("x in not(a, < b)", &["a", "b", "x"]),
+        ("count = null", &["count"]),
     ];
     let wrong: Vec<String> = rows
         .iter()

@@ -110,6 +110,10 @@ const TOKENS: &[&str] = &[
     "0.0000000000000000000000000000001",
     "-99999999999",
     "?",
+    "not(",
+    "partial",
+    "day-time-duration",
+    "random number(",
     "é",
     "\u{10348}",
     "\u{0}",
@@ -155,6 +159,9 @@ const SEEDS: &[&str] = &[
     "[{a: 1}, {b: 2}].a",
     "string join(for i in items return string(i), \", \")",
     "n in [1..5] and x in (\"a\", \"b\") and 5 in (< 10)",
+    "x in not(\"a\", < 3) or n in (? > 2, contains(?, \"b\"))",
+    "for i in 1..5 return if i <= 2 then 1 else partial[-1] + partial[-2]",
+    "d instance of day-time-duration or d instance of date time",
     "sort([3,1,2], function(a, b) a < b)[-1]",
     "\"multi\nline\" + \"\\u00e9\"",
     "now() - @\"2026-01-01T00:00:00Z\" > duration(\"P1D\")",
@@ -384,6 +391,9 @@ fn loops_stop_on_the_budget() {
         "for i in 1..300, j in 1..300 return i * j",
         "count(for i in 1..100000000 return i)",
         "string join(for i in 1..100000 return \"x\")",
+        // `partial` copies the values so far each time: quadratic, so bounded early.
+        "for i in 1..100000000 return partial",
+        "for i in 1..1000 return count(partial)",
     ] {
         let started = std::time::Instant::now();
         let result = run(text, &[], BUDGET).map(|e| e.value.to_string());
@@ -414,6 +424,20 @@ fn default_budget_boundary() {
     // A smaller budget stops earlier.
     let result = run("count(for i in 1..1000 return i)", &[], 100).map(|e| e.value.to_string());
     assert!(matches!(result, Err(Stop::Budget(_))), "{result:?}");
+    // docs/feel.md, "Bounded and total": a body that does a little work runs out at about
+    // 20,000 items; one that reads `partial` (a copy of the values so far) at about 300.
+    let result = run("count(for i in 1..19000 return i * 2)", &[], BUDGET);
+    assert!(result.is_ok(), "{result:?}");
+    let result = run("count(for i in 1..21000 return i * 2)", &[], BUDGET);
+    assert!(matches!(result, Err(Stop::Budget(_))), "{result:?}");
+    let result = run("count(for i in 1..300 return count(partial))", &[], BUDGET)
+        .map(|e| e.value.to_string());
+    assert_eq!(result, Ok("300".to_owned()));
+    let result = run("count(for i in 1..500 return count(partial))", &[], BUDGET);
+    assert!(matches!(result, Err(Stop::Budget(_))), "{result:?}");
+    // Only a body that reads `partial` pays for it.
+    let result = run("count(for i in 1..10000 return i)", &[], BUDGET);
+    assert!(result.is_ok(), "{result:?}");
 }
 
 /// Recursion through functions defined in a context ends with `Stop::Depth` (or a null when
@@ -522,4 +546,27 @@ fn huge_literals() {
     );
     let name = "x".repeat(100_000);
     assert_eq!(outcome(&name, &[]), "null");
+}
+
+/// Values that nest copies of themselves double at every level; each read pays for the copy, so
+/// thirty levels (a billion values) stop on the budget instead of exhausting memory.
+#[test]
+fn self_doubling_values_stop_on_the_budget() {
+    let doubling = |level: &dyn Fn(usize) -> String| {
+        let mut text = String::from("{a0: [1]");
+        for i in 1..=30 {
+            text.push_str(&format!(", a{i}: {}", level(i - 1)));
+        }
+        text + "}.a0"
+    };
+    // Through a list literal, a built-in function and a function of the expression.
+    for text in [
+        doubling(&|p| format!("[a{p}, a{p}]")),
+        doubling(&|p| format!("append([], a{p}, a{p})")),
+        doubling(&|p| format!("(function(x) [x, x])(a{p})")),
+        doubling(&|p| format!("string(a{p}) + string(a{p})")),
+    ] {
+        let result = run(&text, &[], BUDGET);
+        assert!(matches!(result, Err(Stop::Budget(_))), "{text}: {result:?}");
+    }
 }

@@ -231,6 +231,50 @@ fn in_unary_tests() {
         ("\"b\" in (\"a\", \"b\")", "true"),
         // DMN §10.3.2.7: a range end may be any expression.
         ("5 in [1 + 1 .. 2 * 3]", "true"),
+        // docs.camunda.io FEEL unary-tests, Negation/not: "Negates a given unary-test
+        // expression … It returns true if the given unary-test evaluates to false."
+        ("\"valid\" in not(\"valid\")", "false"),
+        ("\"other\" in not(\"valid\")", "true"),
+        ("5 in not(4)", "true"),
+        ("5 in not(5)", "false"),
+        ("2 in not(2, 3)", "false"),
+        ("3 in not(2, 3)", "false"),
+        ("4 in not(2, 3)", "true"),
+        ("5 in not(< 3, > 10)", "true"),
+        ("11 in not(< 3, > 10)", "false"),
+        ("5 in not([1..5])", "false"),
+        ("6 in not([1..5])", "true"),
+        ("5 in not(4) and true", "true"),
+        // Negating a test that cannot tell is null, as the test itself is.
+        ("\"a\" in not(< 1)", "null"),
+        // docs.camunda.io FEEL unary-tests, Expressions: "The input value can be accessed in
+        // the expression by using the symbol `?`".
+        ("\"good day\" in contains(?, \"good\")", "true"),
+        ("\"bad day\" in contains(?, \"good\")", "false"),
+        (
+            "\"ops@camunda.com\" in ends with(?, \"@camunda.com\")",
+            "true",
+        ),
+        (
+            "\"ops@example.com\" in ends with(?, \"@camunda.com\")",
+            "false",
+        ),
+        ("5 in (? > 3)", "true"),
+        ("2 in (? > 3)", "false"),
+        ("12 in (< 5, ? > 10)", "true"),
+        ("3 in (< 5, ? > 10)", "true"),
+        ("7 in (< 5, ? > 10)", "false"),
+        ("7 in (odd(?), 4)", "true"),
+        ("[1, 2] in (count(?) = 2)", "true"),
+        ("5 in not(? > 3)", "false"),
+        ("1 in not(? > 3)", "true"),
+        ("4 in < ? + 1", "true"),
+        ("5 in (? in [1..10])", "true"),
+        // A `?` in a nested `in`'s tests is that `in`'s value (3), not the outer one.
+        ("true in (3 in (? = 3))", "true"),
+        // A test that uses `?` must give a boolean; a number is no answer.
+        ("5 in (? + 1)", "null"),
+        ("5 in (? + 1, 5)", "true"),
     ]);
     check_vars(
         &camunda_vars(),
@@ -241,6 +285,10 @@ fn in_unary_tests() {
             ("n in (< 5)", "true"),
             ("n in items", "true"),
             ("x in [\"a\", \"b\"]", "true"),
+            ("n in not(1, 2)", "true"),
+            ("x in not(\"a\")", "false"),
+            ("n in (? = n)", "true"),
+            ("items in (list contains(?, 2))", "true"),
         ],
     );
 }
@@ -277,6 +325,23 @@ fn instance_of() {
         ("time(\"10:00:00\") instance of time", "true"),
         ("now() instance of date and time", "true"),
         ("(function(x) x) instance of function", "true"),
+        // docs.camunda.io FEEL boolean expressions, Instance of: the type names `date time`,
+        // `day-time-duration`, `year-month-duration`.
+        ("now() instance of date time", "true"),
+        (
+            "date and time(\"2026-11-23T10:00:00Z\") instance of date time",
+            "true",
+        ),
+        ("date(\"2026-11-23\") instance of date time", "false"),
+        ("duration(\"PT4H\") instance of day-time-duration", "true"),
+        ("duration(\"P3M\") instance of day-time-duration", "false"),
+        ("duration(\"P3M\") instance of year-month-duration", "true"),
+        (
+            "duration(\"PT4H\") instance of year-month-duration",
+            "false",
+        ),
+        ("@\"P1D\" instance of day-time-duration and true", "true"),
+        ("date(\"2026-11-23\") instance of date", "true"),
     ]);
     check_vars(
         &camunda_vars(),
@@ -460,6 +525,59 @@ fn for_loops() {
         &[
             ("for x in items return x + 1", "[2, 3, 4]"),
             ("for i in 1..n return i", "[1, 2, 3]"),
+        ],
+    );
+}
+
+/// Inside a `for` body, `partial` is the list of the values so far (docs.camunda.io FEEL
+/// control flow, For loops: "While iterating over the list, the previous elements are
+/// assigned to the variable `partial`"), across every combination of several iterations.
+#[test]
+fn for_partial() {
+    check(&[
+        // docs.camunda.io FEEL control flow, For loops.
+        (
+            "for i in 1..10 return if (i <= 2) then 1 else partial[-1] + partial[-2]",
+            "[1, 1, 2, 3, 5, 8, 13, 21, 34, 55]",
+        ),
+        (
+            "for x in [\"a\",\"b\",\"c\"] return {value: x, index: count(partial) + 1}",
+            "[{value:\"a\", index:1}, {value:\"b\", index:2}, {value:\"c\", index:3}]",
+        ),
+        ("for x in [\"a\",\"b\"] return count(partial) + 1", "[1, 2]"),
+        ("for i in 1..3 return partial", "[[], [[]], [[], [[]]]]"),
+        (
+            "for x in [1,2], y in [3,4] return count(partial)",
+            "[0, 1, 2, 3]",
+        ),
+        (
+            "for i in 1..4 return if i = 1 then 1 else sum(partial) + i",
+            "[1, 3, 7, 15]",
+        ),
+        // A nested `for` has its own `partial`; its source sees the outer one.
+        (
+            "for i in 1..2 return for j in 1..2 return count(partial)",
+            "[[0, 1], [0, 1]]",
+        ),
+        (
+            "for i in 1..3 return for j in 0..count(partial) return j",
+            "[[0], [0, 1], [0, 1, 2]]",
+        ),
+        // A function defined in the body sees `partial` too.
+        (
+            "for i in 1..3 return (function() count(partial))()",
+            "[0, 1, 2]",
+        ),
+        // `some` and `every` have no `partial`; outside a `for` it is an ordinary name.
+        ("some i in [1, 2] satisfies partial = null", "true"),
+        ("partial", "null"),
+    ]);
+    check_vars(
+        &[("partial", n(7))],
+        &[
+            ("partial + 1", "8"),
+            ("for i in 1..2 return partial", "[[], [[]]]"),
+            ("for i in 1..2 return i + partial", "[null, null]"),
         ],
     );
 }
