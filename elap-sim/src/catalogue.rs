@@ -60,5 +60,14 @@ pub fn catalogue() -> Catalogue {
     Catalogue {
         server: SERVER.into(),
         actions: serde_json::from_value(actions).unwrap_or_default(),
+        // What `elap-sim` publishes on `tm/lander_sim/{power,thermal,comm}` (the executive
+        // checks system data against these before it reaches the mission).
+        telemetry: serde_json::from_value(json!({
+            "battery_soc_pct": "f64",
+            "battery_energy_wh": "f64",
+            "arm_temp_c": "f64",
+            "comm_window_open": "bool",
+        }))
+        .unwrap_or_default(),
     }
 }

@@ -62,10 +62,12 @@ async fn main() -> anyhow::Result<()> {
         .station
         .clone()
         .unwrap_or_else(|| format!("station-{}", std::process::id()));
+    let keys = cli.zenoh.keys()?;
+    let joined = format!("deployment {} (keys {}/…)", keys.deployment(), keys.root());
     let session = cli.zenoh.open(Role::Spoke).await?;
-    let (station, requests) =
-        Station::start(&session, cli.zenoh.keys()?, forms, id.clone(), store).await?;
-    say(&format!("ready ground {id}"));
+    let (station, requests) = Station::start(&session, keys, forms, id.clone(), store).await?;
+    // The startup line (`trace fly` waits for `ready`): who serves and where.
+    say(&format!("ready ground {id} — {joined}"));
     let serving = tokio::spawn(Arc::clone(&station).serve(requests, policy));
     if cli.interactive {
         let operator = cli

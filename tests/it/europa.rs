@@ -217,7 +217,7 @@ fn trace_fly_runs_the_mission_with_one_command_and_summarises_it() {
 
 /// One flight at a time: mission time runs on the wall clock at a high speed, so a flight
 /// competing for the CPU with another would see its lander age faster between steps.
-static FLIGHT: std::sync::Mutex<()> = std::sync::Mutex::new(());
+pub(crate) static FLIGHT: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
 /// Flies a named scenario with `trace fly`; returns the record's lines.
 fn scenario(name: &str) -> Vec<serde_json::Value> {

@@ -580,3 +580,96 @@ fn an_operator_answers_at_the_terminal_with_typed_fields() {
     tty.send_line("quit").expect("quit");
     tty.exp_eof().expect("the station leaves");
 }
+
+/// The liveliness tokens on `key` that `session` can find now (a query, answered when routing
+/// is done: no waiting on time).
+async fn tokens(session: &zenoh::Session, key: &str) -> Vec<String> {
+    let replies = session
+        .liveliness()
+        .get(key)
+        .await
+        .expect("liveliness query");
+    let mut found = Vec::new();
+    while let Ok(reply) = replies.recv_async().await {
+        if let Ok(sample) = reply.result() {
+            found.push(sample.key_expr().to_string());
+        }
+    }
+    found
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_station_of_another_deployment_is_never_offered_a_task() {
+    let dir = setup("ground-deployments", 1);
+    let hub = endpoint(port());
+    let answer = |operator: &str, approve: bool| {
+        format!(
+            "operator = \"{operator}\"\n[task.\"ground.approve_site\"]\nfixed = {{ approve = {approve} }}\n"
+        )
+    };
+    // A station of deployment B, up before the executive of deployment A on the same Zenoh
+    // network: were it offered the task, it would answer at once.
+    let mut other = Station::start(
+        &dir,
+        "bravo",
+        &answer("bob", false),
+        &["-e", &hub, "--deployment", "flight-b"],
+    );
+    assert!(
+        other.seen[0].contains("deployment flight-b (keys trace/flight-b/…)"),
+        "{:?}",
+        other.seen
+    );
+    let mut exec = executive(&dir, &["-l", &hub, "--deployment", "flight-a"]);
+    let opened = crate::durability::until_record(
+        exec.0.as_mut().expect("running"),
+        &dir.join("store/record.jsonl"),
+        |t| t.contains(r#""kind":"user_task_opened""#),
+    );
+    assert!(opened, "the executive ended before opening the task");
+    // The executive of A is on the network: found under A's keys, not under B's.
+    let session = args(&[], std::slice::from_ref(&hub))
+        .open(connector_zenoh::Role::Spoke)
+        .await
+        .expect("session");
+    let (a, b) = (
+        Keys::deployed("trace", "flight-a").expect("keys"),
+        Keys::deployed("trace", "flight-b").expect("keys"),
+    );
+    seen(&session, &a.alive("exec", "*")).await;
+    assert_eq!(tokens(&session, &a.alive("exec", "*")).await.len(), 1);
+    assert!(tokens(&session, &b.alive("exec", "*")).await.is_empty());
+    assert_eq!(
+        tokens(&session, &b.alive("ground", "*")).await,
+        ["trace/flight-b/alive/ground/bravo"]
+    );
+    // Nothing is open at B's station; the task waits in A for a station of A.
+    let replies = session
+        .get(b.goal("ground", "ground.approve_site", Channel::State, "*"))
+        .await
+        .expect("state query");
+    assert!(
+        replies.recv_async().await.is_err(),
+        "B's station holds a goal"
+    );
+    assert!(answered(&dir).is_empty());
+    // A station of A is offered the task and answers it; the mission ends.
+    let mut own = Station::start(
+        &dir,
+        "alpha",
+        &answer("amy", true),
+        &["-e", &hub, "--deployment", "flight-a"],
+    );
+    own.expect(|l| l.starts_with("task 1 open:"));
+    exits(exec);
+    let answers = answered(&dir);
+    assert_eq!(answers.len(), 1, "{answers:#?}");
+    assert_eq!(answers[0]["operator"], "amy@alpha");
+    // B's station, everything it said until it was stopped: never a task.
+    let _ = (other.child.kill(), other.child.wait());
+    while let Ok(line) = other.lines.recv_timeout(EVENT) {
+        other.seen.push(line);
+    }
+    assert_eq!(other.seen.len(), 1, "{:#?}", other.seen);
+    session.close().await.expect("close");
+}

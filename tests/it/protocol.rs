@@ -63,6 +63,7 @@ fn catalogue(server: &str, actions: &[&str]) -> Catalogue {
     Catalogue {
         server: server.into(),
         actions: actions.iter().map(|a| spec(a)).collect(),
+        telemetry: BTreeMap::new(),
     }
 }
 
@@ -126,6 +127,7 @@ fn connector_config(server: &str, grace_ms: u64) -> ConnectorConfig {
         grace_ms,
         clock: false,
         answers: false,
+        limits: Default::default(),
     }
 }
 
@@ -598,7 +600,9 @@ async fn garbage_on_any_key_is_refused_and_both_sides_keep_working() {
                 let err = reply.result().expect_err("garbage goal refused");
                 let text = String::from_utf8_lossy(&err.payload().to_bytes()).into_owned();
                 assert!(
-                    text.starts_with("malformed goal payload on trace/act/lander/dig/goal/m.9.9.9"),
+                    text.starts_with(
+                        "malformed goal payload on trace/default/act/lander/dig/goal/m.9.9.9"
+                    ),
                     "{text}"
                 );
             }
@@ -638,4 +642,512 @@ async fn garbage_on_any_key_is_refused_and_both_sides_keep_working() {
     c.execute(command("m.1.1.1", "dig", json!({"site": {"id": 1}})));
     let done = expect(&mut rx, |r| matches!(r, Report::Done { .. })).await;
     assert!(matches!(done, Report::Done { goal_id, .. } if goal_id == "m.1.1.1"));
+}
+
+/// Servers that misbehave on purpose, written by hand on raw Zenoh: every wait of the
+/// connector has an end with a declared code, and whatever it refuses is counted (and logged)
+/// instead of reaching the mission.
+mod misbehaving {
+    use super::*;
+    use connector_api::contract::{Dropped, Limits};
+    use tokio::sync::watch;
+    use zenoh::Wait;
+    use zenoh::liveliness::LivelinessToken;
+    use zenoh::query::{Query, Queryable};
+
+    /// `lander` serving `dig` by hand: the catalogue is served and the action announced, and
+    /// every goal and state query is handed to the test, which answers it — or not.
+    struct RawServer {
+        goals: mpsc::UnboundedReceiver<Query>,
+        states: mpsc::UnboundedReceiver<Query>,
+        session: Session,
+        _token: LivelinessToken,
+        _queryables: Vec<Queryable<()>>,
+    }
+
+    impl RawServer {
+        async fn start(session: &Session, catalogue: Catalogue) -> RawServer {
+            let k = Keys::default();
+            let body = serde_json::to_vec(&catalogue).expect("catalogue");
+            let mut queryables = vec![
+                session
+                    .declare_queryable(k.catalogue("lander"))
+                    .callback(move |q| {
+                        let _ = q.reply(q.key_expr().clone(), body.clone()).wait();
+                    })
+                    .await
+                    .expect("catalogue queryable"),
+            ];
+            let forward = |channel| {
+                let (tx, rx) = mpsc::unbounded_channel();
+                let q = session
+                    .declare_queryable(k.goal_queryable("lander", "dig", channel))
+                    .complete(true)
+                    .callback(move |q| {
+                        let _ = tx.send(q);
+                    });
+                (q, rx)
+            };
+            let (goal_q, goals) = forward(Channel::Goal);
+            let (state_q, states) = forward(Channel::State);
+            queryables.push(goal_q.await.expect("goal queryable"));
+            queryables.push(state_q.await.expect("state queryable"));
+            let token = session
+                .liveliness()
+                .declare_token(k.alive_action("lander", "dig"))
+                .await
+                .expect("token");
+            RawServer {
+                goals,
+                states,
+                session: session.clone(),
+                _token: token,
+                _queryables: queryables,
+            }
+        }
+
+        async fn publish(&self, channel: Channel, body: serde_json::Value) {
+            self.session
+                .put(
+                    Keys::default().stream("lander", "dig", channel),
+                    body.to_string(),
+                )
+                .await
+                .expect("put");
+        }
+    }
+
+    async fn reply(q: &Query, body: serde_json::Value) {
+        q.reply(q.key_expr().clone(), body.to_string())
+            .await
+            .expect("reply");
+    }
+
+    /// The catalogue of `lander`: `dig` with a result and a typed feedback field, and typed
+    /// telemetry.
+    fn lander() -> Catalogue {
+        serde_json::from_value(json!({
+            "server": "lander",
+            "actions": [{
+                "name": "dig",
+                "goal": {"site": {"id": "int"}},
+                "result": {"depth_cm": "f64"},
+                "feedback": {"depth_cm": "f64"},
+                "errors": {"TOOL_STUCK": "the tool is stuck"}
+            }],
+            "telemetry": {"battery_soc_pct": "f64"}
+        }))
+        .expect("catalogue")
+    }
+
+    async fn limited(
+        session: &Session,
+        limits: Limits,
+        query_timeout: Duration,
+        clock: bool,
+    ) -> (ZenohConnector, mpsc::UnboundedReceiver<Report>) {
+        let (tx, rx) = mpsc::unbounded_channel();
+        let mut config = connector_config("lander", 60_000);
+        config.clock = clock;
+        let mut c = ZenohConnector::with_limits(
+            session,
+            ClientOptions {
+                keys: Keys::default(),
+                config,
+                client: "test-exec".into(),
+                mission: "m".into(),
+                catalogue_wait: Duration::from_secs(20),
+                query_timeout,
+            },
+            limits,
+            tx,
+        )
+        .await
+        .expect("connector");
+        c.catalogue().await.expect("catalogue");
+        (c, rx)
+    }
+
+    fn dig(goal_id: &str) -> Command {
+        command(goal_id, "dig", json!({"site": {"id": 1}}))
+    }
+
+    /// The next report that ends a goal.
+    async fn outcome(rx: &mut mpsc::UnboundedReceiver<Report>) -> Report {
+        expect(rx, |r| {
+            matches!(
+                r,
+                Report::Done { .. } | Report::Failed { .. } | Report::Canceled { .. }
+            )
+        })
+        .await
+    }
+
+    fn failed(r: &Report) -> (&str, &str, &str) {
+        match r {
+            Report::Failed {
+                goal_id,
+                code,
+                message,
+            } => (goal_id, code, message),
+            other => panic!("expected a failure, got {other:?}"),
+        }
+    }
+
+    /// Waits until the connector has dropped `n` messages for `reason`.
+    async fn dropped(drops: &mut watch::Receiver<Dropped>, reason: &str, n: u64) -> Dropped {
+        let found = tokio::time::timeout(
+            Duration::from_secs(30),
+            drops.wait_for(|d| d.by_reason.get(reason).copied().unwrap_or(0) >= n),
+        )
+        .await;
+        found
+            .expect("the drops were counted")
+            .expect("connector alive")
+            .clone()
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_server_that_never_answers_a_goal_ends_it_with_not_accepted() {
+        let p = endpoint(port());
+        let sys = open(std::slice::from_ref(&p), &[]).await;
+        let exec = open(&[], &[p]).await;
+        let mut raw = RawServer::start(&sys, lander()).await;
+        let limits = Limits {
+            accept_within_ms: 2_000,
+            retry_first_ms: 50,
+            retry_max_ms: 400,
+            ..Limits::default()
+        };
+        let (mut c, mut rx) =
+            limited(&exec, limits.clone(), Duration::from_millis(300), false).await;
+        c.execute(dig("m.1.1.1"));
+        // The server holds every goal query and never replies.
+        let mut held = vec![raw.goals.recv().await.expect("the goal arrives")];
+        let r = outcome(&mut rx).await;
+        let (goal_id, code, message) = failed(&r);
+        assert_eq!((goal_id, code), ("m.1.1.1", "NOT_ACCEPTED"));
+        assert!(
+            message.contains("did not accept the goal within 2000 ms"),
+            "{message}"
+        );
+        while let Ok(q) = raw.goals.try_recv() {
+            held.push(q);
+        }
+        // Re-sent with backoff, not in a tight loop: never more than the schedule allows.
+        assert!(
+            held.len() <= limits.max_sends() as usize,
+            "{} sends, the schedule allows {}",
+            held.len(),
+            limits.max_sends()
+        );
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_terminal_status_without_its_result_ends_with_protocol_error() {
+        let p = endpoint(port());
+        let sys = open(std::slice::from_ref(&p), &[]).await;
+        let exec = open(&[], &[p]).await;
+        let mut raw = RawServer::start(&sys, lander()).await;
+        let limits = Limits {
+            retry_first_ms: 20,
+            unreadable_max: 3,
+            ..Limits::default()
+        };
+        let (mut c, mut rx) = limited(&exec, limits, Duration::from_secs(5), false).await;
+        let mut drops = c.drops();
+        c.execute(dig("m.1.1.1"));
+        // The goal reply and every state reply say SUCCEEDED, and never carry the result.
+        let q = raw.goals.recv().await.expect("goal");
+        reply(&q, json!({"goal_id": "m.1.1.1", "status": "SUCCEEDED"})).await;
+        let answer_states = tokio::spawn(async move {
+            let mut asked = 0;
+            while let Some(q) = raw.states.recv().await {
+                asked += 1;
+                reply(
+                    &q,
+                    json!({"goal_id": "m.1.1.1", "status": "SUCCEEDED", "seq": 3}),
+                )
+                .await;
+            }
+            asked
+        });
+        let r = outcome(&mut rx).await;
+        let (goal_id, code, message) = failed(&r);
+        assert_eq!((goal_id, code), ("m.1.1.1", "PROTOCOL_ERROR"));
+        assert!(message.contains("without its result"), "{message}");
+        assert!(message.starts_with("3 answers of `lander`"), "{message}");
+        dropped(&mut drops, "unreadable_reply", 3).await;
+        drop(c);
+        answer_states.abort();
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_result_that_is_not_terminal_is_refused_and_the_goal_keeps_waiting() {
+        let p = endpoint(port());
+        let sys = open(std::slice::from_ref(&p), &[]).await;
+        let exec = open(&[], &[p]).await;
+        let mut raw = RawServer::start(&sys, lander()).await;
+        let limits = Limits {
+            retry_first_ms: 20,
+            ..Limits::default()
+        };
+        let (mut c, mut rx) = limited(&exec, limits, Duration::from_secs(5), false).await;
+        let mut drops = c.drops();
+        c.execute(dig("m.1.1.1"));
+        let q = raw.goals.recv().await.expect("goal");
+        reply(&q, json!({"goal_id": "m.1.1.1", "status": "ACCEPTED"})).await;
+        expect(&mut rx, |r| matches!(r, Report::Accepted { .. })).await;
+        raw.publish(
+            Channel::Result,
+            json!({"goal_id": "m.1.1.1", "status": "EXECUTING", "outputs": {}}),
+        )
+        .await;
+        dropped(&mut drops, "invalid_status", 1).await;
+        // Refused: the connector asks for the goal's state, which says it still runs.
+        let q = raw.states.recv().await.expect("the server is asked again");
+        reply(
+            &q,
+            json!({"goal_id": "m.1.1.1", "status": "EXECUTING", "seq": 2}),
+        )
+        .await;
+        raw.publish(
+            Channel::Result,
+            json!({"goal_id": "m.1.1.1", "status": "SUCCEEDED", "outputs": {"depth_cm": 3.5}}),
+        )
+        .await;
+        let r = outcome(&mut rx).await;
+        assert_eq!(
+            r,
+            Report::Done {
+                goal_id: "m.1.1.1".into(),
+                outputs: json!({"depth_cm": 3.5})
+                    .as_object()
+                    .cloned()
+                    .unwrap_or_default()
+            }
+        );
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn results_end_goals_with_declared_codes() {
+        let p = endpoint(port());
+        let sys = open(std::slice::from_ref(&p), &[]).await;
+        let exec = open(&[], &[p]).await;
+        let mut raw = RawServer::start(&sys, lander()).await;
+        let (mut c, mut rx) =
+            limited(&exec, Limits::default(), Duration::from_secs(5), false).await;
+        let results = [
+            (
+                "m.1.1.1",
+                json!({"status": "REJECTED", "error": {"code": "X", "message": "arm busy"}}),
+            ),
+            ("m.1.2.1", json!({"status": "ABORTED"})),
+            ("m.1.3.1", json!({"status": "SUCCEEDED"})),
+            (
+                "m.1.4.1",
+                json!({"status": "ABORTED", "error": {"code": "TOOL_STUCK"}}),
+            ),
+        ];
+        for (goal_id, result) in &results {
+            c.execute(dig(goal_id));
+            let q = raw.goals.recv().await.expect("goal");
+            reply(&q, json!({"goal_id": goal_id, "status": "ACCEPTED"})).await;
+            expect(
+                &mut rx,
+                |r| matches!(r, Report::Accepted { goal_id: g } if g == goal_id),
+            )
+            .await;
+            let mut body = result.clone();
+            body["goal_id"] = json!(goal_id);
+            raw.publish(Channel::Result, body).await;
+            let r = outcome(&mut rx).await;
+            let (id, code, message) = failed(&r);
+            assert_eq!(id, *goal_id);
+            match *goal_id {
+                // §9: REJECTED is the error `REJECTED`, whatever code the server wrote.
+                "m.1.1.1" => assert_eq!((code, message), ("REJECTED", "arm busy")),
+                "m.1.2.1" => {
+                    assert_eq!(code, "ABORTED");
+                    assert!(message.contains("without an error code"), "{message}");
+                }
+                // No `outputs` although the catalogue declares `depth_cm`: named.
+                "m.1.3.1" => {
+                    assert_eq!(code, "TYPE_MISMATCH");
+                    assert!(message.contains("`depth_cm` (f64)"), "{message}");
+                }
+                _ => assert_eq!(code, "TOOL_STUCK"),
+            }
+        }
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn mistyped_feedback_never_reaches_the_mission() {
+        let p = endpoint(port());
+        let sys = open(std::slice::from_ref(&p), &[]).await;
+        let exec = open(&[], &[p]).await;
+        let mut raw = RawServer::start(&sys, lander()).await;
+        let (mut c, mut rx) =
+            limited(&exec, Limits::default(), Duration::from_secs(5), false).await;
+        let mut drops = c.drops();
+        c.execute(dig("m.1.1.1"));
+        let q = raw.goals.recv().await.expect("goal");
+        reply(&q, json!({"goal_id": "m.1.1.1", "status": "ACCEPTED"})).await;
+        expect(&mut rx, |r| matches!(r, Report::Accepted { .. })).await;
+        for bad in [
+            json!({"goal_id": "m.1.1.1", "progress_pct": 10.0, "fields": {"depth_cm": "high"}}),
+            json!({"goal_id": "m.1.1.1", "fields": {"depth_cm": null}}),
+            json!({"goal_id": "m.1.1.1", "fields": {"depth_cm": [1, 2]}}),
+            json!({"goal_id": "m.1.1.1", "fields": {"colour": "red"}}),
+            json!({"goal_id": "m.1.1.1", "progress_pct": 250.0}),
+        ] {
+            raw.publish(Channel::Feedback, bad).await;
+        }
+        raw.publish(
+            Channel::Feedback,
+            json!({"goal_id": "m.1.1.1", "progress_pct": 20.0, "fields": {"depth_cm": 4.1}}),
+        )
+        .await;
+        // Samples on one key arrive in order: the first feedback delivered is the good one.
+        let fb = expect(&mut rx, |r| matches!(r, Report::Feedback { .. })).await;
+        assert_eq!(
+            fb,
+            Report::Feedback {
+                goal_id: "m.1.1.1".into(),
+                progress_pct: Some(20.0),
+                fields: json!({"depth_cm": 4.1})
+                    .as_object()
+                    .cloned()
+                    .unwrap_or_default()
+            }
+        );
+        assert_eq!(
+            dropped(&mut drops, "mistyped", 5).await.by_reason["mistyped"],
+            5
+        );
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn unknown_duplicate_and_garbage_results_are_counted() {
+        let p = endpoint(port());
+        let sys = open(std::slice::from_ref(&p), &[]).await;
+        let exec = open(&[], &[p]).await;
+        let mut raw = RawServer::start(&sys, lander()).await;
+        let (mut c, mut rx) =
+            limited(&exec, Limits::default(), Duration::from_secs(5), false).await;
+        let mut drops = c.drops();
+        let result =
+            json!({"goal_id": "m.1.1.1", "status": "SUCCEEDED", "outputs": {"depth_cm": 1.0}});
+        c.execute(dig("m.1.1.1"));
+        let q = raw.goals.recv().await.expect("goal");
+        reply(&q, json!({"goal_id": "m.1.1.1", "status": "ACCEPTED"})).await;
+        expect(&mut rx, |r| matches!(r, Report::Accepted { .. })).await;
+        raw.publish(Channel::Result, result.clone()).await;
+        assert!(matches!(outcome(&mut rx).await, Report::Done { .. }));
+        // Another executive's goal is none of our business; ours, never sent, is unknown.
+        raw.publish(
+            Channel::Result,
+            json!({"goal_id": "other.1.1.1", "status": "SUCCEEDED", "outputs": {}}),
+        )
+        .await;
+        raw.publish(
+            Channel::Result,
+            json!({"goal_id": "m.9.9.9", "status": "SUCCEEDED", "outputs": {}}),
+        )
+        .await;
+        raw.publish(Channel::Result, result).await;
+        raw.session
+            .put(
+                Keys::default().stream("lander", "dig", Channel::Result),
+                "{",
+            )
+            .await
+            .expect("put");
+        let d = dropped(&mut drops, "garbage", 1).await;
+        assert_eq!(d.by_reason.get("unknown_goal"), Some(&1), "{d:?}");
+        assert_eq!(d.by_reason.get("duplicate"), Some(&1), "{d:?}");
+        assert_eq!(d.total, 3, "{d:?}");
+        assert_eq!(c.dropped(), d);
+        assert!(rx.try_recv().is_err(), "nothing reached the mission");
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn mistyped_telemetry_and_implausible_clock_reports_are_refused() {
+        let p = endpoint(port());
+        let sys = open(std::slice::from_ref(&p), &[]).await;
+        let exec = open(&[], &[p]).await;
+        let raw = RawServer::start(&sys, lander()).await;
+        let (c, mut rx) = limited(&exec, Limits::default(), Duration::from_secs(5), true).await;
+        let mut drops = c.drops();
+        let k = Keys::default();
+        let tm = |channel: &str, body: serde_json::Value| {
+            raw.session
+                .put(k.telemetry("lander", channel), body.to_string())
+        };
+        for bad in [json!("high"), json!(null), json!([1, 2])] {
+            tm(
+                "power",
+                json!({"mission_ms": 5, "values": {"battery_soc_pct": bad}}),
+            )
+            .await
+            .expect("put");
+        }
+        tm(
+            "power",
+            json!({"mission_ms": 5, "values": {"battery_soc_pct": 81.5}}),
+        )
+        .await
+        .expect("put");
+        let data = expect(&mut rx, |r| matches!(r, Report::Data { .. })).await;
+        assert_eq!(
+            data,
+            Report::Data {
+                key: "battery_soc_pct".into(),
+                value: json!(81.5)
+            }
+        );
+        dropped(&mut drops, "mistyped", 3).await;
+        // The clock: the first report is believed; an hour ahead and backwards are not; a
+        // report 100 ms on (well within a second of slack at speed 1) is.
+        let start = 1_795_430_254_329_i64;
+        for (mission_ms, speed) in [
+            (start, 1.0),
+            (start + 3_600_000, 1.0),
+            (start - 1_000, 1.0),
+            (start + 100, f64::NAN),
+            (start + 100, 1.0),
+        ] {
+            let speed = if speed.is_nan() {
+                json!("fast")
+            } else {
+                json!(speed)
+            };
+            tm(
+                "clock",
+                json!({"mission_ms": mission_ms, "values": {"speed": speed}}),
+            )
+            .await
+            .expect("put");
+        }
+        let first = expect(&mut rx, |r| matches!(r, Report::Clock { .. })).await;
+        assert_eq!(
+            first,
+            Report::Clock {
+                mission_ms: start,
+                speed: 1.0
+            }
+        );
+        let next = expect(&mut rx, |r| matches!(r, Report::Clock { .. })).await;
+        assert_eq!(
+            next,
+            Report::Clock {
+                mission_ms: start + 100,
+                speed: 1.0
+            }
+        );
+        assert_eq!(
+            dropped(&mut drops, "implausible_clock", 3).await.by_reason["implausible_clock"],
+            3
+        );
+    }
 }

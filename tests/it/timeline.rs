@@ -1,7 +1,7 @@
 //! The timeline page in a real browser: `trace timeline` turns a record (with a failure, a
 //! boundary event, a reboot, a ground answer and battery data) into one HTML file, headless
-//! Chromium renders it offline, and the DOM has the expected lanes, bars and markers; a
-//! screenshot is saved beside it.
+//! Chromium renders it offline, and the DOM has the expected lanes, bars, markers and one
+//! battery plot; a screenshot is saved beside it.
 
 use std::process::Command;
 
@@ -67,7 +67,7 @@ fn the_timeline_renders_in_headless_chromium() {
             .args(extra)
             .arg(format!("file://{}", page.display()))
             .output()
-            .expect("chromium runs (Debian package `chromium`, installed by .ci/run)")
+            .expect("chromium runs (Debian package `chromium`, installed by scripts/test)")
     };
     let dom = chromium(&["--dump-dom"]);
     let dom = String::from_utf8_lossy(&dom.stdout);
@@ -104,6 +104,12 @@ fn the_timeline_renders_in_headless_chromium() {
     }
     assert!(dom.contains("answered by alice"));
     assert!(dom.contains(r#"data-series="battery state of charge (%)""#));
+    // The battery, read by a task and reported as system data, is one plot, not two.
+    assert_eq!(
+        dom.matches(r#"class="plot""#).count(),
+        1,
+        "one plotted series:\n{dom}"
+    );
     let shot = dir.join("timeline.png");
     chromium(&[&format!("--screenshot={}", shot.display())]);
     let png = std::fs::read(&shot).expect("screenshot written");

@@ -3,6 +3,7 @@
 //! verdicts and readable BPMN counterexamples; the Europa mission translates and verifies.
 
 use std::collections::BTreeMap;
+use std::path::PathBuf;
 use std::process::Command;
 
 use mission_tests::{bin, repo};
@@ -151,6 +152,13 @@ fn abort(by_signal: bool) -> String {
 
 /// `trace verify --json` on `text`; the exit code and each property's report by name.
 fn verify(name: &str, text: &str) -> (i32, BTreeMap<String, Value>) {
+    let (code, props, _) = verify_in(name, text);
+    (code, props)
+}
+
+/// As [`verify`], also with the work directory the report names (the default one: outside the
+/// model's folder, which is left holding only the model).
+fn verify_in(name: &str, text: &str) -> (i32, BTreeMap<String, Value>, PathBuf) {
     let dir = tempdir(&format!("verify-{name}"));
     let file = dir.join(format!("{name}.bpmn"));
     std::fs::write(&file, text).expect("model");
@@ -173,7 +181,23 @@ fn verify(name: &str, text: &str) -> (i32, BTreeMap<String, Value>) {
         .iter()
         .map(|p| (p["name"].as_str().expect("name").to_owned(), p.clone()))
         .collect();
-    (out.status.code().unwrap_or(-1), props)
+    let work = PathBuf::from(report["dir"].as_str().expect("the work directory"));
+    assert!(
+        !work.starts_with(&dir),
+        "{name}: the work files go outside the model's folder, not to {}",
+        work.display()
+    );
+    let beside: Vec<_> = std::fs::read_dir(&dir)
+        .expect("model folder")
+        .flatten()
+        .map(|e| e.file_name())
+        .collect();
+    assert_eq!(
+        beside,
+        [std::ffi::OsString::from(format!("{name}.bpmn"))],
+        "{name}: nothing is written beside the model"
+    );
+    (out.status.code().unwrap_or(-1), props, work)
 }
 
 fn verdicts(props: &BTreeMap<String, Value>) -> BTreeMap<&str, &str> {
@@ -292,17 +316,26 @@ fn a_lost_signal_is_found_and_a_level_triggered_abort_holds() {
 }
 
 /// The Europa mission verifies with its requirements file: every built-in property and every
-/// requirement holds.
+/// requirement holds; the work files go outside the repository (the shipped mission's folder
+/// stays clean).
 #[test]
 fn the_europa_mission_verifies() {
     let out = Command::new(bin("trace"))
         .arg("verify")
         .arg(repo().join("deploy/missions/europa-bsm1.bpmn"))
-        .arg("--dir")
-        .arg(tempdir("verify-europa"))
         .output()
         .expect("trace verify runs");
     let text = String::from_utf8_lossy(&out.stdout);
+    let work = text
+        .lines()
+        .find_map(|l| l.strip_prefix("work files (PROMELA, pan's output, trails): "))
+        .unwrap_or_else(|| panic!("the work directory is named: {text}"));
+    let work = std::path::Path::new(work);
+    assert!(
+        work.join("safety/mission.pml").exists() && !work.starts_with(repo()),
+        "{}: the work files go outside the repository",
+        work.display()
+    );
     assert!(
         text.contains(" with "),
         "the requirements beside the model are read: {text}"
@@ -347,7 +380,7 @@ fn a_flaw_seeded_into_europa_is_found_with_a_readable_counterexample() {
         1,
     );
     assert_ne!(seeded, text, "the flaw is seeded");
-    let (code, props) = verify("europa-seeded", &seeded);
+    let (code, props, work) = verify_in("europa-seeded", &seeded);
     assert_eq!(code, 1);
     let v = verdicts(&props);
     assert_eq!(v["no_deadlock"], "violated", "{v:?}");
@@ -374,10 +407,6 @@ fn a_flaw_seeded_into_europa_is_found_with_a_readable_counterexample() {
         "{path:?}"
     );
     // The same story as an execution record, drawn by the timeline viewer.
-    let work = std::env::temp_dir().join(format!(
-        "trace-it-verify-europa-seeded-{}/europa-seeded.verify",
-        std::process::id()
-    ));
     let record = work.join("no_deadlock.counterexample.jsonl");
     let page = work.join("no_deadlock.html");
     let out = Command::new(bin("trace"))

@@ -251,6 +251,49 @@ impl ActionSpec {
     pub fn check_result(&self, outputs: &Fields) -> Result<(), String> {
         check_fields(&self.result, outputs, "")
     }
+
+    /// Every required result field (nested ones included, as dotted paths) that `outputs`
+    /// lacks, with its type: what a `SUCCEEDED` result without (all of) its outputs is told.
+    pub fn missing_outputs(&self, outputs: &Fields) -> Vec<(String, Type)> {
+        let mut out = Vec::new();
+        missing(&self.result, outputs, "", &mut out);
+        out
+    }
+
+    /// Checks a feedback message's fields against the declared `feedback` fields (all of
+    /// them optional: feedback may carry any subset, but nothing undeclared or mistyped).
+    pub fn check_feedback(&self, fields: &Fields) -> Result<(), String> {
+        for (k, v) in fields {
+            match self.feedback.get(k) {
+                Some(t) => t.check(k, v)?,
+                None => return Err(format!("`{k}` is not a feedback field of `{}`", self.name)),
+            }
+        }
+        Ok(())
+    }
+}
+
+fn missing(
+    spec: &BTreeMap<String, Type>,
+    map: &Fields,
+    prefix: &str,
+    out: &mut Vec<(String, Type)>,
+) {
+    for (k, t) in spec {
+        let path = if prefix.is_empty() {
+            k.clone()
+        } else {
+            format!("{prefix}.{k}")
+        };
+        match (map.get(k), t) {
+            (None, Type::Optional(_)) => {}
+            (None, t) => out.push((path, t.clone())),
+            (Some(Value::Object(inner)), Type::Object(fields)) => {
+                missing(fields, inner, &path, out);
+            }
+            (Some(_), _) => {}
+        }
+    }
 }
 
 /// What one server serves.
@@ -261,12 +304,47 @@ pub struct Catalogue {
     pub server: String,
     /// Its actions.
     pub actions: Vec<ActionSpec>,
+    /// The types of the telemetry values it publishes (`<root>/tm/<server>/<channel>`), by
+    /// value name: `{"battery_soc_pct": "f64", "comm_window_open": "bool"}`. A value fed to the
+    /// mission as system data is checked against its type before it reaches the engine.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub telemetry: BTreeMap<String, Type>,
 }
 
 impl Catalogue {
     /// The action named `name`.
     pub fn action(&self, name: &str) -> Option<&ActionSpec> {
         self.actions.iter().find(|a| a.name == name)
+    }
+
+    /// Checks one telemetry value against its declared type. A value the catalogue does not
+    /// declare must be a plain scalar (a number, a bool or a string; never null, a list or an
+    /// object), and of the same kind as `previous`, the last value accepted for that name.
+    pub fn check_telemetry(
+        &self,
+        name: &str,
+        value: &Value,
+        previous: Option<&Value>,
+    ) -> Result<(), String> {
+        if let Some(t) = self.telemetry.get(name) {
+            return t.check(name, value);
+        }
+        let scalar = matches!(value, Value::Number(_) | Value::Bool(_) | Value::String(_));
+        if !scalar {
+            return Err(format!(
+                "`{name}` is not declared in the catalogue, so it must be a number, a bool or a \
+                 string; got {}",
+                kind(value)
+            ));
+        }
+        match previous {
+            Some(p) if std::mem::discriminant(p) != std::mem::discriminant(value) => Err(format!(
+                "`{name}` was {} and is now {}: an undeclared value keeps its first kind",
+                kind(p),
+                kind(value)
+            )),
+            _ => Ok(()),
+        }
     }
 }
 
@@ -320,5 +398,73 @@ mod tests {
         assert!(!Type::Int.accepts(&Type::Float));
         assert!(Type::List(Box::new(Type::Float)).accepts(&Type::List(Box::new(Type::Int))));
         assert!(!Type::String.accepts(&Type::Bool));
+    }
+
+    #[test]
+    fn missing_outputs_feedback_and_telemetry_are_named() {
+        let spec: ActionSpec = serde_json::from_value(json!({
+            "name": "dig",
+            "result": {"depth_cm": "f64", "site": {"id": "int", "note": "string?"}, "extra": "int?"},
+            "feedback": {"depth_cm": "f64"}
+        }))
+        .unwrap();
+        let none = Fields::new();
+        assert_eq!(
+            spec.missing_outputs(&none),
+            vec![
+                ("depth_cm".to_owned(), Type::Float),
+                (
+                    "site".to_owned(),
+                    Type::Object(
+                        [
+                            ("id".to_owned(), Type::Int),
+                            ("note".to_owned(), Type::Optional(Box::new(Type::String)))
+                        ]
+                        .into()
+                    )
+                )
+            ]
+        );
+        let partial = json!({"depth_cm": 1.0, "site": {}});
+        assert_eq!(
+            spec.missing_outputs(partial.as_object().unwrap()),
+            vec![("site.id".to_owned(), Type::Int)]
+        );
+        assert!(
+            spec.check_feedback(json!({"depth_cm": 4}).as_object().unwrap())
+                .is_ok()
+        );
+        assert_eq!(
+            spec.check_feedback(json!({"depth_cm": "high"}).as_object().unwrap()),
+            Err("`depth_cm` must be f64, got a string".to_owned())
+        );
+        assert!(
+            spec.check_feedback(json!({"x": 1}).as_object().unwrap())
+                .is_err()
+        );
+
+        let cat: Catalogue = serde_json::from_value(json!({
+            "server": "s", "actions": [], "telemetry": {"soc": "f64"}
+        }))
+        .unwrap();
+        assert!(cat.check_telemetry("soc", &json!(81.5), None).is_ok());
+        for bad in [json!("high"), json!(null), json!([1, 2])] {
+            assert!(cat.check_telemetry("soc", &bad, None).is_err(), "{bad}");
+        }
+        // Undeclared: scalars only, and the kind sticks.
+        assert!(cat.check_telemetry("t", &json!(true), None).is_ok());
+        assert!(cat.check_telemetry("t", &json!(null), None).is_err());
+        assert!(cat.check_telemetry("t", &json!({"a": 1}), None).is_err());
+        assert!(
+            cat.check_telemetry("t", &json!("x"), Some(&json!(1.0)))
+                .is_err()
+        );
+        assert!(
+            cat.check_telemetry("t", &json!(2), Some(&json!(1.0)))
+                .is_ok()
+        );
+        // A catalogue without telemetry serialises as before.
+        let plain = Catalogue::default();
+        assert!(!serde_json::to_string(&plain).unwrap().contains("telemetry"));
     }
 }

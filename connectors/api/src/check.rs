@@ -185,6 +185,7 @@ mod tests {
                 grace_ms: 1,
                 clock: false,
                 answers: false,
+                limits: Default::default(),
             }],
         };
         let cat = Catalogue {
@@ -198,6 +199,7 @@ mod tests {
                 }))
                 .unwrap(),
             ],
+            telemetry: Default::default(),
         };
         let tasks = vec![
             TaskUse {

@@ -2,11 +2,13 @@
 //! connector reports back. A connector never blocks the executive: commands return at once and
 //! everything that happens later arrives as a [`Report`] on the channel the connector was given.
 
+use std::collections::BTreeMap;
 use std::future::Future;
 use std::pin::Pin;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
+use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use tokio::sync::mpsc::UnboundedSender;
 use tokio::sync::oneshot;
@@ -154,6 +156,84 @@ pub enum ConnectorError {
     Transport(String),
 }
 
+/// How long a connector waits, how often it asks again and how loudly it refuses: every wait
+/// has an end (`docs/protocol.md` §4.4). Durations are in ms so the struct reads from TOML;
+/// every field has a default.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Limits {
+    /// A goal sent to a server that serves its action but never acknowledges it fails with
+    /// `NOT_ACCEPTED` this long after it was first sent (30 000).
+    pub accept_within_ms: u64,
+    /// The first pause before an unacknowledged goal is sent again, or a server is asked
+    /// again about an answer that could not be understood; it doubles after each try (200).
+    pub retry_first_ms: u64,
+    /// The longest pause between two tries (5 000).
+    pub retry_max_ms: u64,
+    /// Answers about one goal that could not be understood before it fails with
+    /// `PROTOCOL_ERROR` (5).
+    pub unreadable_max: u32,
+    /// Dropped messages are logged at most once per key this often, with a count of the
+    /// others (10 000).
+    pub drop_log_every_ms: u64,
+    /// Wall-time tolerance on a mission clock report's advance (1 000; see
+    /// [`crate::wire::check_clock`]).
+    pub clock_slack_ms: u64,
+}
+
+impl Default for Limits {
+    fn default() -> Limits {
+        Limits {
+            accept_within_ms: 30_000,
+            retry_first_ms: 200,
+            retry_max_ms: 5_000,
+            unreadable_max: 5,
+            drop_log_every_ms: 10_000,
+            clock_slack_ms: 1_000,
+        }
+    }
+}
+
+impl Limits {
+    /// The pauses between tries: `retry_first_ms`, doubling, capped at `retry_max_ms`.
+    pub fn pauses(&self) -> impl Iterator<Item = Duration> + use<> {
+        let first = self.retry_first_ms.max(1);
+        let max = self.retry_max_ms.max(first);
+        std::iter::successors(Some(first), move |p| Some((p * 2).min(max)))
+            .map(Duration::from_millis)
+    }
+
+    /// The most times one goal can be sent before `accept_within_ms` ends it, whatever the
+    /// server does: the first send, then one after each pause of the schedule that still ends
+    /// within the deadline (queries that take time only make it fewer). A liveliness
+    /// appearance of the server also sends at once; this bound assumes none.
+    pub fn max_sends(&self) -> u32 {
+        let mut elapsed = Duration::ZERO;
+        let deadline = Duration::from_millis(self.accept_within_ms);
+        let mut sends = 1;
+        for pause in self.pauses() {
+            elapsed += pause;
+            if elapsed > deadline {
+                break;
+            }
+            sends += 1;
+        }
+        sends
+    }
+}
+
+/// What a connector refused and dropped instead of reporting (garbage payloads, messages for
+/// goals it does not run, mistyped feedback or telemetry, implausible clock reports, …), for
+/// the operator: each drop is also logged at warn (rate-limited).
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Dropped {
+    /// All drops since the connector started.
+    pub total: u64,
+    /// Drops by reason (`garbage`, `unknown_goal`, `duplicate`, `late`, `invalid_status`,
+    /// `mistyped`, `implausible_clock`, `unreadable_reply`).
+    pub by_reason: BTreeMap<String, u64>,
+}
+
 /// A boxed future, so connectors of different kinds live behind one trait object.
 pub type BoxFuture<'a, T> = Pin<Box<dyn Future<Output = T> + Send + 'a>>;
 
@@ -182,7 +262,30 @@ pub trait Connector: Send {
 
     /// Stops: undeclares everything (also done on drop).
     fn close(&mut self) -> BoxFuture<'_, ()>;
+
+    /// What the connector has refused and dropped so far (none for connectors that cannot
+    /// receive anything unexpected).
+    fn dropped(&self) -> Dropped {
+        Dropped::default()
+    }
 }
 
 /// Where connectors send their reports.
 pub type Reports = UnboundedSender<Report>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn retries_back_off_and_bound_the_sends() {
+        let l = Limits::default();
+        let pauses: Vec<u64> = l.pauses().take(8).map(|d| d.as_millis() as u64).collect();
+        assert_eq!(pauses, [200, 400, 800, 1600, 3200, 5000, 5000, 5000]);
+        // 0.2 + 0.4 + 0.8 + 1.6 + 3.2 + 5 × 4 = 26.2 s ≤ 30 s < 31.2 s: ten sends at most.
+        assert_eq!(l.max_sends(), 10);
+        let l: Limits = serde_json::from_str(r#"{"accept_within_ms": 1000}"#).unwrap();
+        assert_eq!(l.max_sends(), 3);
+        assert!(serde_json::from_str::<Limits>(r#"{"accept_within": 1}"#).is_err());
+    }
+}

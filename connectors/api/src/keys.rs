@@ -1,11 +1,22 @@
 //! Every Zenoh key expression of the activity protocol, built in one place (`docs/protocol.md`
 //! § Key layout). Nothing else formats a key.
+//!
+//! Every key starts with `<key-root>/<deployment>`: the deployment name is a key prefix, not a
+//! Zenoh namespace. It is one key chunk without wildcards, so the keys of two deployments never
+//! intersect — no subscriber, queryable, query or liveliness token of one matches a key of the
+//! other, whatever the topology (peers, routers, several flights on one router) — and nothing
+//! has to be checked at run time: isolation follows from building every key here. A prefix
+//! is also visible wherever keys are (logs, `zenohd`'s admin space, `z_sub trace/**`), and a
+//! system in another language needs no Zenoh configuration feature to join the right one.
 
 use std::fmt;
 
-/// The root of every key (a deployment may run several missions side by side under different
-/// roots, e.g. one per test).
+/// The default key root: the first chunk(s) of every key, before the deployment.
 pub const DEFAULT_ROOT: &str = "trace";
+
+/// The deployment a process joins when none is configured (`--deployment`,
+/// `TRACE_DEPLOYMENT`); `trace fly` gives each flight its own.
+pub const DEFAULT_DEPLOYMENT: &str = "default";
 
 /// A name used as one key chunk (server, action, goal id, role, telemetry channel) is not
 /// usable in a key expression.
@@ -52,16 +63,20 @@ pub fn goal_attempt(goal_id: &str) -> u32 {
         .unwrap_or(1)
 }
 
-/// The key builder for one root.
+/// The key builder for one deployment under one root.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Keys {
+    /// `<key-root>/<deployment>`: what every key starts with.
     root: String,
+    deployment: String,
 }
 
 impl Default for Keys {
+    /// Keys of the default deployment under the default root (`trace/default`).
     fn default() -> Self {
         Keys {
-            root: DEFAULT_ROOT.to_owned(),
+            root: format!("{DEFAULT_ROOT}/{DEFAULT_DEPLOYMENT}"),
+            deployment: DEFAULT_DEPLOYMENT.to_owned(),
         }
     }
 }
@@ -100,19 +115,33 @@ impl fmt::Display for Channel {
 }
 
 impl Keys {
-    /// Keys under `root` (one or more chunks, e.g. `trace` or `test/17`).
+    /// Keys of the default deployment under `root` (one or more chunks, e.g. `trace` or
+    /// `test/17`): `<root>/default/…`.
     pub fn new(root: &str) -> Result<Keys, BadChunk> {
+        Keys::deployed(root, DEFAULT_DEPLOYMENT)
+    }
+
+    /// Keys of `deployment` (one chunk) under `root` (one or more chunks): every key starts
+    /// with `<root>/<deployment>/`.
+    pub fn deployed(root: &str, deployment: &str) -> Result<Keys, BadChunk> {
         for chunk in root.split('/') {
             check_chunk(chunk)?;
         }
+        check_chunk(deployment)?;
         Ok(Keys {
-            root: root.to_owned(),
+            root: format!("{root}/{deployment}"),
+            deployment: deployment.to_owned(),
         })
     }
 
-    /// The root.
+    /// What every key starts with: `<key-root>/<deployment>`.
     pub fn root(&self) -> &str {
         &self.root
+    }
+
+    /// The deployment name.
+    pub fn deployment(&self) -> &str {
+        &self.deployment
     }
 
     /// `<root>/act/<server>/<action>/<channel>/<goal_id>` (goal, cancel, state).
@@ -227,26 +256,26 @@ mod tests {
                 Channel::Goal,
                 "m.1.2.1"
             ),
-            "trace/act/lander_sim/excavation.excavate/goal/m.1.2.1"
+            "trace/default/act/lander_sim/excavation.excavate/goal/m.1.2.1"
         );
         assert_eq!(
             k.stream("lander_sim", "arm.stow", Channel::Result),
-            "trace/act/lander_sim/arm.stow/result"
+            "trace/default/act/lander_sim/arm.stow/result"
         );
         assert_eq!(
             k.alive_action("lander_sim", "arm.stow"),
-            "trace/alive/act/lander_sim/arm.stow"
+            "trace/default/alive/act/lander_sim/arm.stow"
         );
         assert_eq!(
-            k.action_of("trace/alive/act/lander_sim/arm.stow"),
+            k.action_of("trace/default/alive/act/lander_sim/arm.stow"),
             Some("arm.stow")
         );
         assert_eq!(
-            k.action_of("trace/act/lander_sim/arm.stow/status"),
+            k.action_of("trace/default/act/lander_sim/arm.stow/status"),
             Some("arm.stow")
         );
         assert_eq!(
-            k.action_of("trace/alive/act/ground/ground.approve_site/station-a"),
+            k.action_of("trace/default/alive/act/ground/ground.approve_site/station-a"),
             Some("ground.approve_site")
         );
         assert_eq!(
@@ -256,13 +285,13 @@ mod tests {
                 Channel::Answer,
                 "m-1.1.2.1"
             ),
-            "trace/act/ground/ground.approve_site/answer/m-1.1.2.1"
+            "trace/default/act/ground/ground.approve_site/answer/m-1.1.2.1"
         );
         assert_eq!(
             k.answers_of("ground", "m-1"),
-            "trace/act/ground/*/answer/m-1.$*"
+            "trace/default/act/ground/*/answer/m-1.$*"
         );
-        assert_eq!(Keys::last_chunk("trace/act/s/a/goal/g1"), "g1");
+        assert_eq!(Keys::last_chunk("trace/default/act/s/a/goal/g1"), "g1");
         assert_eq!(goal_attempt(&goal_id("m-1", 1, 42, 3)), 3);
     }
 
@@ -274,5 +303,44 @@ mod tests {
         assert!(check_chunk("excavation.excavate").is_ok());
         assert!(Keys::new("test/17").is_ok());
         assert!(Keys::new("test//17").is_err());
+        assert!(Keys::deployed("trace", "a/b").is_err());
+        assert!(Keys::deployed("trace", "*").is_err());
+        assert!(Keys::deployed("trace", "").is_err());
+    }
+
+    #[test]
+    fn every_key_carries_the_deployment_and_deployments_do_not_overlap() {
+        let (a, b) = (
+            Keys::deployed("trace", "flight-a").expect("a"),
+            Keys::deployed("trace", "flight-b").expect("b"),
+        );
+        assert_eq!(a.root(), "trace/flight-a");
+        assert_eq!(a.deployment(), "flight-a");
+        assert_eq!(
+            Keys::new("test/17").expect("root").root(),
+            "test/17/default"
+        );
+        let keys = |k: &Keys| {
+            vec![
+                k.goal_queryable("ground", "ground.approve_site", Channel::Goal),
+                k.streams_of("ground", Channel::Result),
+                k.catalogue("ground"),
+                k.alive("exec", "*"),
+                k.alive_actions_of("ground"),
+                k.answers_of("ground", "m"),
+                k.telemetry_of("lander_sim"),
+                k.exec_record("m"),
+                k.exec_state("m"),
+                k.notification("lander_sim", "n"),
+            ]
+        };
+        // Every key of A, wildcards included, lies under A's prefix, which no key of B has.
+        for key in keys(&a) {
+            assert!(key.starts_with("trace/flight-a/"), "{key}");
+        }
+        for key in keys(&b) {
+            assert!(key.starts_with("trace/flight-b/"), "{key}");
+        }
+        assert_eq!(b.action_of("trace/flight-a/alive/act/ground/x"), None);
     }
 }

@@ -64,6 +64,10 @@ pub struct ConnectorConfig {
     /// each and the first valid one wins (`docs/protocol.md` § Ground stations).
     #[serde(default)]
     pub answers: bool,
+    /// Zenoh: how long goals may stay unacknowledged, how often the server is asked again and
+    /// how loudly refusals are logged (`[connector.limits]`; every field has a default).
+    #[serde(default)]
+    pub limits: crate::contract::Limits,
 }
 
 fn default_grace() -> u64 {
@@ -159,6 +163,7 @@ mod tests {
                     grace_ms: 1000,
                     clock: false,
                     answers: false,
+                    limits: Default::default(),
                 },
                 ConnectorConfig {
                     name: "ground".into(),
@@ -171,6 +176,7 @@ mod tests {
                     grace_ms: 1000,
                     clock: false,
                     answers: false,
+                    limits: Default::default(),
                 },
             ],
         }
@@ -188,5 +194,30 @@ mod tests {
             "excavation.excavate"
         );
         assert!(c.problems().is_empty());
+    }
+
+    #[test]
+    fn limits_are_configured_per_connector_with_defaults_for_the_rest() {
+        let c: ConnectorsConfig = toml::from_str(
+            r#"
+            [[connector]]
+            name = "lander"
+            kind = "zenoh"
+            resources = ["*"]
+            limits = { accept_within_ms = 2000, unreadable_max = 3 }
+            "#,
+        )
+        .expect("parses");
+        let limits = &c.connectors[0].limits;
+        assert_eq!(limits.accept_within_ms, 2000);
+        assert_eq!(limits.unreadable_max, 3);
+        assert_eq!(
+            limits.retry_max_ms,
+            crate::contract::Limits::default().retry_max_ms
+        );
+        let wrong = toml::from_str::<ConnectorsConfig>(
+            "[[connector]]\nname = \"x\"\nkind = \"zenoh\"\nlimits = { accept_in = 1 }\n",
+        );
+        assert!(wrong.unwrap_err().to_string().contains("accept_in"));
     }
 }

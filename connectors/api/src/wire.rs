@@ -49,19 +49,39 @@ impl Status {
     }
 }
 
-/// Error codes the protocol itself raises (systems declare their own in the catalogue).
+/// Error codes the protocol itself raises (systems declare their own in the catalogue). Every
+/// one may be caught by a model's error boundary without being declared (`docs/protocol.md` §9).
 pub mod codes {
     /// The server went away during the goal and did not come back within the grace period, or
     /// forgot the goal.
     pub const CONNECTOR_LOST: &str = "CONNECTOR_LOST";
-    /// The server refused the goal.
+    /// The server refused the goal (a `REJECTED` goal reply, a `reply_err`, or a result with
+    /// status `REJECTED`).
     pub const REJECTED: &str = "REJECTED";
-    /// A goal or result field could not be converted to the declared type.
+    /// A goal or result field could not be converted to the declared type, or a `SUCCEEDED`
+    /// result lacks outputs its catalogue entry declares.
     pub const TYPE_MISMATCH: &str = "TYPE_MISMATCH";
     /// No connector serves the task's resource.
     pub const NO_CONNECTOR: &str = "NO_CONNECTOR";
+    /// A server that serves the action never acknowledged the goal within the connector's
+    /// `accept_within_ms` (the goal was re-sent with backoff until then).
+    pub const NOT_ACCEPTED: &str = "NOT_ACCEPTED";
+    /// The server's answers about the goal could not be understood (unparseable replies, a
+    /// terminal status without its result, …) even after asking again a bounded number of times.
+    pub const PROTOCOL_ERROR: &str = "PROTOCOL_ERROR";
+    /// The server aborted the goal without an error code (`ABORTED` with no `error`, or an
+    /// empty `error.code`).
+    pub const ABORTED: &str = "ABORTED";
     /// Every protocol-level code, for load-time checks (a boundary may catch them undeclared).
-    pub const ALL: [&str; 4] = [CONNECTOR_LOST, REJECTED, TYPE_MISMATCH, NO_CONNECTOR];
+    pub const ALL: [&str; 7] = [
+        CONNECTOR_LOST,
+        REJECTED,
+        TYPE_MISMATCH,
+        NO_CONNECTOR,
+        NOT_ACCEPTED,
+        PROTOCOL_ERROR,
+        ABORTED,
+    ];
 }
 
 /// `get …/goal/<goal_id>` payload.
@@ -264,6 +284,85 @@ pub fn parse<T: serde::de::DeserializeOwned>(
     })
 }
 
+/// One mission clock report (`<root>/tm/<source>/clock`): the system's mission time when it
+/// published, and how many mission ms pass per wall ms (0: the clock is held).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClockReading {
+    /// Mission time, ms since the epoch.
+    pub mission_ms: i64,
+    /// Mission ms per wall ms.
+    pub speed: f64,
+}
+
+/// Why a clock report is not believed (`docs/protocol.md` §5.4).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ClockRefusal {
+    /// The speed is negative, infinite or not a number.
+    #[error("speed {0} is not a finite number ≥ 0")]
+    BadSpeed(f64),
+    /// Mission time went backwards.
+    #[error("mission time went back from {last} to {next} ms")]
+    Backwards {
+        /// The last report believed.
+        last: i64,
+        /// This report.
+        next: i64,
+    },
+    /// Mission time moved further than the declared speed allows in the wall time that passed.
+    #[error(
+        "mission time jumped {jump} ms ahead in {wall_ms} ms of wall time; at speed {speed} at \
+         most {allowed} ms are plausible"
+    )]
+    Jump {
+        /// How far this report is ahead of the last one believed.
+        jump: i64,
+        /// Wall time since the last report believed arrived.
+        wall_ms: u128,
+        /// The faster of the two reports' speeds.
+        speed: f64,
+        /// The largest advance believed.
+        allowed: i64,
+    },
+}
+
+/// The plausibility rule for a mission clock report, a pure function so any side can apply
+/// it: `last` is the last report believed (`None`: this is the first, believed as it is),
+/// `wall` the wall time since `last` arrived, `slack` the wall-time tolerance for delivery
+/// jitter. A report is believed when its speed is a finite number ≥ 0, its mission time is
+/// not before `last`'s (monotonic), and it is at most `(wall + slack) × speed` ahead of
+/// `last`, with the faster of the two speeds (a clock that starts runs at its new speed).
+pub fn check_clock(
+    last: Option<ClockReading>,
+    next: ClockReading,
+    wall: std::time::Duration,
+    slack: std::time::Duration,
+) -> Result<(), ClockRefusal> {
+    if !next.speed.is_finite() || next.speed < 0.0 {
+        return Err(ClockRefusal::BadSpeed(next.speed));
+    }
+    let Some(last) = last else {
+        return Ok(());
+    };
+    if next.mission_ms < last.mission_ms {
+        return Err(ClockRefusal::Backwards {
+            last: last.mission_ms,
+            next: next.mission_ms,
+        });
+    }
+    let speed = last.speed.max(next.speed);
+    let allowed = ((wall + slack).as_secs_f64() * 1000.0 * speed).min(i64::MAX as f64) as i64;
+    let jump = next.mission_ms.saturating_sub(last.mission_ms);
+    if jump > allowed {
+        return Err(ClockRefusal::Jump {
+            jump,
+            wall_ms: wall.as_millis(),
+            speed,
+            allowed,
+        });
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -292,5 +391,44 @@ mod tests {
         );
         let e = parse::<Goal>("goal", "k", br#"{"goal_id":"g","extra":1}"#).unwrap_err();
         assert!(e.reason.contains("unknown field"), "{e}");
+    }
+
+    #[test]
+    fn clock_reports_are_monotonic_and_bounded_by_their_speed() {
+        use std::time::Duration;
+        let at = |mission_ms, speed| ClockReading { mission_ms, speed };
+        let slack = Duration::from_millis(1000);
+        let second = Duration::from_secs(1);
+        assert_eq!(check_clock(None, at(5, 1.0), second, slack), Ok(()));
+        assert!(matches!(
+            check_clock(None, at(5, f64::NAN), second, slack),
+            Err(ClockRefusal::BadSpeed(_))
+        ));
+        assert!(matches!(
+            check_clock(None, at(5, -1.0), second, slack),
+            Err(ClockRefusal::BadSpeed(_))
+        ));
+        // One second of wall time at speed 1: up to 2 s ahead (with the slack), never back.
+        let last = Some(at(10_000, 1.0));
+        assert_eq!(check_clock(last, at(10_000, 1.0), second, slack), Ok(()));
+        assert_eq!(check_clock(last, at(12_000, 1.0), second, slack), Ok(()));
+        assert!(matches!(
+            check_clock(last, at(9_999, 1.0), second, slack),
+            Err(ClockRefusal::Backwards {
+                last: 10_000,
+                next: 9_999
+            })
+        ));
+        // An hour ahead is refused, and the reason says how much was plausible.
+        let e = check_clock(last, at(10_000 + 3_600_000, 1.0), second, slack).unwrap_err();
+        assert!(matches!(e, ClockRefusal::Jump { allowed: 2000, .. }), "{e}");
+        assert!(e.to_string().contains("at most 2000 ms"), "{e}");
+        // A held clock (speed 0) that starts: bounded by the new speed.
+        let held = Some(at(10_000, 0.0));
+        assert_eq!(
+            check_clock(held, at(10_000 + 150_000, 100.0), second, slack),
+            Ok(())
+        );
+        assert!(check_clock(held, at(10_000 + 250_000, 100.0), second, slack).is_err());
     }
 }

@@ -78,6 +78,7 @@ async fn main() {
             feedback: BTreeMap::new(),
             errors: BTreeMap::new(),
         }],
+        telemetry: BTreeMap::new(),
     };
     let (_server, mut requests) = ActionServer::start(
         &sys,
@@ -114,6 +115,7 @@ async fn main() {
                 grace_ms: 3000,
                 clock: false,
                 answers: false,
+                limits: Default::default(),
             },
             client: "bench".into(),
             mission: "bench".into(),

@@ -7,25 +7,35 @@
 //! is reconciled with a `state` query — so a result published while the link was down is
 //! recovered rather than lost.
 //!
+//! Every wait has an end ([`Limits`]): a goal a serving server never acknowledges is sent
+//! again with backoff and fails with `NOT_ACCEPTED` after `accept_within_ms`; an answer that
+//! cannot be understood (a reply that does not parse, a terminal status without its result, a
+//! result whose status is not terminal) makes the connector ask again — the goal for a goal
+//! not yet acknowledged, `state` otherwise — with backoff, and after `unreadable_max` such
+//! answers the goal fails with `PROTOCOL_ERROR`. Data is typed at the door: results, feedback
+//! and telemetry are checked against the catalogue, clock reports for plausibility, and
+//! whatever is refused is logged and counted ([`crate::drops`]) instead of reaching the engine.
+//!
 //! A connector configured with `answers` talks to ground stations instead: goals and cancels
 //! go to every station, and operators' answers arrive as `answer` queries that are checked
 //! (open task, form, then the engine) and answered with the verdict — the first valid answer
 //! wins, and the other stations are told who answered.
 
-use std::collections::{HashMap, HashSet};
+use std::collections::{HashMap, HashSet, VecDeque};
 use std::sync::{Arc, Mutex, MutexGuard};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
-use connector_api::contract::BoxFuture;
+use connector_api::contract::{BoxFuture, Dropped, Limits};
 use connector_api::wire::{
-    self, Answer, AnswerReply, CancelReply, CancelRequest, FeedbackMsg, Goal, GoalReply, ResultMsg,
-    StateReply, StatusMsg, Telemetry, codes,
+    self, Answer, AnswerReply, CancelReply, CancelRequest, ClockReading, FeedbackMsg, Goal,
+    GoalReply, ResultMsg, StateReply, StatusMsg, Telemetry, codes,
 };
 use connector_api::{
-    Catalogue, Channel, Command, Connector, ConnectorConfig, ConnectorError, Keys, Report, Reports,
-    Status, Verdict,
+    ActionSpec, Catalogue, Channel, Command, Connector, ConnectorConfig, ConnectorError, Keys,
+    Report, Reports, Status, Verdict,
 };
 use serde_json::Value;
+use tokio::sync::{Notify, watch};
 use zenoh::Session;
 use zenoh::pubsub::Subscriber;
 use zenoh::qos::CongestionControl;
@@ -33,6 +43,7 @@ use zenoh::query::{ConsolidationMode, Query, QueryTarget, Queryable};
 use zenoh::sample::{Sample, SampleKind};
 
 use crate::codec::{encoding, json};
+use crate::drops::{Drops, Reason};
 
 /// How a Zenoh connector behaves.
 #[derive(Clone, Debug)]
@@ -56,7 +67,34 @@ struct Flight {
     command: Command,
     /// The server has acknowledged the goal (or had it before a restart).
     acked: bool,
+    /// The task sending the goal until it is acknowledged; notified to send at once (the
+    /// server appeared) or to stop.
+    sending: Option<Arc<Notify>>,
+    /// How many times the goal was sent since its `NOT_ACCEPTED` deadline was armed.
+    sends: u32,
+    /// The `NOT_ACCEPTED` deadline runs (armed at the first send to a serving server).
+    deadline_armed: bool,
+    /// A task is asking the server again about an answer it could not understand.
+    asking: bool,
+    /// Answers about the goal not understood since the last one that was.
+    unreadable: u32,
 }
+
+/// How a goal that is no longer in flight ended here, to tell a late or repeated message
+/// about it from a message about a goal never run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Ended {
+    /// Its outcome was reported from the result stream (or a failure decided here).
+    Reported,
+    /// Its outcome was reported from a goal or state reply: the same result may still arrive
+    /// on the stream.
+    FromReply,
+    /// The executive aborted it: a `CANCELED` status and result are still to come.
+    Aborted,
+}
+
+/// Goals remembered as ended, so late messages about them are recognised.
+const ENDED_KEPT: usize = 4096;
 
 #[derive(Default)]
 struct State {
@@ -72,21 +110,50 @@ struct State {
     closed: HashMap<String, String>,
     /// Ground stations: answers being decided (their replies are sent before closing).
     answering: Vec<tokio::task::JoinHandle<()>>,
+    /// Goals that ended recently, and how (bounded: the oldest are forgotten).
+    ended: HashMap<String, Ended>,
+    ended_order: VecDeque<String>,
+    /// The last mission clock report believed, and when it arrived.
+    clock: Option<(ClockReading, Instant)>,
 }
 
 impl State {
     fn served(&self, action: &str) -> bool {
         self.alive.get(action).is_some_and(|t| !t.is_empty())
     }
+
+    fn end(&mut self, goal_id: &str, how: Ended) {
+        if self.ended.insert(goal_id.to_owned(), how).is_none() {
+            self.ended_order.push_back(goal_id.to_owned());
+            if self.ended_order.len() > ENDED_KEPT
+                && let Some(old) = self.ended_order.pop_front()
+            {
+                self.ended.remove(&old);
+            }
+        }
+    }
+
+    /// Takes a goal out of flight (its outcome is about to be reported); `None` if another
+    /// path already did.
+    fn land(&mut self, goal_id: &str, how: Ended) -> Option<Flight> {
+        let flight = self.flights.remove(goal_id)?;
+        if let Some(wake) = &flight.sending {
+            wake.notify_one();
+        }
+        self.end(goal_id, how);
+        Some(flight)
+    }
 }
 
 struct Shared {
     opts: ClientOptions,
+    limits: Limits,
     session: Session,
     reports: Reports,
     rt: tokio::runtime::Handle,
     state: Mutex<State>,
     catalogue: Mutex<Option<Catalogue>>,
+    drops: Drops,
     /// Answers are decided one at a time, so a second answer to a task sees it closed (and by
     /// whom) rather than racing the first to the executive.
     answer_turn: tokio::sync::Mutex<()>,
@@ -103,6 +170,80 @@ fn payload(sample: &Sample) -> Vec<u8> {
     sample.payload().to_bytes().into_owned()
 }
 
+/// A status as it is written on the wire (`EXECUTING`).
+fn status_name(status: Status) -> String {
+    match serde_json::to_value(status) {
+        Ok(Value::String(s)) => s,
+        _ => format!("{status:?}"),
+    }
+}
+
+/// The goal id a payload that does not parse still names, if any (to attribute garbage).
+fn goal_id_in(bytes: &[u8]) -> String {
+    serde_json::from_slice::<Value>(bytes)
+        .ok()
+        .and_then(|v| v.get("goal_id")?.as_str().map(str::to_owned))
+        .unwrap_or_default()
+}
+
+/// Which stream a message came on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Stream {
+    Status,
+    Feedback,
+    Result,
+}
+
+impl Stream {
+    fn name(self) -> &'static str {
+        match self {
+            Stream::Status => "status",
+            Stream::Feedback => "feedback",
+            Stream::Result => "result",
+        }
+    }
+}
+
+/// Where a result came from: the result stream, or a goal or state reply (which we asked for).
+#[derive(Clone, Copy, Debug)]
+enum Source<'k> {
+    Stream(&'k str),
+    Reply(&'k str),
+}
+
+impl Source<'_> {
+    fn key(&self) -> &str {
+        match self {
+            Source::Stream(k) | Source::Reply(k) => k,
+        }
+    }
+}
+
+/// What one goal query achieved.
+#[derive(Debug)]
+enum Sent {
+    /// The goal was acknowledged, or ended (reported, or handed to the asking task).
+    Settled,
+    /// No usable answer: send it again after a pause (the reason, for the log).
+    Unanswered(String),
+}
+
+/// What one state query achieved.
+#[derive(Debug, PartialEq, Eq)]
+enum Asked {
+    /// Understood: the goal runs, or its outcome was reported.
+    Settled,
+    /// Not understood (counted): ask again after a pause.
+    Again,
+}
+
+/// How a result ends its goal.
+enum Outcome {
+    Done(connector_api::Fields),
+    Failed(String, String),
+    Canceled,
+}
+
 impl Shared {
     fn server(&self) -> &str {
         self.opts.config.server()
@@ -114,6 +255,21 @@ impl Shared {
 
     fn state(&self) -> MutexGuard<'_, State> {
         self.state.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    fn spec(&self, action: &str) -> Option<ActionSpec> {
+        self.catalogue
+            .lock()
+            .ok()
+            .and_then(|c| c.as_ref()?.action(action).cloned())
+    }
+
+    /// Goal ids of this mission start with `<mission>.`; others belong to another executive
+    /// sharing the server, and their messages are none of our business.
+    fn ours(&self, goal_id: &str) -> bool {
+        goal_id
+            .strip_prefix(self.opts.mission.as_str())
+            .is_some_and(|rest| rest.starts_with('.'))
     }
 
     /// Queries reach every server instance (ground stations) or the best-matching one.
@@ -146,57 +302,352 @@ impl Shared {
         });
     }
 
-    /// A goal ended: reported once (the flight is removed), duplicates ignored. A ground
-    /// station's task closes only through an answer query, never through a published result.
-    fn deliver(&self, r: ResultMsg) {
-        if self.opts.config.answers {
+    /// Takes the goal out of flight and fails it, unless another path ended it first.
+    fn land_failed(&self, goal_id: &str, code: &str, message: String) {
+        if self.state().land(goal_id, Ended::Reported).is_some() {
+            self.fail(goal_id, code, message);
+        }
+    }
+
+    /// A message on a stream names a goal that is not in flight: expected after the goal
+    /// ended here (a status after the result, anything after an abort), otherwise dropped.
+    fn stray(&self, key: &str, stream: Stream, goal_id: &str) {
+        if !self.ours(goal_id) {
             return tracing::debug!(
-                goal_id = r.goal_id,
-                "ground result ignored: answers close tasks"
+                key,
+                goal_id,
+                "{} of another mission's goal ignored",
+                stream.name()
             );
         }
-        let Some(flight) = self.state().flights.remove(&r.goal_id) else {
-            return;
+        let ended = {
+            let mut s = self.state();
+            let ended = s.ended.get(goal_id).copied();
+            if ended == Some(Ended::FromReply) && stream == Stream::Result {
+                // The stream's copy of a result already taken from a reply; a third is not.
+                s.ended.insert(goal_id.to_owned(), Ended::Reported);
+            }
+            ended
         };
-        match r.status {
-            Status::Succeeded => {
-                let spec = self
-                    .catalogue
-                    .lock()
-                    .ok()
-                    .and_then(|c| c.as_ref()?.action(&flight.command.action).cloned());
-                match spec.map(|s| s.check_result(&r.outputs)) {
-                    Some(Err(e)) => self.fail(
-                        &r.goal_id,
-                        codes::TYPE_MISMATCH,
-                        format!(
-                            "the result of `{}` does not match its catalogue entry: {e}",
-                            flight.command.action
-                        ),
-                    ),
-                    _ => self.report(Report::Done {
-                        goal_id: r.goal_id,
-                        outputs: r.outputs,
-                    }),
-                }
+        let what = stream.name();
+        match (ended, stream) {
+            (Some(Ended::Aborted), _)
+            | (Some(Ended::Reported | Ended::FromReply), Stream::Status)
+            | (Some(Ended::FromReply), Stream::Result) => {
+                tracing::debug!(key, goal_id, "{what} of an ended goal ignored");
             }
-            Status::Aborted => {
-                let (code, message) = r.error.map_or(("ABORTED".to_owned(), String::new()), |f| {
-                    (f.code, f.message)
-                });
-                self.fail(&r.goal_id, &code, message);
-            }
-            Status::Canceled => self.report(Report::Canceled { goal_id: r.goal_id }),
-            other => self.fail(
-                &r.goal_id,
-                codes::CONNECTOR_LOST,
-                format!("the server ended the goal with status {other:?}"),
+            (Some(_), Stream::Result) => self.drops.drop(
+                Reason::Duplicate,
+                key,
+                what,
+                goal_id,
+                "the goal's outcome was already reported",
+            ),
+            (Some(_), _) => self.drops.drop(
+                Reason::Late,
+                key,
+                what,
+                goal_id,
+                "feedback after the goal's outcome was reported",
+            ),
+            (None, _) => self.drops.drop(
+                Reason::UnknownGoal,
+                key,
+                what,
+                goal_id,
+                "no goal with this id is in flight here",
             ),
         }
     }
 
-    /// Sends (or re-sends: the server answers a repeat with the goal's current status) a goal.
-    async fn send(self: Arc<Shared>, command: Command) {
+    /// A goal ended (result stream, goal or state reply): validated, then reported once (the
+    /// flight is removed). A result that cannot end a goal (a non-terminal status) is refused
+    /// and the server asked again. Returns whether the result was understood. A ground
+    /// station's task closes only through an answer query, never through a published result.
+    fn deliver(self: &Arc<Self>, r: ResultMsg, source: Source<'_>) -> bool {
+        if self.opts.config.answers {
+            tracing::debug!(
+                goal_id = r.goal_id,
+                "ground result ignored: answers close tasks"
+            );
+            return true;
+        }
+        let key = source.key();
+        // The lock is released before the match: `stray` takes it again.
+        let in_flight = self
+            .state()
+            .flights
+            .get(&r.goal_id)
+            .map(|f| f.command.action.clone());
+        let action = match in_flight {
+            Some(action) => action,
+            None => {
+                match source {
+                    Source::Stream(key) => self.stray(key, Stream::Result, &r.goal_id),
+                    Source::Reply(key) => {
+                        tracing::debug!(key, goal_id = r.goal_id, "reply for an ended goal");
+                    }
+                }
+                return true;
+            }
+        };
+        let outcome = match r.status {
+            Status::Succeeded => match self.spec(&action) {
+                Some(spec) => {
+                    let missing = spec.missing_outputs(&r.outputs);
+                    if !missing.is_empty() {
+                        let list: Vec<String> = missing
+                            .iter()
+                            .map(|(path, t)| format!("`{path}` ({t})"))
+                            .collect();
+                        Outcome::Failed(
+                            codes::TYPE_MISMATCH.to_owned(),
+                            format!(
+                                "the SUCCEEDED result of `{action}` lacks outputs its catalogue \
+                                 entry declares: {}",
+                                list.join(", ")
+                            ),
+                        )
+                    } else if let Err(e) = spec.check_result(&r.outputs) {
+                        Outcome::Failed(
+                            codes::TYPE_MISMATCH.to_owned(),
+                            format!(
+                                "the result of `{action}` does not match its catalogue entry: {e}"
+                            ),
+                        )
+                    } else {
+                        Outcome::Done(r.outputs)
+                    }
+                }
+                None => Outcome::Done(r.outputs),
+            },
+            Status::Aborted => match r.error {
+                Some(f) if !f.code.trim().is_empty() => Outcome::Failed(f.code, f.message),
+                other => {
+                    let detail = other
+                        .map(|f| f.message)
+                        .filter(|m| !m.is_empty())
+                        .map_or_else(String::new, |m| format!(": {m}"));
+                    Outcome::Failed(
+                        codes::ABORTED.to_owned(),
+                        format!(
+                            "`{}` aborted the goal without an error code{detail}",
+                            self.server()
+                        ),
+                    )
+                }
+            },
+            Status::Canceled => Outcome::Canceled,
+            Status::Rejected => Outcome::Failed(
+                codes::REJECTED.to_owned(),
+                r.error
+                    .map(|f| f.message)
+                    .filter(|m| !m.is_empty())
+                    .unwrap_or_else(|| format!("`{}` rejected the goal", self.server())),
+            ),
+            other @ (Status::Accepted
+            | Status::Executing
+            | Status::Canceling
+            | Status::Unknown
+            | Status::Lost) => {
+                let why = format!(
+                    "a result must be SUCCEEDED, CANCELED, ABORTED or REJECTED, not {}",
+                    status_name(other)
+                );
+                self.drops
+                    .drop(Reason::InvalidStatus, key, "result", &r.goal_id, &why);
+                self.not_understood(&r.goal_id, why);
+                return false;
+            }
+        };
+        let how = match source {
+            Source::Stream(_) => Ended::Reported,
+            Source::Reply(_) => Ended::FromReply,
+        };
+        if self.state().land(&r.goal_id, how).is_none() {
+            return true;
+        }
+        match outcome {
+            Outcome::Done(outputs) => self.report(Report::Done {
+                goal_id: r.goal_id,
+                outputs,
+            }),
+            Outcome::Failed(code, message) => self.fail(&r.goal_id, &code, message),
+            Outcome::Canceled => self.report(Report::Canceled { goal_id: r.goal_id }),
+        }
+        true
+    }
+
+    /// An answer about a goal could not be understood: counted, and after
+    /// `unreadable_max` of them the goal fails with `PROTOCOL_ERROR`; until then the server
+    /// is asked again (`state` once the goal is acknowledged, else the goal's sender goes
+    /// on). Returns whether the goal was given up.
+    fn not_understood(self: &Arc<Self>, goal_id: &str, why: String) -> bool {
+        let (tries, acked, sending) = {
+            let mut s = self.state();
+            let Some(f) = s.flights.get_mut(goal_id) else {
+                return true;
+            };
+            f.unreadable += 1;
+            (f.unreadable, f.acked, f.sending.is_some())
+        };
+        let max = self.limits.unreadable_max.max(1);
+        if tries >= max {
+            self.land_failed(
+                goal_id,
+                codes::PROTOCOL_ERROR,
+                format!(
+                    "{tries} answers of `{}` about the goal could not be understood; the last: \
+                     {why}",
+                    self.server()
+                ),
+            );
+            return true;
+        }
+        tracing::warn!(
+            connector = self.name(),
+            goal_id,
+            attempt = tries,
+            of = max,
+            reason = %why,
+            "answer not understood; asking the server again"
+        );
+        if acked {
+            self.start_asking(goal_id);
+        } else if !sending {
+            self.start_sending(goal_id);
+        }
+        false
+    }
+
+    /// An answer about the goal was understood: the count of those that were not restarts.
+    fn understood(&self, goal_id: &str) {
+        if let Some(f) = self.state().flights.get_mut(goal_id) {
+            f.unreadable = 0;
+        }
+    }
+
+    /// Starts sending a goal until it is acknowledged (or wakes the sender to send at once).
+    fn start_sending(self: &Arc<Self>, goal_id: &str) {
+        let wake = {
+            let mut s = self.state();
+            let Some(action) = s.flights.get(goal_id).map(|f| f.command.action.clone()) else {
+                return;
+            };
+            let served = s.served(&action);
+            let Some(f) = s.flights.get_mut(goal_id) else {
+                return;
+            };
+            if f.acked || !served {
+                return;
+            }
+            if let Some(wake) = &f.sending {
+                wake.notify_one();
+                return;
+            }
+            let wake = Arc::new(Notify::new());
+            f.sending = Some(Arc::clone(&wake));
+            wake
+        };
+        self.rt
+            .spawn(Arc::clone(self).send_loop(goal_id.to_owned(), wake));
+    }
+
+    /// Sends a goal, and again after each pause of the backoff schedule (or at once when
+    /// woken: the server appeared), while it is unacknowledged and its action served.
+    async fn send_loop(self: Arc<Shared>, goal_id: String, wake: Arc<Notify>) {
+        let mut pauses = self.limits.pauses();
+        loop {
+            let (command, attempt, arm) = {
+                let mut s = self.state();
+                let served = s
+                    .flights
+                    .get(&goal_id)
+                    .is_some_and(|f| s.served(&f.command.action));
+                let Some(f) = s.flights.get_mut(&goal_id) else {
+                    return;
+                };
+                if f.acked || !served {
+                    // Acknowledged, or nobody serves it now: the token's return sends it again.
+                    f.sending = None;
+                    return;
+                }
+                f.sends += 1;
+                let arm = !f.deadline_armed;
+                f.deadline_armed = true;
+                (f.command.clone(), f.sends, arm)
+            };
+            if arm {
+                self.arm_accept_deadline(&command);
+            }
+            if attempt > 1 {
+                tracing::warn!(
+                    connector = self.name(),
+                    goal_id,
+                    action = command.action,
+                    attempt,
+                    "goal not acknowledged yet; sent again"
+                );
+            }
+            match self.send_once(&command).await {
+                Sent::Settled => {
+                    if let Some(f) = self.state().flights.get_mut(&goal_id) {
+                        f.sending = None;
+                    }
+                    return;
+                }
+                Sent::Unanswered(why) => {
+                    tracing::debug!(goal_id, attempt, why, "goal not acknowledged");
+                }
+            }
+            let pause = pauses
+                .next()
+                .unwrap_or(Duration::from_millis(self.limits.retry_max_ms));
+            tokio::select! {
+                () = tokio::time::sleep(pause) => {}
+                () = wake.notified() => {}
+            }
+        }
+    }
+
+    /// `accept_within_ms` after its first send, a goal the server (still serving the action)
+    /// has not acknowledged fails with `NOT_ACCEPTED`. If nobody serves the action by then,
+    /// the grace period decides instead, and the next send arms a new deadline.
+    fn arm_accept_deadline(self: &Arc<Self>, command: &Command) {
+        let me = Arc::clone(self);
+        let goal_id = command.goal_id.clone();
+        let action = command.action.clone();
+        let within = Duration::from_millis(self.limits.accept_within_ms);
+        self.rt.spawn(async move {
+            tokio::time::sleep(within).await;
+            let sends = {
+                let mut s = me.state();
+                let served = s.served(&action);
+                match s.flights.get_mut(&goal_id) {
+                    Some(f) if !f.acked && served => f.sends,
+                    Some(f) if !f.acked => {
+                        f.deadline_armed = false;
+                        f.sends = 0;
+                        return;
+                    }
+                    _ => return,
+                }
+            };
+            me.land_failed(
+                &goal_id,
+                codes::NOT_ACCEPTED,
+                format!(
+                    "`{}` serves `{action}` but did not accept the goal within {} ms (sent {sends} \
+                     times)",
+                    me.server(),
+                    within.as_millis()
+                ),
+            );
+        });
+    }
+
+    /// Sends a goal once (the server answers a repeat with the goal's current status).
+    async fn send_once(self: &Arc<Self>, command: &Command) -> Sent {
         let key = self.opts.keys.goal(
             self.server(),
             &command.action,
@@ -219,22 +670,22 @@ impl Shared {
             .await
         {
             Ok(r) => r,
-            Err(e) => {
-                tracing::warn!(key, error = %e, "goal not sent; retried when the server reappears");
-                return;
-            }
+            Err(e) => return Sent::Unanswered(format!("the goal query could not be sent: {e}")),
         };
         let Ok(reply) = replies.recv_async().await else {
-            // Nobody answered (routing not converged yet, or the server just left): the next
-            // liveliness appearance re-sends the same goal id.
-            tracing::debug!(key, "no server answered the goal");
-            self.clone().retry_later(command);
-            return;
+            // Nobody answered (routing not converged yet, or the server just left).
+            return Sent::Unanswered("nobody answered the goal query".to_owned());
         };
+        enum Bad {
+            Unreadable(String),
+            Refused(String),
+        }
         let reply = match reply.result() {
             Ok(sample) => wire::parse::<GoalReply>("goal reply", &key, &payload(sample))
-                .map_err(|e| e.to_string()),
-            Err(err) => Err(String::from_utf8_lossy(&err.payload().to_bytes()).into_owned()),
+                .map_err(|e| Bad::Unreadable(e.to_string())),
+            Err(err) => Err(Bad::Refused(
+                String::from_utf8_lossy(&err.payload().to_bytes()).into_owned(),
+            )),
         };
         if self.opts.config.answers {
             // Every station replies; the task is open if any station took it.
@@ -246,60 +697,100 @@ impl Shared {
                     replies_left.push(r);
                 }
             }
-            if let Some(taken) = replies_left.iter().find(|r| r.status != Status::Rejected) {
-                return self.on_goal_reply(taken.clone());
+            if let Some(taken) = replies_left
+                .into_iter()
+                .find(|r| r.status != Status::Rejected && r.goal_id == command.goal_id)
+            {
+                return self.on_goal_reply(&key, command, taken);
             }
         }
         match reply {
-            Ok(r) => self.on_goal_reply(r),
-            Err(text) if text == "Timeout" => {
-                tracing::warn!(key, "goal timed out; retrying");
-                self.clone().retry_later(command);
+            Ok(r) => self.on_goal_reply(&key, command, r),
+            Err(Bad::Refused(text)) if text == "Timeout" => {
+                Sent::Unanswered("the goal query timed out".to_owned())
             }
-            Err(text) => {
-                self.state().flights.remove(&command.goal_id);
-                self.fail(
+            Err(Bad::Refused(text)) => {
+                self.land_failed(
                     &command.goal_id,
                     codes::REJECTED,
                     format!("`{}` refused the goal: {text}", self.server()),
                 );
+                Sent::Settled
             }
+            Err(Bad::Unreadable(why)) => self.unreadable_goal_reply(&key, command, why),
         }
     }
 
-    /// Re-sends a goal shortly if it is still unacknowledged and its action is served.
-    fn retry_later(self: Arc<Shared>, command: Command) {
-        let rt = self.rt.clone();
-        rt.spawn(async move {
-            tokio::time::sleep(Duration::from_millis(100)).await;
-            let again = {
-                let s = self.state();
-                s.served(&command.action)
-                    && s.flights.get(&command.goal_id).is_some_and(|f| !f.acked)
-            };
-            if again {
-                self.send(command).await;
-            }
-        });
+    fn unreadable_goal_reply(self: &Arc<Self>, key: &str, command: &Command, why: String) -> Sent {
+        self.drops.drop(
+            Reason::UnreadableReply,
+            key,
+            "goal reply",
+            &command.goal_id,
+            &why,
+        );
+        if self.not_understood(&command.goal_id, why.clone()) {
+            Sent::Settled
+        } else {
+            Sent::Unanswered(why)
+        }
     }
 
-    fn on_goal_reply(&self, r: GoalReply) {
+    fn on_goal_reply(self: &Arc<Self>, key: &str, command: &Command, r: GoalReply) -> Sent {
+        if r.goal_id != command.goal_id {
+            let why = format!("the reply names goal `{}`", r.goal_id);
+            return self.unreadable_goal_reply(key, command, why);
+        }
         match r.status {
             Status::Rejected => {
-                if self.state().flights.remove(&r.goal_id).is_some() {
-                    self.fail(
-                        &r.goal_id,
-                        codes::REJECTED,
-                        r.reason.unwrap_or_else(|| "rejected".to_owned()),
-                    );
-                }
+                self.land_failed(
+                    &r.goal_id,
+                    codes::REJECTED,
+                    r.reason.unwrap_or_else(|| "rejected".to_owned()),
+                );
+                Sent::Settled
+            }
+            Status::Unknown | Status::Lost => {
+                let why = format!("a goal reply cannot say {}", status_name(r.status));
+                self.unreadable_goal_reply(key, command, why)
             }
             s if s.is_terminal() => {
-                if let Some(result) = r.result {
-                    self.deliver(result);
+                // The server took the goal, and it has ended already.
+                self.acked(&r.goal_id);
+                if self.opts.config.answers {
+                    return Sent::Settled;
                 }
+                match r.result {
+                    Some(result) if result.goal_id == r.goal_id && result.status == s => {
+                        self.deliver(result, Source::Reply(key));
+                    }
+                    other => {
+                        let why = match other {
+                            Some(res) => format!(
+                                "a {} goal reply carries the result of goal `{}` with status {}",
+                                status_name(s),
+                                res.goal_id,
+                                status_name(res.status)
+                            ),
+                            None => format!("a {} goal reply without its result", status_name(s)),
+                        };
+                        self.drops.drop(
+                            Reason::UnreadableReply,
+                            key,
+                            "goal reply",
+                            &r.goal_id,
+                            &why,
+                        );
+                        self.not_understood(&r.goal_id, why);
+                    }
+                }
+                Sent::Settled
             }
-            _ => self.acked(&r.goal_id),
+            _ => {
+                self.understood(&r.goal_id);
+                self.acked(&r.goal_id);
+                Sent::Settled
+            }
         }
     }
 
@@ -307,6 +798,9 @@ impl Shared {
         let first = match self.state().flights.get_mut(goal_id) {
             Some(f) if !f.acked => {
                 f.acked = true;
+                if let Some(wake) = &f.sending {
+                    wake.notify_one();
+                }
                 true
             }
             _ => false,
@@ -322,14 +816,81 @@ impl Shared {
     /// instead: any station may hold it, and a repeated goal is harmless.
     async fn reconcile(self: Arc<Shared>, command: Command) {
         if self.opts.config.answers {
-            return self.send(command).await;
+            self.send_once(&command).await;
+            return;
         }
+        if self.ask_state(&command).await == Asked::Again {
+            self.start_asking(&command.goal_id);
+        }
+    }
+
+    /// Starts asking the server for a goal's state with backoff, until an answer is
+    /// understood, the goal ends, or nobody serves the action (its return reconciles).
+    fn start_asking(self: &Arc<Self>, goal_id: &str) {
+        if self.opts.config.answers {
+            return;
+        }
+        {
+            let mut s = self.state();
+            let Some(f) = s.flights.get_mut(goal_id) else {
+                return;
+            };
+            if f.asking {
+                return;
+            }
+            f.asking = true;
+        }
+        self.rt.spawn(Arc::clone(self).ask_loop(goal_id.to_owned()));
+    }
+
+    async fn ask_loop(self: Arc<Shared>, goal_id: String) {
+        for pause in self.limits.pauses() {
+            tokio::time::sleep(pause).await;
+            let command = {
+                let mut s = self.state();
+                let served = s
+                    .flights
+                    .get(&goal_id)
+                    .is_some_and(|f| s.served(&f.command.action));
+                match s.flights.get_mut(&goal_id) {
+                    Some(f) if served => f.command.clone(),
+                    Some(f) => {
+                        f.asking = false;
+                        return;
+                    }
+                    None => return,
+                }
+            };
+            if self.ask_state(&command).await == Asked::Settled {
+                let mut s = self.state();
+                match s.flights.get_mut(&goal_id) {
+                    // Nothing new was misunderstood while we asked.
+                    Some(f) if f.unreadable == 0 => {
+                        f.asking = false;
+                        return;
+                    }
+                    Some(_) => {}
+                    None => return,
+                }
+            }
+        }
+    }
+
+    /// One `state` query about an acknowledged goal.
+    async fn ask_state(self: &Arc<Self>, command: &Command) -> Asked {
+        let goal_id = command.goal_id.as_str();
         let key = self.opts.keys.goal(
             self.server(),
             &command.action,
             Channel::State,
             &command.goal_id,
         );
+        let unreadable = |why: String| {
+            self.drops
+                .drop(Reason::UnreadableReply, &key, "state reply", goal_id, &why);
+            self.not_understood(goal_id, why);
+            Asked::Again
+        };
         let replies = match self
             .session
             .get(&key)
@@ -338,38 +899,78 @@ impl Shared {
             .await
         {
             Ok(r) => r,
-            Err(e) => return tracing::warn!(key, error = %e, "state query failed"),
+            Err(e) => {
+                tracing::warn!(key, error = %e, "state query not sent");
+                self.not_understood(goal_id, format!("the state query could not be sent: {e}"));
+                return Asked::Again;
+            }
         };
         let Ok(reply) = replies.recv_async().await else {
-            return tracing::debug!(key, "no answer to the state query; waiting for the server");
-        };
-        let Ok(sample) = reply.result() else {
-            return tracing::warn!(key, "the server refused the state query");
-        };
-        match wire::parse::<StateReply>("state reply", &key, &payload(sample)) {
-            Err(e) => tracing::warn!(error = %e, "ignored"),
-            Ok(s) if s.status == Status::Unknown => {
-                if self.state().flights.remove(&command.goal_id).is_some() {
-                    self.fail(
-                        &command.goal_id,
-                        codes::CONNECTOR_LOST,
-                        format!(
-                            "`{}` does not know goal `{}` of `{}`: it was lost",
-                            self.server(),
-                            command.goal_id,
-                            command.action
-                        ),
-                    );
-                }
+            let served = self.state().served(&command.action);
+            if !served {
+                tracing::debug!(key, "no answer to the state query; waiting for the server");
+                return Asked::Settled;
             }
-            Ok(s) if s.status.is_terminal() => {
-                if let Some(r) = s.result {
-                    self.deliver(r);
-                }
+            return unreadable("nobody answered the state query".to_owned());
+        };
+        let sample = match reply.result() {
+            Ok(sample) => sample,
+            Err(e) => {
+                let text = String::from_utf8_lossy(&e.payload().to_bytes()).into_owned();
+                return unreadable(format!("the server refused the state query: {text}"));
             }
-            Ok(s) => {
-                tracing::debug!(goal_id = s.goal_id, status = ?s.status, "goal still running");
-                self.acked(&s.goal_id);
+        };
+        let s = match wire::parse::<StateReply>("state reply", &key, &payload(sample)) {
+            Ok(s) => s,
+            Err(e) => return unreadable(e.to_string()),
+        };
+        if s.goal_id != command.goal_id {
+            return unreadable(format!("the state reply names goal `{}`", s.goal_id));
+        }
+        match s.status {
+            Status::Unknown => {
+                self.land_failed(
+                    goal_id,
+                    codes::CONNECTOR_LOST,
+                    format!(
+                        "`{}` does not know goal `{goal_id}` of `{}`: it was lost",
+                        self.server(),
+                        command.action
+                    ),
+                );
+                Asked::Settled
+            }
+            Status::Lost => unreadable("a state reply cannot say LOST".to_owned()),
+            Status::Rejected if s.result.is_none() => {
+                self.land_failed(
+                    goal_id,
+                    codes::REJECTED,
+                    format!("`{}` reports the goal as rejected", self.server()),
+                );
+                Asked::Settled
+            }
+            status if status.is_terminal() => match s.result {
+                Some(r) if r.goal_id == s.goal_id => {
+                    if self.deliver(r, Source::Reply(&key)) {
+                        Asked::Settled
+                    } else {
+                        Asked::Again
+                    }
+                }
+                Some(r) => unreadable(format!(
+                    "the state reply carries the result of goal `{}`",
+                    r.goal_id
+                )),
+                None => unreadable(format!(
+                    "a {} state reply without its result",
+                    status_name(status)
+                )),
+            },
+            status => {
+                tracing::debug!(goal_id, status = ?status, "goal still running");
+                self.understood(goal_id);
+                self.acked(goal_id);
+                Asked::Settled
             }
         }
     }
@@ -385,21 +986,41 @@ impl Shared {
                 .payload(json(&CancelRequest { reason }))
                 .encoding(encoding("cancel"));
         }
-        let Ok(replies) = get
+        let replies = match get
             .target(self.target())
             .consolidation(ConsolidationMode::None)
             .timeout(self.opts.query_timeout)
             .await
-        else {
-            return;
+        {
+            Ok(r) => r,
+            Err(e) => return tracing::warn!(key, error = %e, "cancel not sent"),
         };
         // Ground stations all reply; any other server once.
         while let Ok(reply) = replies.recv_async().await {
-            let Ok(sample) = reply.result() else { continue };
+            let sample = match reply.result() {
+                Ok(sample) => sample,
+                Err(e) => {
+                    let text = String::from_utf8_lossy(&e.payload().to_bytes()).into_owned();
+                    self.drops.drop(
+                        Reason::UnreadableReply,
+                        &key,
+                        "cancel reply",
+                        &goal_id,
+                        &format!("the server refused the cancel: {text}"),
+                    );
+                    continue;
+                }
+            };
             self.state().cancels.remove(&goal_id);
             match wire::parse::<CancelReply>("cancel reply", &key, &payload(sample)) {
                 Ok(r) => tracing::info!(goal_id, reply = ?r, "cancel answered"),
-                Err(e) => tracing::warn!(error = %e, "ignored"),
+                Err(e) => self.drops.drop(
+                    Reason::UnreadableReply,
+                    &key,
+                    "cancel reply",
+                    &goal_id,
+                    &e.to_string(),
+                ),
             }
         }
     }
@@ -460,12 +1081,7 @@ impl Shared {
                 }
             }
         };
-        let spec = self
-            .catalogue
-            .lock()
-            .ok()
-            .and_then(|c| c.as_ref()?.action(&action).cloned());
-        if let Some(Err(e)) = spec.map(|s| s.check_result(&a.fields)) {
+        if let Some(Err(e)) = self.spec(&action).map(|s| s.check_result(&a.fields)) {
             return refused(format!(
                 "the answer does not fit the form of `{action}`: {e}"
             ));
@@ -483,7 +1099,7 @@ impl Shared {
                 let why = format!("answered by {operator}");
                 {
                     let mut s = self.state();
-                    s.flights.remove(&goal_id);
+                    s.land(&goal_id, Ended::Reported);
                     s.closed.insert(goal_id.clone(), why.clone());
                 }
                 // Every other station drops the task, then the winner hears it won.
@@ -534,7 +1150,7 @@ impl Shared {
                     .collect();
                 drop(s);
                 for (_, c) in unsent {
-                    self.rt.spawn(Arc::clone(self).send(c));
+                    self.start_sending(&c.goal_id);
                 }
                 for (_, c) in sent {
                     self.rt.spawn(Arc::clone(self).reconcile(c));
@@ -582,7 +1198,7 @@ impl Shared {
                     .map(|(id, _)| id.clone())
                     .collect();
                 for id in &ids {
-                    s.flights.remove(id);
+                    s.land(id, Ended::Reported);
                 }
                 ids
             };
@@ -600,37 +1216,101 @@ impl Shared {
         });
     }
 
-    fn on_status(&self, sample: &Sample) {
+    fn on_status(self: &Arc<Shared>, sample: &Sample) {
         let key = sample.key_expr().as_str();
-        match wire::parse::<StatusMsg>("status", key, &payload(sample)) {
-            Ok(m) if matches!(m.status, Status::Accepted | Status::Executing) => {
-                self.acked(&m.goal_id)
+        let bytes = payload(sample);
+        let m = match wire::parse::<StatusMsg>("status", key, &bytes) {
+            Ok(m) => m,
+            Err(e) => {
+                return self.drops.drop(
+                    Reason::Garbage,
+                    key,
+                    "status",
+                    &goal_id_in(&bytes),
+                    &e.to_string(),
+                );
             }
-            Ok(_) => {}
-            Err(e) => tracing::warn!(error = %e, "ignored"),
+        };
+        if !self.state().flights.contains_key(&m.goal_id) {
+            return self.stray(key, Stream::Status, &m.goal_id);
+        }
+        match m.status {
+            Status::Accepted | Status::Executing | Status::Canceling => self.acked(&m.goal_id),
+            Status::Unknown | Status::Lost => self.drops.drop(
+                Reason::InvalidStatus,
+                key,
+                "status",
+                &m.goal_id,
+                &format!("a server never publishes {}", status_name(m.status)),
+            ),
+            // Ended: the result is published before the status, so normally it has ended the
+            // goal already. It has not: ask for it (the result may have been lost).
+            _ if !self.opts.config.answers => {
+                self.acked(&m.goal_id);
+                self.start_asking(&m.goal_id);
+            }
+            _ => {}
         }
     }
 
-    fn on_feedback(&self, sample: &Sample) {
+    fn on_feedback(self: &Arc<Shared>, sample: &Sample) {
         let key = sample.key_expr().as_str();
-        match wire::parse::<FeedbackMsg>("feedback", key, &payload(sample)) {
-            Ok(m) if self.state().flights.contains_key(&m.goal_id) => {
-                self.report(Report::Feedback {
-                    goal_id: m.goal_id,
-                    progress_pct: m.progress_pct,
-                    fields: m.fields,
-                })
+        let bytes = payload(sample);
+        let m = match wire::parse::<FeedbackMsg>("feedback", key, &bytes) {
+            Ok(m) => m,
+            Err(e) => {
+                return self.drops.drop(
+                    Reason::Garbage,
+                    key,
+                    "feedback",
+                    &goal_id_in(&bytes),
+                    &e.to_string(),
+                );
             }
-            Ok(_) => {}
-            Err(e) => tracing::warn!(error = %e, "ignored"),
+        };
+        let Some(action) = self
+            .state()
+            .flights
+            .get(&m.goal_id)
+            .map(|f| f.command.action.clone())
+        else {
+            return self.stray(key, Stream::Feedback, &m.goal_id);
+        };
+        let refused = match (m.progress_pct, self.spec(&action)) {
+            (Some(p), _) if !(0.0..=100.0).contains(&p) => {
+                Some(format!("progress_pct {p} is outside 0–100"))
+            }
+            (_, Some(spec)) => spec.check_feedback(&m.fields).err(),
+            (_, None) => None,
+        };
+        if let Some(why) = refused {
+            return self
+                .drops
+                .drop(Reason::Mistyped, key, "feedback", &m.goal_id, &why);
         }
+        self.report(Report::Feedback {
+            goal_id: m.goal_id,
+            progress_pct: m.progress_pct,
+            fields: m.fields,
+        });
     }
 
-    fn on_result(&self, sample: &Sample) {
+    fn on_result(self: &Arc<Shared>, sample: &Sample) {
         let key = sample.key_expr().as_str();
-        match wire::parse::<ResultMsg>("result", key, &payload(sample)) {
-            Ok(r) => self.deliver(r),
-            Err(e) => tracing::warn!(error = %e, "ignored"),
+        let bytes = payload(sample);
+        match wire::parse::<ResultMsg>("result", key, &bytes) {
+            Ok(r) => {
+                self.deliver(r, Source::Stream(key));
+            }
+            Err(e) => {
+                let goal_id = goal_id_in(&bytes);
+                self.drops
+                    .drop(Reason::Garbage, key, "result", &goal_id, &e.to_string());
+                // A result of one of our goals that we cannot read: ask for it.
+                if self.state().flights.get(&goal_id).is_some_and(|f| f.acked) {
+                    self.not_understood(&goal_id, e.to_string());
+                }
+            }
         }
     }
 
@@ -638,21 +1318,31 @@ impl Shared {
         let key = sample.key_expr().as_str();
         let t = match wire::parse::<Telemetry>("telemetry", key, &payload(sample)) {
             Ok(t) => t,
-            Err(e) => return tracing::warn!(error = %e, "ignored"),
+            Err(e) => {
+                return self
+                    .drops
+                    .drop(Reason::Garbage, key, "telemetry", "", &e.to_string());
+            }
         };
         let config = &self.opts.config;
-        if config.clock
-            && Keys::last_chunk(key) == "clock"
-            && let Some(speed) = t.values.get("speed").and_then(Value::as_f64)
-        {
-            self.report(Report::Clock {
-                mission_ms: t.mission_ms,
-                speed,
-            });
+        if config.clock && Keys::last_chunk(key) == "clock" {
+            self.on_clock(key, &t);
         }
+        let catalogue = self
+            .catalogue
+            .lock()
+            .ok()
+            .and_then(|c| c.clone())
+            .unwrap_or_default();
         for k in &config.data {
             let Some(v) = t.values.get(k) else { continue };
             let mut s = self.state();
+            if let Err(why) = catalogue.check_telemetry(k, v, s.last_data.get(k)) {
+                drop(s);
+                self.drops
+                    .drop(Reason::Mistyped, key, "telemetry", "", &why);
+                continue;
+            }
             let changed = match (s.last_data.get(k), config.deadband.get(k)) {
                 (None, _) => true,
                 (Some(old), Some(band)) => match (old.as_f64(), v.as_f64()) {
@@ -671,14 +1361,72 @@ impl Shared {
             }
         }
     }
+
+    /// A mission clock report: believed only if plausible after the last one believed
+    /// ([`wire::check_clock`]).
+    fn on_clock(&self, key: &str, t: &Telemetry) {
+        let Some(speed) = t.values.get("speed").and_then(Value::as_f64) else {
+            return self.drops.drop(
+                Reason::ImplausibleClock,
+                key,
+                "clock report",
+                "",
+                "a clock report needs a number `speed`",
+            );
+        };
+        let reading = ClockReading {
+            mission_ms: t.mission_ms,
+            speed,
+        };
+        let now = Instant::now();
+        let verdict = {
+            let mut s = self.state();
+            let last = s.clock;
+            let wall = last.map_or(Duration::ZERO, |(_, at)| now.duration_since(at));
+            let verdict = wire::check_clock(
+                last.map(|(r, _)| r),
+                reading,
+                wall,
+                Duration::from_millis(self.limits.clock_slack_ms),
+            );
+            if verdict.is_ok() {
+                s.clock = Some((reading, now));
+            }
+            verdict
+        };
+        match verdict {
+            Ok(()) => self.report(Report::Clock {
+                mission_ms: t.mission_ms,
+                speed,
+            }),
+            Err(e) => self.drops.drop(
+                Reason::ImplausibleClock,
+                key,
+                "clock report",
+                "",
+                &e.to_string(),
+            ),
+        }
+    }
 }
 
 impl ZenohConnector {
-    /// Subscribes to the server's liveliness, streams and (if configured) telemetry. Call
-    /// inside a tokio runtime; reports go to `reports`.
+    /// Subscribes to the server's liveliness, streams and (if configured) telemetry, with the
+    /// default [`Limits`]. Call inside a tokio runtime; reports go to `reports`.
     pub async fn new(
         session: &Session,
         opts: ClientOptions,
+        reports: Reports,
+    ) -> Result<ZenohConnector, ConnectorError> {
+        ZenohConnector::with_limits(session, opts, Limits::default(), reports).await
+    }
+
+    /// [`ZenohConnector::new`] with chosen [`Limits`] (how long goals may stay unacknowledged,
+    /// the retry backoff, the drop log's rate, the clock's slack).
+    pub async fn with_limits(
+        session: &Session,
+        opts: ClientOptions,
+        limits: Limits,
         reports: Reports,
     ) -> Result<ZenohConnector, ConnectorError> {
         connector_api::keys::check_chunk(opts.config.server())
@@ -689,6 +1437,11 @@ impl ZenohConnector {
             rt: tokio::runtime::Handle::current(),
             state: Mutex::new(State::default()),
             catalogue: Mutex::new(None),
+            drops: Drops::new(
+                &opts.config.name,
+                Duration::from_millis(limits.drop_log_every_ms),
+            ),
+            limits,
             answer_turn: tokio::sync::Mutex::new(()),
             opts,
         });
@@ -696,7 +1449,7 @@ impl ZenohConnector {
         let keys = &shared.opts.keys;
         let server = shared.server().to_owned();
         let mut subscribers = Vec::new();
-        type Handler = fn(&Shared, &Sample);
+        type Handler = fn(&Arc<Shared>, &Sample);
         let streams: [(String, Handler); 3] = [
             (keys.streams_of(&server, Channel::Status), Shared::on_status),
             (
@@ -761,12 +1514,25 @@ impl ZenohConnector {
         })
     }
 
+    /// What this connector has dropped so far, updated on every drop (for monitors, and for
+    /// tests to wait on).
+    pub fn drops(&self) -> watch::Receiver<Dropped> {
+        self.shared.drops.watch()
+    }
+
     fn track(&self, command: &Command, acked: bool) -> bool {
         let mut s = self.shared.state();
-        s.flights.entry(command.goal_id.clone()).or_insert(Flight {
-            command: command.clone(),
-            acked,
-        });
+        s.flights
+            .entry(command.goal_id.clone())
+            .or_insert_with(|| Flight {
+                command: command.clone(),
+                acked,
+                sending: None,
+                sends: 0,
+                deadline_armed: false,
+                asking: false,
+                unreadable: 0,
+            });
         let alive = s.served(&command.action);
         let generation = s.generation.get(&command.action).copied().unwrap_or(0);
         drop(s);
@@ -834,7 +1600,7 @@ impl Connector for ZenohConnector {
             return;
         }
         if self.track(&command, false) {
-            self.shared.rt.spawn(Arc::clone(&self.shared).send(command));
+            self.shared.start_sending(&command.goal_id);
         }
     }
 
@@ -848,7 +1614,7 @@ impl Connector for ZenohConnector {
 
     fn abort(&mut self, goal_id: &str) {
         let mut s = self.shared.state();
-        let Some(flight) = s.flights.remove(goal_id) else {
+        let Some(flight) = s.land(goal_id, Ended::Aborted) else {
             return;
         };
         let action = flight.command.action;
@@ -911,5 +1677,9 @@ impl Connector for ZenohConnector {
                 }
             }
         })
+    }
+
+    fn dropped(&self) -> Dropped {
+        self.shared.drops.counts()
     }
 }

@@ -4,7 +4,9 @@
 //! `connector_api::keys`, every payload from `connector_api::wire`.
 //!
 //! - [`ZenohConnector`]: the executive's connector to one server (goals, cancels, state
-//!   reconciliation, liveliness and `CONNECTOR_LOST`, telemetry as system data);
+//!   reconciliation, liveliness and `CONNECTOR_LOST`, bounded waits with backoff and
+//!   `NOT_ACCEPTED` / `PROTOCOL_ERROR`, results, feedback and telemetry typed at the door,
+//!   every dropped message logged and counted);
 //! - [`ActionServer`]: the reusable server side for any system (the lander simulator, the
 //!   ground station, test servers);
 //! - [`send_answer`]: a ground station's answer to a user task, and the executive's verdict;
@@ -19,6 +21,7 @@
 mod answer;
 mod client;
 mod codec;
+mod drops;
 pub mod mock;
 mod server;
 mod session;

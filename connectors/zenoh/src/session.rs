@@ -10,6 +10,9 @@ use connector_api::Keys;
 /// to, so a one-host mission needs no router and no configuration.
 pub const DEFAULT_HUB: &str = "tcp/127.0.0.1:7447";
 
+/// The environment variable naming the deployment when `--deployment` is not given.
+const DEPLOYMENT_ENV: &str = "TRACE_DEPLOYMENT";
+
 /// Zenoh flags shared by every binary.
 #[derive(clap::Args, Clone, Debug, Default)]
 pub struct ZenohArgs {
@@ -31,9 +34,14 @@ pub struct ZenohArgs {
     /// Enable UDP multicast scouting.
     #[arg(long, conflicts_with = "no_multicast_scouting")]
     pub multicast_scouting: bool,
-    /// Root of every key expression (to run several missions side by side).
+    /// Root of every key expression, before the deployment name.
     #[arg(long = "key-root", value_name = "ROOT", default_value = connector_api::keys::DEFAULT_ROOT)]
     pub root: String,
+    /// The deployment this process belongs to: one key chunk after the key root, so every key
+    /// is `<key-root>/<deployment>/…` and processes of other deployments never see or offer
+    /// anything (default: `$TRACE_DEPLOYMENT`, else `default`).
+    #[arg(long = "deployment", value_name = "NAME")]
+    pub deployment: Option<String>,
 }
 
 /// Why Zenoh could not be opened.
@@ -115,9 +123,17 @@ impl ZenohArgs {
         Ok(c)
     }
 
-    /// The key builder for `--key-root`.
+    /// The deployment name: `--deployment`, else `TRACE_DEPLOYMENT`, else `default`.
+    pub fn deployment(&self) -> String {
+        self.deployment
+            .clone()
+            .or_else(|| std::env::var(DEPLOYMENT_ENV).ok().filter(|d| !d.is_empty()))
+            .unwrap_or_else(|| connector_api::keys::DEFAULT_DEPLOYMENT.to_owned())
+    }
+
+    /// The key builder for `--key-root` and the deployment.
     pub fn keys(&self) -> Result<Keys, SessionError> {
-        Ok(Keys::new(&self.root)?)
+        Ok(Keys::deployed(&self.root, &self.deployment())?)
     }
 
     /// Opens the session.
@@ -137,6 +153,7 @@ pub fn log_to_stderr() {
             tracing_subscriber::EnvFilter::try_from_default_env()
                 .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn,zenoh=error")),
         )
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .with_writer(std::io::stderr)
         .init();
 }

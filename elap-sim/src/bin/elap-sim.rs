@@ -141,6 +141,7 @@ async fn main() -> anyhow::Result<()> {
     });
     let session = cli.zenoh.open(Role::Spoke).await?;
     let keys = cli.zenoh.keys()?;
+    let joined = format!("deployment {} (keys {}/…)", keys.deployment(), keys.root());
     let _alive = session
         .liveliness()
         .declare_token(keys.alive("lander_sim", &format!("sim-{}", std::process::id())))
@@ -176,7 +177,8 @@ async fn main() -> anyhow::Result<()> {
     for h in server.unfinished() {
         start(h);
     }
-    println!("ready {SERVER}");
+    // The startup line (`trace fly` waits for `ready`): what is served and where.
+    println!("ready {SERVER} — {joined}");
     loop {
         tokio::select! {
             r = requests.recv() => match r {

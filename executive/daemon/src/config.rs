@@ -25,6 +25,17 @@ pub struct File {
     /// `[log]`
     #[serde(default)]
     pub log: LogSection,
+    /// `[zenoh]`
+    #[serde(default)]
+    pub zenoh: ZenohSection,
+}
+
+/// `[zenoh]`: which deployment the executive joins.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ZenohSection {
+    /// The deployment name (one key chunk; every key is `<key-root>/<deployment>/…`).
+    pub deployment: Option<String>,
 }
 
 /// `[store]`: where and how often the executive persists.
@@ -92,6 +103,8 @@ pub struct Settings {
     pub log_filter: String,
     /// Log lines as JSON.
     pub log_json: bool,
+    /// The deployment (`None`: the `--deployment` flag or the built-in `default`).
+    pub deployment: Option<String>,
 }
 
 impl Default for Settings {
@@ -105,6 +118,7 @@ impl Default for Settings {
             connectors: None,
             log_filter: "warn".to_owned(),
             log_json: false,
+            deployment: None,
         }
     }
 }
@@ -135,6 +149,9 @@ impl Settings {
         self.log_filter = f.log.filter.unwrap_or(self.log_filter);
         if let Some(fmt) = f.log.format {
             self.log_json = format_is_json(&fmt, &from)?;
+        }
+        if let Some(d) = f.zenoh.deployment {
+            self.deployment = Some(deployment("zenoh.deployment", d, &from)?);
         }
         Ok(self)
     }
@@ -178,8 +195,26 @@ impl Settings {
         if let Some(v) = get("TRACE_LOG_FORMAT") {
             self.log_json = format_is_json(&v, "environment")?;
         }
+        if let Some(v) = get("TRACE_DEPLOYMENT") {
+            self.deployment = Some(deployment("TRACE_DEPLOYMENT", v, "environment")?);
+        }
         Ok(self)
     }
+
+    /// The Zenoh flags with the configured deployment where `--deployment` was not given
+    /// (the flag wins over the environment, which wins over the file).
+    pub fn zenoh(&self, mut args: connector_zenoh::ZenohArgs) -> connector_zenoh::ZenohArgs {
+        if args.deployment.is_none() {
+            args.deployment.clone_from(&self.deployment);
+        }
+        args
+    }
+}
+
+fn deployment(key: &str, v: String, from: &str) -> Result<String, ConfigError> {
+    connector_api::keys::check_chunk(&v)
+        .map(|()| v)
+        .map_err(|e| ConfigError(format!("{key} ({from}): deployment {e}")))
 }
 
 fn positive(key: &str, v: f64, from: &str) -> Result<f64, ConfigError> {
@@ -251,5 +286,26 @@ mod tests {
         let env = |k: &str| (k == "TRACE_SPEED").then(|| "fast".to_owned());
         let e = Settings::default().with_env(&env).expect_err("refused");
         assert!(e.to_string().contains("TRACE_SPEED"), "{e}");
+        let e = Settings::default()
+            .with_file(&file("[zenoh]\ndeployment = \"a/b\"\n"))
+            .expect_err("refused");
+        assert!(e.to_string().contains("zenoh.deployment"), "{e}");
+    }
+
+    #[test]
+    fn the_deployment_comes_from_the_flag_the_environment_or_the_file() {
+        let s = Settings::default()
+            .with_file(&file("[zenoh]\ndeployment = \"site-1\"\n"))
+            .expect("valid");
+        let flags = connector_zenoh::ZenohArgs::default();
+        assert_eq!(s.zenoh(flags.clone()).deployment.as_deref(), Some("site-1"));
+        let env = |k: &str| (k == "TRACE_DEPLOYMENT").then(|| "site-2".to_owned());
+        let s = s.with_env(&env).expect("valid");
+        assert_eq!(s.zenoh(flags).deployment.as_deref(), Some("site-2"));
+        let flag = connector_zenoh::ZenohArgs {
+            deployment: Some("site-3".into()),
+            ..Default::default()
+        };
+        assert_eq!(s.zenoh(flag).deployment.as_deref(), Some("site-3"));
     }
 }

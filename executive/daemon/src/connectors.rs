@@ -64,6 +64,9 @@ pub struct Setup<'a> {
     pub mission: String,
     /// How long to wait for each system's catalogue.
     pub catalogue_wait: Duration,
+    /// The virtual mission clock: scripted connectors answer on it when every connector is
+    /// scripted (no outside system); otherwise they sleep on the wall clock.
+    pub agenda: Option<crate::script::Agenda>,
 }
 
 fn read_config(path: &Path) -> Result<ConnectorsConfig, SetupError> {
@@ -97,6 +100,7 @@ impl Connectors {
                     grace_ms: 0,
                     clock: false,
                     answers: false,
+                    limits: Default::default(),
                 }],
             },
         };
@@ -119,6 +123,10 @@ impl Connectors {
             None
         };
         let keys = setup.zenoh.keys()?;
+        let agenda = setup
+            .agenda
+            .clone()
+            .filter(|_| config.connectors.iter().all(|c| c.kind == Kind::Script));
         let mut list: Vec<Box<dyn Connector>> = Vec::new();
         for c in &config.connectors {
             let failed = |reason: String| SetupError::Connector {
@@ -134,10 +142,11 @@ impl Connectors {
                         setup.speed,
                         reports.clone(),
                     )
-                    .map_err(|e| failed(e.to_string()))?,
+                    .map_err(|e| failed(e.to_string()))?
+                    .on_agenda(agenda.clone()),
                 ),
                 (Kind::Zenoh, Some(session)) => Box::new(
-                    ZenohConnector::new(
+                    ZenohConnector::with_limits(
                         session,
                         ClientOptions {
                             keys: keys.clone(),
@@ -147,6 +156,7 @@ impl Connectors {
                             catalogue_wait: setup.catalogue_wait,
                             query_timeout: Duration::from_secs(5),
                         },
+                        c.limits.clone(),
                         reports.clone(),
                     )
                     .await

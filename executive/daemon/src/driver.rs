@@ -1,6 +1,17 @@
 //! The driver loop: feeds what happens (task results, timers, answers) into the engine one
 //! input at a time, commits each step to the store, then performs its actions — and on start
 //! resumes whatever the store holds.
+//!
+//! The run ends when every instance has ended, or when it is stuck: running instances remain
+//! but nothing is awaited (`crate::waiting` says what that means), so no input can ever come.
+//! While only outside things are awaited (a user task, a message, a far timer, a long task),
+//! it says what it waits for, at once and then periodically.
+//!
+//! Without outside systems (only scripted connectors) the mission clock is virtual
+//! ([`crate::script::Agenda`]): it stands still while anything can move, and jumps to the next
+//! deadline (a timer, a scripted answer) when nothing can. `--speed` only paces the jumps in
+//! wall time, so the record is the same at any speed; the clock also stands still while the
+//! executive is down.
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
@@ -10,7 +21,7 @@ use std::time::Duration;
 use connector_api::{Command, Report, Verdict};
 use connector_zenoh::ZenohArgs;
 use executive_engine::{
-    Action, Engine, Event, Input, Millis, Outcome, TaskKey, TimerKey, Value, Vars,
+    Action, Engine, Event, Input, Millis, Outcome, Rejected, TaskKey, TimerKey, Value, Vars,
 };
 use executive_model::ProcessGraph;
 use executive_store::{SledStore, Store, StoreError};
@@ -19,6 +30,11 @@ use tokio::task::JoinHandle;
 
 use crate::connectors::{Connectors, Setup, SetupError};
 use crate::record::RecordWriter;
+use crate::script::{Agenda, Due};
+use crate::waiting::{Assessment, Item, Outside, What};
+
+/// A wait this close (wall time) is not reported: the run is busy, not waiting.
+pub const SOON: Duration = Duration::from_secs(5);
 
 /// How to run a mission.
 #[derive(Clone, Debug)]
@@ -44,8 +60,21 @@ pub struct RunOptions {
     pub snapshot_every: u64,
 }
 
+/// What `trace run` adds to [`RunOptions`]: the start variables, the mission clock's start,
+/// and how often a waiting run says what it waits for. The default: no variables, the
+/// mission starts now, no waiting reports.
+#[derive(Clone, Debug, Default)]
+pub struct RunExtras {
+    /// Variables every instance the run starts begins with.
+    pub vars: Vars,
+    /// Mission time at the first start (`None`: wall time now). Ignored on resume.
+    pub start_at: Option<Millis>,
+    /// How often (wall time) a waiting run repeats what it waits for; `None`: it never says.
+    pub report_every: Option<Duration>,
+}
+
 /// How a run ended.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct Summary {
     /// Each instance's outcome.
     pub outcomes: Vec<(u64, Outcome)>,
@@ -57,6 +86,12 @@ pub struct Summary {
     pub record: PathBuf,
     /// Stopped by a signal before the mission ended.
     pub interrupted: bool,
+    /// Ended because nothing could move and nothing was awaited: the incidents and dead
+    /// waits say why (`None`: every instance ended, or interrupted).
+    pub stuck: Option<Assessment>,
+    /// Processes that start only on a message, signal, timer or condition and were never
+    /// started: their start events.
+    pub not_started: Vec<Item>,
 }
 
 /// Why a run could not proceed.
@@ -97,6 +132,16 @@ pub enum RunError {
     /// The connectors could not be set up, or the mission does not match the systems.
     #[error(transparent)]
     Setup(#[from] SetupError),
+    /// Nothing would start: every process starts only on a trigger nothing in this run can
+    /// give.
+    #[error(
+        "nothing would start: {}; run it with a process that has a none start event, or with a system that sends it",
+        .0.iter().map(|(i, why)| format!("{} ({why})", i.describe())).collect::<Vec<_>>().join("; ")
+    )]
+    NothingStarts(Vec<(Item, String)>),
+    /// The start variables do not fit the process's declared data.
+    #[error("start variables: {0}")]
+    Vars(String),
     /// A file could not be read or written.
     #[error("{0}")]
     Io(String),
@@ -202,8 +247,90 @@ impl MissionClock for SystemClock {
     }
 }
 
+/// The virtual mission clock of a run without outside systems: it reads the agenda; waiting
+/// until a deadline takes its distance in mission time divided by the speed.
+struct VirtualClock {
+    agenda: Agenda,
+    speed: f64,
+}
+
+impl MissionClock for VirtualClock {
+    fn now(&self) -> Millis {
+        self.agenda.now()
+    }
+    fn wall_delay(&self, due: Millis) -> Duration {
+        let left = due.saturating_sub(self.now()).max(0) as f64 / self.speed;
+        Duration::from_micros((left * 1000.0).min(1e15) as u64)
+    }
+    fn speed(&self) -> f64 {
+        self.speed
+    }
+}
+
+/// One `--var name=value`: the value is JSON if it parses as JSON, else the text itself.
+pub fn parse_var(arg: &str) -> Result<(String, Value), String> {
+    let (name, value) = arg
+        .split_once('=')
+        .ok_or_else(|| format!("`{arg}` is not name=value"))?;
+    let name = name.trim();
+    if name.is_empty() {
+        return Err(format!("`{arg}` has no variable name"));
+    }
+    let value =
+        serde_json::from_str::<Value>(value).unwrap_or_else(|_| Value::String(value.to_owned()));
+    Ok((name.to_owned(), value))
+}
+
+/// A `--vars` file: one JSON object, its fields the variables.
+pub fn read_vars(path: &Path) -> Result<Vars, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    serde_json::from_str::<Vars>(&text)
+        .map_err(|e| format!("{}: not a JSON object of variables: {e}", path.display()))
+}
+
+/// Checks start variables against the data a process declares (its properties and data
+/// objects carry no type in BPMN as TRACE reads it, only `isCollection`): a collection must
+/// be given a list. Names the process does not declare are returned (a warning: models
+/// often use undeclared variables).
+fn check_vars(
+    g: &ProcessGraph,
+    p: executive_model::ProcessId,
+    vars: &Vars,
+) -> Result<Vec<String>, String> {
+    let process = g.process(p);
+    let declared: Vec<_> = process
+        .properties
+        .iter()
+        .chain(&process.data_objects)
+        .collect();
+    let mut undeclared = Vec::new();
+    for (name, value) in vars {
+        match declared
+            .iter()
+            .find(|d| d.name.as_deref().unwrap_or(&d.id) == name)
+        {
+            Some(d) if d.collection && !matches!(value, Value::List(_)) => {
+                return Err(format!(
+                    "`{name}` is a collection in process `{}` (isCollection), but was given {} `{value}`",
+                    process.id,
+                    value.type_name()
+                ));
+            }
+            Some(_) => {}
+            None if !declared.is_empty() => undeclared.push(name.clone()),
+            None => {}
+        }
+    }
+    Ok(undeclared)
+}
+
 /// Runs (or resumes) a mission to its end; blocks. Uses a single-threaded tokio runtime.
 pub fn run(opts: &RunOptions) -> Result<Summary, RunError> {
+    run_with(opts, &RunExtras::default())
+}
+
+/// [`run`] with start variables, a start time and waiting reports.
+pub fn run_with(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunError> {
     // Zenoh refuses tokio's current-thread scheduler; one worker keeps the driver sequential.
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(1)
@@ -211,7 +338,7 @@ pub fn run(opts: &RunOptions) -> Result<Summary, RunError> {
         .enable_io()
         .build()
         .map_err(|e| RunError::Io(e.to_string()))?;
-    rt.block_on(drive(opts))
+    rt.block_on(drive(opts, extras))
 }
 
 struct Driver {
@@ -224,8 +351,25 @@ struct Driver {
     clock: Box<dyn MissionClock>,
     seq: u64,
     tx: mpsc::UnboundedSender<Event>,
-    /// Armed timers with their mission-time deadlines (re-armed when the clock changes).
-    timers: BTreeMap<TimerKey, (Millis, JoinHandle<()>)>,
+    /// Armed timers with their mission-time deadlines (re-armed when the clock changes); on
+    /// the virtual clock they are on the agenda and have no sleeping task.
+    timers: BTreeMap<TimerKey, (Millis, Option<JoinHandle<()>>)>,
+    /// The virtual clock's agenda (runs without outside systems).
+    agenda: Option<Agenda>,
+    /// What outside systems can deliver.
+    outside: Outside,
+    /// Primary processes that start only on a trigger and have not started.
+    unstarted: Vec<executive_model::ProcessId>,
+    /// Tasks whose result the engine refused, with the reason (their goal is gone).
+    refused: BTreeMap<TaskKey, String>,
+    /// When each awaited thing was first seen: mission time and wall instant.
+    since: BTreeMap<String, (Millis, std::time::Instant)>,
+    /// How often a waiting run repeats what it waits for.
+    report_every: Option<Duration>,
+    /// The last waiting report: when, and what it listed.
+    reported: Option<(std::time::Instant, Vec<String>)>,
+    /// Incidents already told.
+    told: BTreeSet<(u64, String, String)>,
     /// Mission time of the last step: inputs never go back in time when the clock source
     /// changes.
     last_at: Millis,
@@ -243,7 +387,7 @@ fn meta(rec: &executive_store::Recovered, key: &str) -> Option<String> {
         .map(|(_, v)| v.clone())
 }
 
-async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
+async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunError> {
     let mut store = SledStore::open(&opts.store)?;
     let rec = store.recover()?;
     let held_model = meta(&rec, "model");
@@ -282,6 +426,7 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
     // Connectors first: a mission that does not match its systems never starts.
     let (reports_tx, mut reports) = mpsc::unbounded_channel();
     let effects = opts.store.join("effects.jsonl");
+    let agenda = Agenda::default();
     let mut connectors = Connectors::open(
         &Setup {
             config: opts.connectors.as_deref(),
@@ -291,6 +436,7 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
             zenoh: &opts.zenoh,
             mission: mission.clone(),
             catalogue_wait: opts.catalogue_wait,
+            agenda: Some(agenda.clone()),
         },
         reports_tx,
     )
@@ -298,6 +444,54 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
     if let Err(e) = connectors.check(&graph).await {
         connectors.close().await;
         return Err(e.into());
+    }
+    let all_scripted = connectors
+        .config
+        .connectors
+        .iter()
+        .all(|c| c.kind == connector_api::Kind::Script);
+    let agenda = all_scripted.then_some(agenda);
+    let outside = Outside {
+        messages: false,
+        signals: false,
+        data: connectors
+            .config
+            .connectors
+            .iter()
+            .any(|c| !c.data.is_empty()),
+    };
+    // Processes that start only on a trigger are not started empty: they wait for it. If
+    // nothing would start at all, and nothing outside can give the trigger, refuse now,
+    // before anything is journaled.
+    let probe = Engine::new(Arc::clone(&graph));
+    let (untriggered, triggered): (Vec<_>, Vec<_>) = graph
+        .primary_processes()
+        .into_iter()
+        .partition(|p| probe.starts_untriggered(*p));
+    if !resumed && untriggered.is_empty() && !triggered.is_empty() {
+        let a = crate::waiting::assess(&graph, probe.state(), outside, &|_| None, &triggered);
+        if a.awaited.is_empty() {
+            connectors.close().await;
+            return Err(RunError::NothingStarts(a.dead));
+        }
+    }
+    if !resumed {
+        for &p in &untriggered {
+            let undeclared = match check_vars(&graph, p, &extras.vars) {
+                Ok(u) => u,
+                Err(e) => {
+                    connectors.close().await;
+                    return Err(RunError::Vars(e));
+                }
+            };
+            for name in undeclared {
+                tracing::warn!(variable = %name, process = %graph.process(p).id, "start variable the process does not declare");
+                eprintln!(
+                    "warning: start variable `{name}`: process `{}` declares no data of that name",
+                    graph.process(p).id
+                );
+            }
+        }
     }
     // A system that supplies the mission clock is heard from before anything is timed.
     let mut early = Vec::new();
@@ -341,7 +535,7 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
             let now = wall_ms();
             let c = ScaledWallClock {
                 wall0: now,
-                mission0: now,
+                mission0: extras.start_at.unwrap_or(now),
                 speed: opts.speed.max(1e-6),
             };
             store.set_meta("clock", &format!("{},{},{}", c.wall0, c.mission0, c.speed))?;
@@ -391,6 +585,27 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
         }
         None => None,
     };
+    let clock: Box<dyn MissionClock> = match &agenda {
+        // The virtual clock starts where the mission stood: at its first start, or, resumed,
+        // at its last step (downtime is not mission time without outside systems).
+        Some(a) => {
+            a.set(if resumed {
+                engine.state().now.max(clock.mission0)
+            } else {
+                clock.mission0
+            });
+            Box::new(VirtualClock {
+                agenda: a.clone(),
+                speed: opts.speed.max(1e-6),
+            })
+        }
+        None => Box::new(clock),
+    };
+    // A resumed mission's triggered processes have not started if no instance of them has.
+    let unstarted: Vec<_> = triggered
+        .into_iter()
+        .filter(|p| !engine.state().instances.values().any(|i| i.process == *p))
+        .collect();
     let mut d = Driver {
         g: graph,
         engine,
@@ -398,7 +613,7 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
         record,
         connectors,
         mission,
-        clock: Box::new(clock),
+        clock,
         seq,
         tx,
         timers: BTreeMap::new(),
@@ -407,6 +622,14 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
         goals: HashMap::new(),
         answers: Vec::new(),
         snapshot_every: opts.snapshot_every.max(1),
+        agenda,
+        outside,
+        unstarted,
+        refused: BTreeMap::new(),
+        since: BTreeMap::new(),
+        report_every: extras.report_every,
+        reported: None,
+        told: BTreeSet::new(),
     };
     if let Some(c) = system_clock {
         d.set_clock(c);
@@ -455,11 +678,11 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
             }
         }
     } else {
-        for p in d.g.primary_processes() {
+        for p in untriggered {
             let process = d.g.process(p).id.clone();
             d.feed_all(vec![Event::InstanceStarted {
                 process,
-                vars: Default::default(),
+                vars: extras.vars.clone(),
                 start: None,
             }])?;
         }
@@ -468,7 +691,27 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
     let mut interrupted = false;
     let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
         .map_err(|e| RunError::Io(format!("cannot watch SIGTERM: {e}")))?;
+    let mut stuck = None;
     while !d.finished() {
+        let a = d.assess();
+        // Nothing awaited and nothing queued: no input can ever come.
+        if a.stuck() && rx.is_empty() && d.answers.is_empty() {
+            tracing::info!(
+                incidents = a.incidents.len(),
+                dead = a.dead.len(),
+                "stuck: nothing can move and nothing is awaited"
+            );
+            stuck = Some(a);
+            break;
+        }
+        let wake = d.watch(&a);
+        // On the virtual clock: the next deadline, reached after its distance at `--speed`
+        // once nothing else is queued (`biased`: what is queued always goes first).
+        let due = d
+            .agenda
+            .as_ref()
+            .and_then(Agenda::next)
+            .map(|t| d.clock.wall_delay(t));
         // SIGINT or SIGTERM: stop between steps; everything committed stays, `trace resume`
         // continues.
         let state_query = async {
@@ -478,14 +721,17 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
             }
         };
         let first = tokio::select! {
+            biased;
+            _ = tokio::signal::ctrl_c() => { interrupted = true; break }
+            _ = term.recv() => { interrupted = true; break }
             m = rx.recv() => m,
+            r = reports.recv() => r.and_then(|r| d.event_of(r)),
             Some(q) = state_query => {
                 crate::monitor::answer(q, d.snapshot()).await;
                 None
             }
-            r = reports.recv() => r.and_then(|r| d.event_of(r)),
-            _ = tokio::signal::ctrl_c() => { interrupted = true; break }
-            _ = term.recv() => { interrupted = true; break }
+            () = tokio::time::sleep(due.unwrap_or_default()), if due.is_some() => d.due_event(),
+            () = tokio::time::sleep_until(wake.unwrap_or_else(tokio::time::Instant::now)), if wake.is_some() => None,
         };
         // Group commit: everything that has arrived is stepped, committed with one flush,
         // then acted on.
@@ -521,12 +767,21 @@ async fn drive(opts: &RunOptions) -> Result<Summary, RunError> {
         .iter()
         .filter_map(|(id, i)| i.outcome.clone().map(|o| (id.0, o)))
         .collect();
+    let not_started = d
+        .assess()
+        .awaited
+        .into_iter()
+        .chain(d.assess().dead.into_iter().map(|(i, _)| i))
+        .filter(|i| matches!(i.what, What::Start { .. }))
+        .collect();
     Ok(Summary {
         outcomes,
         steps: d.seq,
         reboots,
         record: record_path,
         interrupted,
+        stuck,
+        not_started,
     })
 }
 
@@ -534,6 +789,143 @@ impl Driver {
     fn finished(&self) -> bool {
         let i = &self.engine.state().instances;
         !i.is_empty() && i.values().all(|i| i.outcome.is_some())
+    }
+
+    /// What the run waits for now.
+    fn assess(&self) -> Assessment {
+        let s = self.engine.state();
+        let unstarted: Vec<_> = self
+            .unstarted
+            .iter()
+            .copied()
+            .filter(|p| !s.instances.values().any(|i| i.process == *p))
+            .collect();
+        let held = |k: TaskKey| {
+            if self.flights.contains_key(&k) {
+                Some(Ok(()))
+            } else {
+                self.refused.get(&k).map(|why| Err(why.clone()))
+            }
+        };
+        crate::waiting::assess(&self.g, s, self.outside, &held, &unstarted)
+    }
+
+    /// The next thing due on the virtual clock, as an input (the clock moves to it).
+    fn due_event(&mut self) -> Option<Event> {
+        match self.agenda.as_ref()?.advance()? {
+            Due::Timer(timer) => Some(Event::TimerFired { timer }),
+            Due::Goal { answer, .. } => answer().and_then(|r| self.event_of(r)),
+        }
+    }
+
+    /// How far (wall time) an awaited thing is, if known: a timer's or a scripted answer's
+    /// deadline.
+    fn distance(&self, item: &Item) -> Option<Duration> {
+        match &item.what {
+            What::Timer { due } => Some(self.clock.wall_delay(*due)),
+            What::Task { task, .. } | What::UserTask { task } => {
+                let goal = &self.flights.get(task)?.goal_id;
+                let due = self.agenda.as_ref()?.goal_due(goal)?;
+                Some(self.clock.wall_delay(due))
+            }
+            _ => None,
+        }
+    }
+
+    /// Tells new incidents at once, and, when only outside things (or far ones) are awaited,
+    /// what the run waits for: at once when that starts or changes, then every
+    /// `report_every`. Returns when to look again (wall time).
+    fn watch(&mut self, a: &Assessment) -> Option<tokio::time::Instant> {
+        for i in &a.incidents {
+            if self
+                .told
+                .insert((i.instance, i.element.clone(), i.message.clone()))
+            {
+                tracing::warn!(instance = i.instance, element = %i.element, message = %i.message, "incident");
+                eprintln!("{i}");
+            }
+        }
+        let now = std::time::Instant::now();
+        let mission_now = self.clock.now().max(self.last_at);
+        self.since
+            .retain(|k, _| a.awaited.iter().any(|i| &i.key == k));
+        for i in &a.awaited {
+            self.since
+                .entry(i.key.clone())
+                .or_insert((mission_now, now));
+        }
+        let every = self.report_every?;
+        // Busy: something is due soon, or a task on an outside system is young.
+        let mut recheck: Option<std::time::Instant> = None;
+        let mut busy = false;
+        for i in &a.awaited {
+            match (self.distance(i), &i.what) {
+                (Some(d), _) => busy |= d < SOON,
+                (None, What::Task { .. }) => {
+                    let (_, seen) = self.since[&i.key];
+                    if now.duration_since(seen) < SOON {
+                        busy = true;
+                        let at = seen + SOON;
+                        recheck = Some(recheck.map_or(at, |r| r.min(at)));
+                    }
+                }
+                _ => {}
+            }
+        }
+        if busy || a.awaited.is_empty() {
+            self.reported = None;
+            return recheck.map(tokio::time::Instant::from_std);
+        }
+        let listed: Vec<String> = a
+            .awaited
+            .iter()
+            .filter(|i| i.what != What::Join)
+            .map(|i| i.key.clone())
+            .collect();
+        let due = match &self.reported {
+            Some((at, before)) => *before != listed || now.duration_since(*at) >= every,
+            None => true,
+        };
+        if due {
+            eprintln!(
+                "waiting (mission time {}) for:",
+                crate::waiting::mission_time(mission_now)
+            );
+            for i in a.awaited.iter().filter(|i| i.what != What::Join) {
+                let since = crate::waiting::mission_time(self.since[&i.key].0);
+                tracing::info!(
+                    what = i.kind(),
+                    element = %i.element,
+                    name = i.name.as_deref().unwrap_or_default(),
+                    instance = i.instance,
+                    since = %since,
+                    "waiting for {}",
+                    i.describe()
+                );
+                let scripted = match &i.what {
+                    What::Task { task, .. } | What::UserTask { task } => self
+                        .flights
+                        .get(task)
+                        .and_then(|f| self.agenda.as_ref()?.goal_due(&f.goal_id))
+                        .map(|t| {
+                            format!(
+                                ", the script answers at {}",
+                                crate::waiting::mission_time(t)
+                            )
+                        }),
+                    _ => None,
+                };
+                eprintln!(
+                    "  {}, since {since}{}",
+                    i.describe(),
+                    scripted.unwrap_or_default()
+                );
+            }
+            self.reported = Some((now, listed));
+        }
+        self.reported
+            .as_ref()
+            .map(|(at, _)| tokio::time::Instant::from_std(*at + every))
     }
 
     /// The input a connector report stands for, if any. Reports of goals no longer in flight
@@ -697,7 +1089,23 @@ impl Driver {
                     refusals.push(None);
                 }
                 Err(rejected) => {
-                    tracing::warn!(%rejected, "input refused");
+                    // A timer firing just after the step that disarmed it, or a result racing
+                    // the cancel of its task, is a race the engine settles: not news.
+                    if matches!(
+                        rejected,
+                        Rejected::UnknownTimer(_) | Rejected::UnknownTask(_)
+                    ) {
+                        tracing::debug!(%rejected, "input refused (a harmless race)");
+                    } else {
+                        tracing::warn!(%rejected, "input refused");
+                    }
+                    if let Event::TaskCompleted { task, .. }
+                    | Event::TaskFailed { task, .. }
+                    | Event::UserTaskAnswered { task, .. } = &input.event
+                    {
+                        self.refused
+                            .insert(*task, format!("its result was refused: {rejected}"));
+                    }
                     refusals.push(Some(rejected.to_string()));
                 }
             }
@@ -733,8 +1141,11 @@ impl Driver {
             }
             Action::StartTimer { timer, at } => self.arm(timer, at),
             Action::CancelTimer { timer } => {
-                if let Some((_, h)) = self.timers.remove(&timer) {
+                if let Some((_, Some(h))) = self.timers.remove(&timer) {
                     h.abort();
+                }
+                if let Some(a) = &self.agenda {
+                    a.cancel_timer(timer);
                 }
             }
             Action::Record(r) => self
@@ -769,7 +1180,8 @@ impl Driver {
                 let node = self.engine.state().tokens.get(&task.token).map(|t| t.node);
                 let mut v = serde_json::json!({"task": task.to_string(), "goal": f.goal_id,
                     "resource": f.resource, "user_task": f.user, "feedback": f.feedback,
-                    "element": node.map(|n| self.g.node(n).label())});
+                    "element": node.map(|n| self.g.node(n).id.as_str()),
+                    "name": node.map(|n| self.g.node(n).label())});
                 if f.user
                     && let Some(due) = self.deadline(*task)
                 {
@@ -778,18 +1190,35 @@ impl Driver {
                 v
             })
             .collect();
-        crate::monitor::snapshot(&self.mission, &self.engine, self.last_at, in_flight)
+        let mut state =
+            crate::monitor::snapshot(&self.mission, &self.engine, self.last_at, in_flight);
+        // What each connector refused (garbage, unknown goals, mistyped data, …), so an
+        // operator sees that something on the bus is talking nonsense.
+        let dropped: serde_json::Map<String, serde_json::Value> = self
+            .connectors
+            .list
+            .iter()
+            .map(|c| (c.name().to_owned(), serde_json::json!(c.dropped())))
+            .collect();
+        state["dropped"] = serde_json::Value::Object(dropped);
+        state
     }
 
     /// Arms (or re-arms) a timer for mission time `at` on the current clock.
     fn arm(&mut self, timer: TimerKey, at: Millis) {
+        if let Some(a) = &self.agenda {
+            a.cancel_timer(timer);
+            a.push(at, Due::Timer(timer));
+            self.timers.insert(timer, (at, None));
+            return;
+        }
         let delay = self.clock.wall_delay(at);
         let tx = self.tx.clone();
         let h = tokio::spawn(async move {
             tokio::time::sleep(delay).await;
             let _ = tx.send(Event::TimerFired { timer });
         });
-        if let Some((_, old)) = self.timers.insert(timer, (at, h)) {
+        if let Some((_, Some(old))) = self.timers.insert(timer, (at, Some(h))) {
             old.abort();
         }
     }

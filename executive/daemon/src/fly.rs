@@ -2,6 +2,14 @@
 //! a ground station answering by policy as separate processes, runs the executive against them over
 //! Zenoh (embedded defaults: peers on loopback, no router), shows progress from the execution
 //! record as the mission advances, and ends with a summary.
+//!
+//! It works from any directory and as installed binaries: the demo mission, its connector
+//! routes, the ground policy and the named scenarios are built in (a file given on the command
+//! line overrides each; the simulator's catalogue and the ground forms are built into those
+//! binaries), and the flight directory keeps a copy of what was flown. `elap-sim` and
+//! `ground-station` are found next to the running `trace`, else on `PATH`. Each flight is its
+//! own deployment (every key under `<key-root>/<flight id>`, `docs/protocol.md` §1) on a free
+//! loopback port, so flights, and a Zenoh router on 7447, coexist on one host.
 
 use std::collections::BTreeMap;
 use std::io::{BufRead, Seek};
@@ -13,24 +21,67 @@ use std::time::Duration;
 
 use serde_json::Value;
 
+/// The demo mission, built in: its file name (the mission id's stem) and text.
+const MISSION: (&str, &str) = (
+    "europa-bsm1.bpmn",
+    include_str!("../../../deploy/missions/europa-bsm1.bpmn"),
+);
+
+/// The demo mission's connector routes (`deploy/connectors.toml`), built in.
+const CONNECTORS: &str = include_str!("../../../deploy/connectors.toml");
+
+/// The ground station's policy (`deploy/ground/policy.toml`), built in.
+const GROUND_POLICY: &str = include_str!("../../../deploy/ground/policy.toml");
+
+/// The named scenarios (`deploy/scenarios/*.json`), built in.
+const SCENARIOS: &[(&str, &str)] = &[
+    (
+        "battery-abort",
+        include_str!("../../../deploy/scenarios/battery-abort.json"),
+    ),
+    (
+        "deadline",
+        include_str!("../../../deploy/scenarios/deadline.json"),
+    ),
+    (
+        "nominal",
+        include_str!("../../../deploy/scenarios/nominal.json"),
+    ),
+    (
+        "slump",
+        include_str!("../../../deploy/scenarios/slump.json"),
+    ),
+    (
+        "stuck-tool-abandoned",
+        include_str!("../../../deploy/scenarios/stuck-tool-abandoned.json"),
+    ),
+    (
+        "stuck-tool-recovered",
+        include_str!("../../../deploy/scenarios/stuck-tool-recovered.json"),
+    ),
+];
+
 /// How to fly (the flags of `trace fly`).
 #[derive(Clone, Debug, clap::Args)]
 pub struct FlyOptions {
-    /// The mission model.
-    #[arg(default_value = "deploy/missions/europa-bsm1.bpmn")]
-    pub mission: PathBuf,
-    /// Working directory for the stores and the record (default: `flights/<mission>-<time>`);
+    /// The mission model (default: the built-in Europa BSM-1 mission,
+    /// deploy/missions/europa-bsm1.bpmn).
+    pub mission: Option<PathBuf>,
+    /// Working directory for the stores and the record (default: `flights/<flight id>`);
     /// it must not hold a previous flight.
     #[arg(long)]
     pub dir: Option<PathBuf>,
-    /// Connector configuration.
-    #[arg(long, default_value = "deploy/connectors.toml")]
-    pub connectors: PathBuf,
-    /// The policy of the ground station `trace fly` starts.
-    #[arg(long, default_value = "deploy/ground/policy.toml")]
-    pub ground_policy: PathBuf,
+    /// Connector configuration (default: the built-in routes of the Europa mission,
+    /// deploy/connectors.toml).
+    #[arg(long)]
+    pub connectors: Option<PathBuf>,
+    /// The policy of the ground station `trace fly` starts (default: the built-in
+    /// deploy/ground/policy.toml).
+    #[arg(long)]
+    pub ground_policy: Option<PathBuf>,
     /// Start no ground station: answer the user tasks from another terminal with
-    /// `ground-station --interactive`, or let the model's timers decide.
+    /// `ground-station --interactive` (the command to type is printed), or let the model's
+    /// timers decide.
     #[arg(long)]
     pub no_ground: bool,
     /// Mission time runs this many times faster than wall time (200000: a 20-day mission in
@@ -46,11 +97,14 @@ pub struct FlyOptions {
     /// Scripted faults for the simulator (JSON).
     #[arg(long)]
     pub faults: Option<PathBuf>,
-    /// A named scenario from deploy/scenarios/ (seed, profile and scripted faults), e.g.
-    /// `stuck-tool-recovered`; overrides --seed, --profile and --faults.
+    /// A scenario (seed, profile and scripted faults): a built-in name (battery-abort,
+    /// deadline, nominal, slump, stuck-tool-abandoned, stuck-tool-recovered) or a JSON file
+    /// of the same shape; overrides --seed, --profile and --faults.
     #[arg(long)]
     pub scenario: Option<String>,
-    /// Zenoh flags for the executive (the systems connect to its first listen endpoint).
+    /// Zenoh flags. Without endpoints the executive listens on a free loopback port and the
+    /// systems connect to it; with `-l` they connect to its first listen endpoint, with `-e`
+    /// to the same endpoints. The deployment defaults to the flight id.
     #[command(flatten)]
     pub zenoh: connector_zenoh::ZenohArgs,
 }
@@ -74,7 +128,7 @@ pub enum FlyError {
     Run(#[from] crate::driver::RunError),
 }
 
-/// A named scenario (`deploy/scenarios/<name>.json`): seed, profile and scripted faults.
+/// A scenario: seed, profile and scripted faults.
 #[derive(Debug)]
 pub struct Scenario {
     /// What it shows.
@@ -88,21 +142,26 @@ pub struct Scenario {
 }
 
 impl Scenario {
-    /// Reads `deploy/scenarios/<name>.json` and writes its faults into `dir`.
+    /// The built-in scenario `name`, or the scenario file `name` (a path ending in `.json` or
+    /// naming a directory); writes its faults into `dir`.
     pub fn load(name: &str, dir: &Path) -> Result<Scenario, FlyError> {
         let bad = |reason: String| FlyError::Dir(format!("scenario `{name}`: {reason}"));
-        if name.is_empty()
-            || !name
-                .chars()
-                .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
-        {
-            return Err(bad("names are letters, digits, - and _".into()));
-        }
-        let path = Path::new("deploy/scenarios").join(format!("{name}.json"));
-        let text =
-            std::fs::read_to_string(&path).map_err(|e| bad(format!("{}: {e}", path.display())))?;
-        let v: Value =
-            serde_json::from_str(&text).map_err(|e| bad(format!("{}: {e}", path.display())))?;
+        let text = if name.ends_with(".json") || name.contains(std::path::is_separator) {
+            std::fs::read_to_string(name).map_err(|e| bad(e.to_string()))?
+        } else {
+            SCENARIOS
+                .iter()
+                .find(|(n, _)| *n == name)
+                .map(|(_, text)| (*text).to_owned())
+                .ok_or_else(|| {
+                    let known: Vec<&str> = SCENARIOS.iter().map(|(n, _)| *n).collect();
+                    bad(format!(
+                        "not a built-in scenario ({}) nor a .json file",
+                        known.join(", ")
+                    ))
+                })?
+        };
+        let v: Value = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?;
         std::fs::create_dir_all(dir).map_err(|e| bad(e.to_string()))?;
         let faults = dir.join("faults.json");
         std::fs::write(
@@ -130,31 +189,44 @@ impl Drop for Children {
     }
 }
 
-/// A sibling binary of the running `trace`.
-fn sibling(name: &str) -> PathBuf {
+/// A program of the TRACE set: next to the running `trace` (a build or an installed set),
+/// else found on `PATH`.
+fn program(name: &str) -> PathBuf {
+    let file = format!("{name}{}", std::env::consts::EXE_SUFFIX);
     std::env::current_exe()
         .ok()
-        .and_then(|p| p.parent().map(|d| d.join(name)))
-        .filter(|p| p.exists())
-        .unwrap_or_else(|| PathBuf::from(name))
+        .and_then(|p| p.parent().map(|d| d.join(&file)))
+        .filter(|p| p.is_file())
+        .unwrap_or_else(|| PathBuf::from(file))
 }
 
-fn start(program: &str, args: &[String], log: &Path) -> Result<Child, FlyError> {
+/// Starts `name`, its stderr and later output into `log`, and waits for its `ready` line.
+fn start(name: &str, args: &[String], log: &Path) -> Result<Child, FlyError> {
     let err = |reason: String| FlyError::Spawn {
-        program: program.to_owned(),
+        program: name.to_owned(),
         reason,
     };
-    let log = std::fs::File::create(log).map_err(|e| err(e.to_string()))?;
-    let mut copy = log.try_clone().map_err(|e| err(e.to_string()))?;
-    let mut child = Command::new(sibling(program))
+    let file = std::fs::File::create(log).map_err(|e| err(e.to_string()))?;
+    let mut copy = file.try_clone().map_err(|e| err(e.to_string()))?;
+    let path = program(name);
+    let mut child = Command::new(&path)
         .args(args)
         .stdout(Stdio::piped())
-        .stderr(log)
+        .stderr(file)
         .spawn()
         .map_err(|e| {
-            err(format!(
-                "{e} (build it with `cargo build --release --workspace --bins`)"
-            ))
+            let here = std::env::current_exe()
+                .ok()
+                .and_then(|p| p.parent().map(Path::to_path_buf))
+                .map_or_else(String::new, |d| format!(" next to {} or", d.display()));
+            err(if e.kind() == std::io::ErrorKind::NotFound {
+                format!(
+                    "not found{here} on PATH (build the set with `cargo build --release \
+                     --workspace --bins`, or install it beside `trace`)"
+                )
+            } else {
+                format!("{}: {e}", path.display())
+            })
         })?;
     let mut line = String::new();
     let out = child.stdout.take().ok_or_else(|| err("no stdout".into()))?;
@@ -162,13 +234,39 @@ fn start(program: &str, args: &[String], log: &Path) -> Result<Child, FlyError> 
     out.read_line(&mut line).map_err(|e| err(e.to_string()))?;
     if !line.starts_with("ready") {
         let _ = child.kill();
-        return Err(err(
-            "exited before serving (see its log in the flight directory)".into(),
-        ));
+        let _ = child.wait();
+        let said = std::fs::read_to_string(log).unwrap_or_default();
+        let tail: Vec<&str> = said.lines().filter(|l| !l.trim().is_empty()).collect();
+        let tail = tail[tail.len().saturating_sub(5)..].join("\n  ");
+        return Err(err(format!(
+            "exited before serving (its log: {}){}",
+            log.display(),
+            if tail.is_empty() {
+                String::new()
+            } else {
+                format!(":\n  {tail}")
+            }
+        )));
     }
-    // What it prints after that (a ground station's answers) goes to its log.
+    // The ready line (deployment and keys) and what it prints after that (a ground
+    // station's answers) go to its log.
+    let _ = std::io::Write::write_all(&mut copy, line.as_bytes());
     std::thread::spawn(move || std::io::copy(&mut out, &mut copy));
     Ok(child)
+}
+
+/// `name` made one key chunk (a deployment name): anything but letters, digits, `-`, `_` and
+/// `.` becomes `-`.
+fn chunk(name: &str) -> String {
+    name.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.') {
+                c
+            } else {
+                '-'
+            }
+        })
+        .collect()
 }
 
 /// Flies the mission; prints progress and a summary to stdout.
@@ -180,22 +278,110 @@ pub fn fly(opts: &FlyOptions) -> Result<(), FlyError> {
         )));
     }
     let mut opts = opts.clone();
-    let dir = opts.dir.clone().unwrap_or_else(|| {
-        let stamp = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(0, |d| d.as_secs());
-        let stem = opts
-            .mission
-            .file_stem()
-            .map_or_else(|| "mission".into(), |s| s.to_string_lossy().into_owned());
-        PathBuf::from("flights").join(format!("{stem}-{stamp}"))
-    });
+    // The flight id: the mission, the time and this process (unique on the host).
+    let stamp = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    let stem = opts
+        .mission
+        .as_deref()
+        .unwrap_or(Path::new(MISSION.0))
+        .file_stem()
+        .map_or_else(|| "mission".into(), |s| s.to_string_lossy().into_owned());
+    let flight = chunk(&format!("{stem}-{stamp}-{}", std::process::id()));
+    let dir = opts
+        .dir
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("flights").join(&flight));
     if let Some(name) = &opts.scenario {
         let s = Scenario::load(name, &dir)?;
         println!("scenario {name}: {}", s.description);
         (opts.seed, opts.profile, opts.faults) = (s.seed, s.profile, Some(s.faults));
     }
+    // A deployment given by flag or environment is kept; otherwise the flight is its own.
+    if opts.zenoh.deployment.is_none() {
+        let given = std::env::var("TRACE_DEPLOYMENT")
+            .ok()
+            .filter(|d| !d.is_empty());
+        opts.zenoh.deployment = Some(given.unwrap_or(flight));
+    }
     fly_in(&opts, &dir)
+}
+
+/// Where the processes of a flight meet: the executive's Zenoh flags and the flags every
+/// system gets.
+struct Net {
+    exec: connector_zenoh::ZenohArgs,
+    systems: Vec<String>,
+    /// Where, for people: the endpoint to give `-e`.
+    hub: String,
+}
+
+/// A free TCP port on 127.0.0.1: bound, read and released (the executive binds it next).
+fn free_port() -> Result<u16, FlyError> {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .map_err(|e| FlyError::Dir(format!("no free port on 127.0.0.1: {e}")))
+}
+
+/// The first listen endpoint of a Zenoh configuration (a list, or one per mode).
+fn first_listen(config: &zenoh::Config) -> Option<String> {
+    let v: Value = serde_json::from_str(&config.get_json("listen/endpoints").ok()?).ok()?;
+    let list = match &v {
+        Value::Object(m) => m.get("peer").or_else(|| m.values().next())?,
+        other => other,
+    };
+    list.as_array()?.first()?.as_str().map(str::to_owned)
+}
+
+impl Net {
+    fn new(z: &connector_zenoh::ZenohArgs) -> Result<Net, FlyError> {
+        let mut exec = z.clone();
+        let mut systems = vec![
+            "--key-root".to_owned(),
+            z.root.clone(),
+            "--deployment".into(),
+            z.deployment(),
+        ];
+        if let Some(mode) = &z.mode {
+            systems.extend(["--mode".to_owned(), mode.clone()]);
+        }
+        if z.multicast_scouting {
+            systems.push("--multicast-scouting".into());
+        }
+        let hub = if let Some(hub) = z.listen.first() {
+            hub.clone()
+        } else if !z.connect.is_empty() {
+            // A router or another peer: everyone connects to it.
+            for e in &z.connect {
+                systems.extend(["-e".to_owned(), e.clone()]);
+            }
+            return Ok(Net {
+                hub: z.connect.join(", "),
+                exec,
+                systems,
+            });
+        } else if z.zenoh_config.is_some() {
+            let config = z
+                .config(connector_zenoh::Role::Hub)
+                .map_err(|e| FlyError::Dir(e.to_string()))?;
+            first_listen(&config).unwrap_or_else(|| connector_zenoh::DEFAULT_HUB.to_owned())
+        } else {
+            let hub = format!("tcp/127.0.0.1:{}", free_port()?);
+            exec.listen = vec![hub.clone()];
+            hub
+        };
+        systems.extend(["-e".to_owned(), hub.clone()]);
+        Ok(Net { exec, systems, hub })
+    }
+}
+
+/// Writes a built-in file into the flight directory (what was flown stays with the flight).
+fn built_in(dir: &Path, name: &str, text: &str) -> Result<PathBuf, FlyError> {
+    let path = dir.join(name);
+    std::fs::write(&path, text).map_err(|e| FlyError::Dir(format!("{}: {e}", path.display())))?;
+    Ok(path)
 }
 
 fn fly_in(opts: &FlyOptions, dir: &Path) -> Result<(), FlyError> {
@@ -207,12 +393,19 @@ fn fly_in(opts: &FlyOptions, dir: &Path) -> Result<(), FlyError> {
         )));
     }
     std::fs::create_dir_all(dir).map_err(|e| FlyError::Dir(format!("{}: {e}", dir.display())))?;
-    let hub = opts
-        .zenoh
-        .listen
-        .first()
-        .cloned()
-        .unwrap_or_else(|| connector_zenoh::DEFAULT_HUB.to_owned());
+    let (mission, shown) = match &opts.mission {
+        Some(m) => (m.clone(), m.display().to_string()),
+        None => (
+            built_in(dir, MISSION.0, MISSION.1)?,
+            format!("{} (built in)", MISSION.0),
+        ),
+    };
+    let connectors = match &opts.connectors {
+        Some(c) => c.clone(),
+        None => built_in(dir, "connectors.toml", CONNECTORS)?,
+    };
+    let net = Net::new(&opts.zenoh)?;
+    let deployment = net.exec.deployment();
     let mut sim_args = vec![
         "--speed".to_owned(),
         opts.speed.to_string(),
@@ -222,9 +415,8 @@ fn fly_in(opts: &FlyOptions, dir: &Path) -> Result<(), FlyError> {
         opts.profile.clone(),
         "--store".into(),
         dir.join("sim").display().to_string(),
-        "-e".into(),
-        hub.clone(),
     ];
+    sim_args.extend(net.systems.iter().cloned());
     if let Some(f) = &opts.faults {
         sim_args.extend(["--faults".to_owned(), f.display().to_string()]);
     }
@@ -233,45 +425,55 @@ fn fly_in(opts: &FlyOptions, dir: &Path) -> Result<(), FlyError> {
         .0
         .push(start("elap-sim", &sim_args, &dir.join("elap-sim.log"))?);
     if !opts.no_ground {
-        children.0.push(start(
-            "ground-station",
-            &[
-                "--policy".to_owned(),
-                opts.ground_policy.display().to_string(),
-                "--station".into(),
-                "fly-policy".into(),
-                "-e".into(),
-                hub.clone(),
-            ],
-            &dir.join("ground.log"),
-        )?);
+        let policy = match &opts.ground_policy {
+            Some(p) => p.clone(),
+            None => built_in(dir, "ground-policy.toml", GROUND_POLICY)?,
+        };
+        let mut args = vec![
+            "--policy".to_owned(),
+            policy.display().to_string(),
+            "--station".into(),
+            "fly-policy".into(),
+        ];
+        args.extend(net.systems.iter().cloned());
+        children
+            .0
+            .push(start("ground-station", &args, &dir.join("ground.log"))?);
     }
     let record = dir.join("store").join("record.jsonl");
+    let join = {
+        let mut j = format!("-e {} --deployment {deployment}", net.hub);
+        if opts.zenoh.root != connector_api::keys::DEFAULT_ROOT {
+            j += &format!(" --key-root {}", opts.zenoh.root);
+        }
+        j
+    };
     println!(
-        "flying {} — simulator, {} and executive as separate processes on {hub}",
-        opts.mission.display(),
+        "flying {shown} — simulator, {} and executive as separate processes on {}, \
+         deployment {deployment}",
         if opts.no_ground {
-            "no ground station (answer with `ground-station --interactive`)"
+            "no ground station"
         } else {
             "a policy ground station"
-        }
+        },
+        net.hub,
     );
+    if opts.no_ground {
+        println!("  answer the user tasks with: ground-station --interactive {join}");
+    }
+    println!("  watch with:                 trace monitor {join}");
     let stop = Arc::new(AtomicBool::new(false));
     let watcher = {
         let (record, stop) = (record.clone(), Arc::clone(&stop));
         std::thread::spawn(move || progress(&record, &stop))
     };
-    let mut zenoh = opts.zenoh.clone();
-    if zenoh.listen.is_empty() && zenoh.connect.is_empty() {
-        zenoh.listen = vec![hub];
-    }
     let result = crate::driver::run(&crate::driver::RunOptions {
-        model: Some(opts.mission.clone()),
+        model: Some(mission),
         store: dir.join("store"),
         record: None,
         script: None,
-        connectors: Some(opts.connectors.clone()),
-        zenoh,
+        connectors: Some(connectors),
+        zenoh: net.exec,
         catalogue_wait: Duration::from_secs(30),
         speed: 1.0,
         snapshot_every: 1000,
@@ -296,10 +498,7 @@ fn day(v: &Value, t0: i64) -> f64 {
 /// Follows the record and prints what a ground operator wants to see.
 fn progress(record: &Path, stop: &AtomicBool) {
     let mut pos = 0u64;
-    let mut t0 = None;
-    let mut reader = crate::record::Reader::default();
-    let mut samples = 0;
-    let mut last_decile = 10;
+    let mut shown = Progress::default();
     let mut partial = String::new();
     loop {
         let done = stop.load(Ordering::SeqCst);
@@ -315,65 +514,114 @@ fn progress(record: &Path, stop: &AtomicBool) {
                 if !partial.ends_with('\n') {
                     continue;
                 }
-                let entry = reader.read(&partial);
-                partial.clear();
-                let Some(v) = entry else { continue };
-                let t = *t0.get_or_insert(v["mission_ms"].as_i64().unwrap_or(0));
-                let d = day(&v, t);
-                match v["kind"].as_str() {
-                    Some("entered") => {
-                        let ty = v["element"]["type"].as_str().unwrap_or_default();
-                        if matches!(ty, "subProcess" | "callActivity" | "transaction") {
-                            println!(
-                                "  day {d:5.2}  phase: {}",
-                                v["element"]["name"]
-                                    .as_str()
-                                    .unwrap_or_else(|| v["element"]["id"].as_str().unwrap_or("?"))
-                            );
-                        }
-                    }
-                    Some("completed") => match reader.resource(&v) {
-                        Some("world_model.select_site") => println!(
-                            "  day {d:5.2}  site {} selected ({})",
-                            v["output"]["selected_site"]["site_id"],
-                            v["output"]["selected_site"]["material"]
-                                .as_str()
-                                .unwrap_or("?")
-                        ),
-                        Some("instrument.analyze") => {
-                            samples += 1;
-                            println!("  day {d:5.2}  sample analysed ({samples} so far)");
-                        }
-                        Some("power.read_battery") => {
-                            // One line per 10 % of charge used.
-                            let soc = v["output"]["battery"]["soc_pct"].as_f64().unwrap_or(100.0);
-                            let decile = (soc / 10.0).floor() as i64;
-                            if decile < last_decile {
-                                last_decile = decile;
-                                println!("  day {d:5.2}  battery {soc:.1} %");
-                            }
-                        }
-                        _ => {}
-                    },
-                    Some("failed") => println!(
-                        "  day {d:5.2}  fault: {} on {}",
-                        v["code"].as_str().unwrap_or("?"),
-                        reader.resource(&v).unwrap_or("?")
-                    ),
-                    Some("caught") if v["what"] != "timer" => println!(
-                        "  day {d:5.2}  handled: {} {} by {}",
-                        v["what"].as_str().unwrap_or("?"),
-                        v["name"].as_str().unwrap_or(""),
-                        v["element"]["id"].as_str().unwrap_or("?")
-                    ),
-                    _ => {}
+                if let Some(out) = shown.line(&partial) {
+                    println!("{out}");
                 }
+                partial.clear();
             }
         }
         if done {
             return;
         }
         std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// A phase of the mission: a sub-process, call activity or transaction.
+fn is_phase(v: &Value) -> bool {
+    matches!(
+        v["element"]["type"].as_str(),
+        Some("subProcess" | "callActivity" | "transaction")
+    )
+}
+
+/// What the progress display has shown so far.
+#[derive(Default)]
+struct Progress {
+    reader: crate::record::Reader,
+    t0: Option<i64>,
+    samples: usize,
+    /// The lowest battery decile shown (`None`: none yet, as if 100 %).
+    decile: Option<i64>,
+    /// Open phases: (instance, element) → the token that opened it. A phase is shown when it
+    /// opens, not again while it is open (the instances of a multi-instance phase, a phase
+    /// entered by several branches at once).
+    phases: BTreeMap<(i64, String), i64>,
+}
+
+impl Progress {
+    /// The progress line for one record line, if it is worth one.
+    fn line(&mut self, line: &str) -> Option<String> {
+        let v = self.reader.read(line)?;
+        let t0 = *self.t0.get_or_insert(v["mission_ms"].as_i64().unwrap_or(0));
+        let d = day(&v, t0);
+        let said = match v["kind"].as_str()? {
+            kind @ ("entered" | "left" | "withdrawn") if is_phase(&v) => {
+                let at = (
+                    v["instance"].as_i64().unwrap_or_default(),
+                    v["element"]["id"].as_str().unwrap_or_default().to_owned(),
+                );
+                let token = v["token"].as_i64().unwrap_or_default();
+                if kind != "entered" {
+                    if self.phases.get(&at) == Some(&token) {
+                        self.phases.remove(&at);
+                    }
+                    return None;
+                }
+                if self.phases.contains_key(&at) {
+                    return None;
+                }
+                self.phases.insert(at, token);
+                format!(
+                    "phase: {}",
+                    v["element"]["name"]
+                        .as_str()
+                        .unwrap_or_else(|| v["element"]["id"].as_str().unwrap_or("?"))
+                )
+            }
+            "instance_finished" => {
+                let instance = v["instance"].as_i64().unwrap_or_default();
+                self.phases.retain(|(i, _), _| *i != instance);
+                return None;
+            }
+            "completed" => match self.reader.resource(&v)? {
+                "world_model.select_site" => format!(
+                    "site {} selected ({})",
+                    v["output"]["selected_site"]["site_id"],
+                    v["output"]["selected_site"]["material"]
+                        .as_str()
+                        .unwrap_or("?")
+                ),
+                "instrument.analyze" => {
+                    self.samples += 1;
+                    format!("sample analysed ({} so far)", self.samples)
+                }
+                "power.read_battery" => {
+                    // One line per 10 % of charge used.
+                    let soc = v["output"]["battery"]["soc_pct"].as_f64().unwrap_or(100.0);
+                    let decile = (soc / 10.0).floor() as i64;
+                    if decile >= self.decile.unwrap_or(10) {
+                        return None;
+                    }
+                    self.decile = Some(decile);
+                    format!("battery {soc:.1} %")
+                }
+                _ => return None,
+            },
+            "failed" => format!(
+                "fault: {} on {}",
+                v["code"].as_str().unwrap_or("?"),
+                self.reader.resource(&v).unwrap_or("?")
+            ),
+            "caught" if v["what"] != "timer" => format!(
+                "handled: {} {} by {}",
+                v["what"].as_str().unwrap_or("?"),
+                v["name"].as_str().unwrap_or(""),
+                v["element"]["id"].as_str().unwrap_or("?")
+            ),
+            _ => return None,
+        };
+        Some(format!("  day {d:5.2}  {said}"))
     }
 }
 
@@ -443,4 +691,72 @@ pub fn summarize(record: &Path, summary: &crate::driver::Summary) -> String {
     }
     out += &format!("  execution record:  {}\n", record.display());
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn entry(seq: u64, kind: &str, id: &str, token: u64) -> String {
+        serde_json::json!({
+            "v": 1, "kind": kind, "seq": seq, "idx": 0, "instance": 1, "token": token,
+            "mission_ms": 86_400_000 * seq,
+            "element": {"id": id, "name": id, "type": "subProcess"},
+        })
+        .to_string()
+    }
+
+    #[test]
+    fn a_phase_is_shown_when_it_opens_not_again_while_it_is_open() {
+        let mut p = Progress::default();
+        let shown: Vec<String> = [
+            entry(0, "entered", "Collect", 8),
+            // The instances of a multi-instance phase enter it again.
+            entry(1, "entered", "Collect", 21),
+            entry(2, "entered", "Collect", 30),
+            entry(3, "entered", "Monitor", 4),
+            entry(4, "left", "Collect", 8),
+            // The next pass through the phase is a new phase line.
+            entry(5, "entered", "Collect", 8),
+            entry(6, "withdrawn", "Collect", 8),
+            entry(7, "entered", "Collect", 9),
+        ]
+        .iter()
+        .filter_map(|l| p.line(l))
+        .collect();
+        assert_eq!(
+            shown,
+            [
+                "  day  0.00  phase: Collect",
+                "  day  3.00  phase: Monitor",
+                "  day  5.00  phase: Collect",
+                "  day  7.00  phase: Collect",
+            ]
+        );
+    }
+
+    #[test]
+    fn scenarios_are_built_in_and_files_override_them() {
+        let dir = std::env::temp_dir().join(format!("trace-fly-scenario-{}", std::process::id()));
+        let s = Scenario::load("deadline", &dir).expect("built in");
+        assert_eq!((s.seed, s.profile.as_str()), (1, "quiet"));
+        assert!(s.faults.is_file());
+        let file = dir.join("mine.json");
+        std::fs::write(
+            &file,
+            r#"{"description": "mine", "seed": 7, "profile": "demanding", "faults": []}"#,
+        )
+        .expect("write");
+        let s = Scenario::load(&file.display().to_string(), &dir).expect("a file");
+        assert_eq!((s.seed, s.description.as_str()), (7, "mine"));
+        let e = Scenario::load("nosuch", &dir).expect_err("unknown");
+        assert!(e.to_string().contains("stuck-tool-recovered"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_flight_id_is_one_key_chunk() {
+        assert_eq!(chunk("my mission 2-17/x"), "my-mission-2-17-x");
+        assert!(connector_api::keys::check_chunk(&chunk("a*b$c#d?e f@")).is_ok());
+    }
 }

@@ -24,3 +24,4 @@ pub mod script;
 pub mod timeline;
 pub mod validate;
 pub mod verify;
+pub mod waiting;

@@ -30,17 +30,42 @@ enum Command {
         strict: bool,
     },
     /// Run a mission (or resume the one its store holds) until every instance ends.
+    ///
+    /// The run ends when every instance has ended, or when it is stuck: instances still run
+    /// but nothing is awaited — no task in flight, no user task open, no timer armed, and no
+    /// message, signal or condition that anything could still cause (today only system data
+    /// comes from outside; messages and signals can come only from the mission itself, so
+    /// they are awaited only while something else is). A stuck run prints its incidents
+    /// (element and message) and the waits nothing can satisfy. A process whose only start
+    /// events are message or signal starts is not started empty: it waits for its start
+    /// message, and if nothing would start at all the run is refused, naming the start event.
+    ///
+    /// While only outside things are awaited (a user task, a message, a timer or scripted
+    /// answer more than 5 s of wall time away, a task in flight longer than 5 s), it says on
+    /// stderr (and in the log at info) what it waits for, where and since when (mission time):
+    /// at once, then every --report-waiting seconds.
+    ///
+    /// Without outside systems (no --connectors, or only scripted ones) the mission clock is
+    /// virtual: it jumps to the next deadline (a timer, a scripted answer) when nothing else can
+    /// move, waiting its distance divided by --speed; the record is the same at any speed.
+    ///
+    /// Exit status: 0 every instance ended (each outcome is printed; also after Ctrl-C, which
+    /// `trace resume` continues); 1 the run could not start or failed (model, store,
+    /// connectors, variables); 3 stuck: nothing can move and nothing is awaited, or nothing
+    /// would start.
     Run {
         /// The mission model.
         mission: PathBuf,
         #[command(flatten)]
         run: RunArgs,
+        #[command(flatten)]
+        start: StartArgs,
     },
     /// Fly a mission on this host: start the lander simulator and the policy ground responder
     /// as separate processes, run the executive against them over Zenoh, show progress, and
     /// end with a summary.
     Fly(executive::fly::FlyOptions),
-    /// Resume the mission a store holds after a crash or reboot.
+    /// Resume the mission a store holds after a crash or reboot (exit status as `trace run`).
     Resume {
         #[command(flatten)]
         run: RunArgs,
@@ -77,6 +102,25 @@ enum Command {
     Conformance(Corpus),
 }
 
+/// What only a first start takes.
+#[derive(clap::Args, Default)]
+struct StartArgs {
+    /// A start variable of every instance the run starts, `name=value` (repeatable): the value
+    /// is read as JSON if it is JSON (`n=3`, `ok=true`, `site={"id":2}`, `s="3"`), else taken
+    /// as text (`who=ana`). BPMN process data carries no type here, so values are taken as
+    /// given; a data object or property marked isCollection must be given a list, and a name
+    /// the process does not declare (when it declares any) is warned about. Wins over --vars.
+    #[arg(long = "var", value_name = "NAME=VALUE")]
+    vars: Vec<String>,
+    /// Start variables from a JSON file holding one object (its fields are the variables).
+    #[arg(long = "vars", value_name = "FILE")]
+    vars_file: Option<PathBuf>,
+    /// Mission time at the start, RFC 3339 (`2031-07-04T12:00:00Z`) or milliseconds since
+    /// the Unix epoch; default: now. Timers, `now()` and the record count from it.
+    #[arg(long, value_name = "TIME")]
+    start_at: Option<String>,
+}
+
 #[derive(clap::Args)]
 struct RunArgs {
     /// Configuration file (TOML; see deploy/executive.toml). Flags override it, and it
@@ -106,6 +150,10 @@ struct RunArgs {
     /// Seconds to wait for each system's catalogue before refusing to start.
     #[arg(long, default_value_t = 10.0)]
     catalogue_wait: f64,
+    /// While the run waits only on outside things, repeat what it waits for every this many
+    /// seconds of wall time (it is said at once when the wait starts or changes); 0: never.
+    #[arg(long, default_value_t = 30.0, value_name = "SECONDS")]
+    report_waiting: f64,
     #[command(flatten)]
     zenoh: connector_zenoh::ZenohArgs,
 }
@@ -130,8 +178,10 @@ fn logging(filter: &str, json: bool) {
     // RUST_LOG wins over the configured filter, as users expect of Rust tools.
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(filter));
+    // Colours only on a terminal: a log redirected to a file stays plain text.
     let builder = tracing_subscriber::fmt()
         .with_env_filter(filter)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .with_writer(std::io::stderr);
     if json {
         builder.json().init();
@@ -161,8 +211,12 @@ fn main() -> anyhow::Result<ExitCode> {
             let verdict = executive::validate::run(&files, json, strict, &mut stdout.lock())?;
             Ok(ExitCode::from(verdict.exit_code() as u8))
         }
-        Command::Run { mission, run } => drive(Some(mission), run),
-        Command::Resume { run } => drive(None, run),
+        Command::Run {
+            mission,
+            run,
+            start,
+        } => drive(Some(mission), run, start),
+        Command::Resume { run } => drive(None, run, StartArgs::default()),
         Command::Fly(opts) => {
             logging("warn,zenoh=error", false);
             executive::fly::fly(&opts)?;
@@ -243,7 +297,42 @@ fn verdict(totals: executive::conformance::Totals) -> ExitCode {
     }
 }
 
-fn drive(mission: Option<PathBuf>, args: RunArgs) -> anyhow::Result<ExitCode> {
+/// `trace run`'s exit status when the mission is stuck (or nothing would start).
+const STUCK: u8 = 3;
+
+/// The start variables and start time of `trace run`, and its waiting reports.
+fn extras(start: StartArgs, report_waiting: f64) -> anyhow::Result<executive::driver::RunExtras> {
+    let mut vars = match &start.vars_file {
+        Some(p) => executive::driver::read_vars(p).map_err(|e| anyhow::anyhow!("--vars {e}"))?,
+        None => Default::default(),
+    };
+    for v in &start.vars {
+        let (name, value) =
+            executive::driver::parse_var(v).map_err(|e| anyhow::anyhow!("--var {e}"))?;
+        vars.insert(name, value);
+    }
+    let start_at = match &start.start_at {
+        None => None,
+        Some(t) => Some(match t.parse::<i64>() {
+            Ok(ms) => ms,
+            Err(_) => chrono::DateTime::parse_from_rfc3339(t)
+                .map_err(|e| anyhow::anyhow!("--start-at {t}: not RFC 3339 or milliseconds: {e}"))?
+                .timestamp_millis(),
+        }),
+    };
+    anyhow::ensure!(
+        report_waiting.is_finite() && report_waiting >= 0.0,
+        "--report-waiting {report_waiting} must be a number of seconds"
+    );
+    Ok(executive::driver::RunExtras {
+        vars,
+        start_at,
+        report_every: (report_waiting > 0.0)
+            .then(|| std::time::Duration::from_secs_f64(report_waiting.min(86_400.0))),
+    })
+}
+
+fn drive(mission: Option<PathBuf>, args: RunArgs, start: StartArgs) -> anyhow::Result<ExitCode> {
     use executive::config::Settings;
     let mut settings = Settings::default();
     if let Some(path) = &args.config {
@@ -251,6 +340,7 @@ fn drive(mission: Option<PathBuf>, args: RunArgs) -> anyhow::Result<ExitCode> {
     }
     settings = settings.with_env(&|k| std::env::var(k).ok())?;
     logging(&settings.log_filter, settings.log_json);
+    let zenoh = settings.zenoh(args.zenoh);
     let store = match (args.store.or(settings.store), &mission) {
         (Some(s), _) => s,
         (None, Some(m)) => executive::driver::default_store(m),
@@ -276,14 +366,36 @@ fn drive(mission: Option<PathBuf>, args: RunArgs) -> anyhow::Result<ExitCode> {
         record: args.record.or(settings.record),
         script: args.script.or(settings.script),
         connectors: args.connectors.or(settings.connectors),
-        zenoh: args.zenoh,
+        zenoh,
         catalogue_wait: std::time::Duration::from_secs_f64(args.catalogue_wait.min(3600.0)),
         speed,
         snapshot_every,
     };
-    let summary = executive::driver::run(&opts)?;
+    let extras = extras(start, args.report_waiting)?;
+    let summary = match executive::driver::run_with(&opts, &extras) {
+        Ok(s) => s,
+        Err(e @ executive::driver::RunError::NothingStarts(_)) => {
+            eprintln!("error: {e}");
+            return Ok(ExitCode::from(STUCK));
+        }
+        Err(e) => return Err(e.into()),
+    };
     for (instance, outcome) in &summary.outcomes {
         println!("instance {instance}: {outcome:?}");
+    }
+    if let Some(stuck) = &summary.stuck {
+        for instance in &stuck.running {
+            println!("instance {instance}: Stuck");
+        }
+        for i in &stuck.incidents {
+            println!("  {i}");
+        }
+        for (item, why) in &stuck.dead {
+            println!("  waits for {}: {why}", item.describe());
+        }
+    }
+    for item in &summary.not_started {
+        println!("not started: waited for {}", item.describe());
     }
     println!(
         "{} steps, {} reboots, record: {}{}",
@@ -296,5 +408,13 @@ fn drive(mission: Option<PathBuf>, args: RunArgs) -> anyhow::Result<ExitCode> {
             ""
         }
     );
+    if let Some(stuck) = &summary.stuck {
+        eprintln!(
+            "error: the mission is stuck: nothing can move and nothing is awaited ({} incidents, {} dead waits)",
+            stuck.incidents.len(),
+            stuck.dead.len()
+        );
+        return Ok(ExitCode::from(STUCK));
+    }
     Ok(ExitCode::SUCCESS)
 }

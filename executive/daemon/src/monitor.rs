@@ -47,6 +47,7 @@ impl Publisher {
             while let Some(line) = rx.recv().await {
                 if let Err(e) = session
                     .put(&key, line)
+                    .encoding(encoding("record"))
                     .congestion_control(CongestionControl::Block)
                     .await
                 {
@@ -71,6 +72,11 @@ impl Publisher {
             let _ = tx.send(line.to_owned());
         })
     }
+}
+
+/// `application/json;trace.<kind>/1`, as every protocol payload (`docs/protocol.md` §1a).
+fn encoding(kind: &str) -> zenoh::bytes::Encoding {
+    zenoh::bytes::Encoding::APPLICATION_JSON.with_schema(connector_api::wire::schema(kind))
 }
 
 /// The mission's present state, as a state query is answered.
@@ -160,7 +166,7 @@ pub fn board(snapshot: &Value) -> String {
         line(format!(
             "   in flight: {}{progress} ({})",
             f["resource"].as_str().unwrap_or("?"),
-            f["element"].as_str().unwrap_or("?")
+            f["name"].as_str().unwrap_or("?")
         ));
     }
     for f in flights.iter().filter(|f| f["user_task"] == true) {
@@ -171,7 +177,7 @@ pub fn board(snapshot: &Value) -> String {
             .unwrap_or_default();
         line(format!(
             "   open user task: {} ({}{deadline})",
-            f["element"].as_str().unwrap_or("?"),
+            f["name"].as_str().unwrap_or("?"),
             f["goal"].as_str().unwrap_or("?")
         ));
     }
@@ -188,6 +194,23 @@ pub fn board(snapshot: &Value) -> String {
         .collect();
     if !values.is_empty() {
         line(format!("   decisions read: {}", values.join(", ")));
+    }
+    // Messages the connectors refused: zero is not news.
+    for (connector, d) in snapshot["dropped"].as_object().into_iter().flatten() {
+        if d["total"].as_u64().unwrap_or(0) == 0 {
+            continue;
+        }
+        let reasons: Vec<String> = d["by_reason"]
+            .as_object()
+            .into_iter()
+            .flatten()
+            .map(|(reason, n)| format!("{reason} {n}"))
+            .collect();
+        line(format!(
+            "   refused from {connector}: {} ({})",
+            d["total"],
+            reasons.join(", ")
+        ));
     }
     out
 }
@@ -212,6 +235,7 @@ async fn state(session: &zenoh::Session, key: &str) -> anyhow::Result<Value> {
 pub async fn answer(query: Query, snapshot: Value) {
     if let Err(e) = query
         .reply(query.key_expr().clone(), snapshot.to_string())
+        .encoding(encoding("exec_state"))
         .await
     {
         tracing::debug!(error = %e, "state reply failed");
@@ -234,6 +258,12 @@ pub async fn watch(
         .await
         .map_err(|e| anyhow::anyhow!("{e}"))?;
     let keys = zenoh.keys()?;
+    // Monitors announce themselves like every other process (`docs/protocol.md` §6).
+    let _me = session
+        .liveliness()
+        .declare_token(keys.alive("monitor", &format!("monitor-{}", std::process::id())))
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
     // Which mission: the one named, else the first executive alive.
     let (alive_tx, mut alive_rx) = mpsc::unbounded_channel::<(String, bool)>();
     let prefix = format!("{}/alive/exec/", keys.root());

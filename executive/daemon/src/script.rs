@@ -2,6 +2,10 @@
 //! action answers after a set mission-time duration with set outputs, or fails with a code
 //! on chosen attempts. It deduplicates by goal id and logs every effect it applies to a file,
 //! so a task re-commanded after a restart is never applied twice.
+//!
+//! With an [`Agenda`] (a run without outside systems), the mission clock is virtual: an
+//! answer is not a wall-clock sleep but an entry due at a mission time, and the driver moves
+//! the clock from one due entry to the next — so a run's record does not depend on its speed.
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::io::{BufRead, Write};
@@ -11,6 +15,7 @@ use std::time::Duration;
 
 use connector_api::contract::BoxFuture;
 use connector_api::{Catalogue, Command, Connector, ConnectorError, Fields, Report, Reports};
+use executive_engine::{Millis, TimerKey};
 use serde::Deserialize;
 use tokio::task::JoinHandle;
 
@@ -54,6 +59,101 @@ pub struct ScriptConnector {
     speed: f64,
     reports: Reports,
     running: HashMap<String, JoinHandle<()>>,
+    agenda: Option<Agenda>,
+}
+
+/// The virtual mission clock of a run without outside systems, and what falls due on it:
+/// armed timers and scripted answers, in order of mission time, then of arming. Shared by the
+/// driver (which moves the clock) and the scripted connectors (which put their answers on
+/// it).
+#[derive(Clone, Default)]
+pub struct Agenda(Arc<Mutex<Plan>>);
+
+#[derive(Default)]
+struct Plan {
+    now: Millis,
+    armed: u64,
+    due: BTreeMap<(Millis, u64), Due>,
+}
+
+/// Something due on the agenda.
+pub enum Due {
+    /// A timer the engine armed.
+    Timer(TimerKey),
+    /// A scripted goal's answer: applying its effect gives the report (`None`: the effect
+    /// could not be logged, so the goal is not answered).
+    Goal {
+        /// The goal.
+        goal_id: String,
+        /// Applies the effect and gives the report.
+        answer: Box<dyn FnOnce() -> Option<Report> + Send>,
+    },
+}
+
+impl Agenda {
+    /// An agenda whose clock stands at `now`.
+    pub fn new(now: Millis) -> Agenda {
+        let a = Agenda::default();
+        a.plan().now = now;
+        a
+    }
+
+    fn plan(&self) -> std::sync::MutexGuard<'_, Plan> {
+        self.0.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Sets the clock (the mission's start, or where a resumed mission stood).
+    pub fn set(&self, now: Millis) {
+        self.plan().now = now;
+    }
+
+    /// Mission time now.
+    pub fn now(&self) -> Millis {
+        self.plan().now
+    }
+
+    /// The earliest deadline on the agenda.
+    pub fn next(&self) -> Option<Millis> {
+        self.plan().due.keys().next().map(|(at, _)| *at)
+    }
+
+    /// When a scripted goal is due, if it is on the agenda.
+    pub fn goal_due(&self, goal_id: &str) -> Option<Millis> {
+        self.plan().due.iter().find_map(|((at, _), d)| match d {
+            Due::Goal { goal_id: g, .. } if g == goal_id => Some(*at),
+            _ => None,
+        })
+    }
+
+    /// Puts something on the agenda at mission time `at` (overdue: at once).
+    pub fn push(&self, at: Millis, due: Due) {
+        let mut p = self.plan();
+        p.armed += 1;
+        let n = p.armed;
+        p.due.insert((at, n), due);
+    }
+
+    /// Takes a timer off the agenda.
+    pub fn cancel_timer(&self, timer: TimerKey) {
+        self.plan()
+            .due
+            .retain(|_, d| !matches!(d, Due::Timer(t) if *t == timer));
+    }
+
+    /// Takes a goal's answer off the agenda.
+    pub fn cancel_goal(&self, goal_id: &str) {
+        self.plan()
+            .due
+            .retain(|_, d| !matches!(d, Due::Goal { goal_id: g, .. } if g == goal_id));
+    }
+
+    /// Moves the clock to the earliest deadline (never back) and takes the first entry due.
+    pub fn advance(&self) -> Option<Due> {
+        let mut p = self.plan();
+        let (at, _) = *p.due.keys().next()?;
+        p.now = p.now.max(at);
+        p.due.pop_first().map(|(_, d)| d)
+    }
 }
 
 impl ScriptConnector {
@@ -85,7 +185,15 @@ impl ScriptConnector {
             speed,
             reports,
             running: HashMap::new(),
+            agenda: None,
         })
+    }
+
+    /// Answers on the virtual clock of `agenda` (a run without outside systems) instead of
+    /// after wall-clock sleeps.
+    pub fn on_agenda(mut self, agenda: Option<Agenda>) -> ScriptConnector {
+        self.agenda = agenda;
+        self
     }
 
     fn rule(&self, action: &str) -> &Rule {
@@ -146,20 +254,15 @@ impl Connector for ScriptConnector {
             .fail
             .clone()
             .filter(|_| rule.fail_attempts.is_empty() || rule.fail_attempts.contains(&attempt));
-        let delay = Duration::from_millis((rule.duration_ms.max(0) as f64 / self.speed) as u64);
-        let (applied, effects, reports) = (
-            Arc::clone(&self.applied),
-            self.effects.clone(),
-            self.reports.clone(),
-        );
+        let (applied, effects) = (Arc::clone(&self.applied), self.effects.clone());
         let goal_id = command.goal_id.clone();
-        let h = tokio::spawn(async move {
-            tokio::time::sleep(delay).await;
+        let duration = rule.duration_ms.max(0);
+        let answer = move || {
             if let Err(e) = apply(&applied, &effects, &command.goal_id, &command.action) {
                 tracing::error!(error = %e, "effects log write failed");
-                return;
+                return None;
             }
-            let report = match fails {
+            Some(match fails {
                 Some(code) => Report::Failed {
                     message: format!("{} failed with {code}", command.action),
                     goal_id: command.goal_id,
@@ -169,8 +272,28 @@ impl Connector for ScriptConnector {
                     goal_id: command.goal_id,
                     outputs: rule.outputs,
                 },
-            };
-            let _ = reports.send(report);
+            })
+        };
+        if let Some(agenda) = &self.agenda {
+            if agenda.goal_due(&goal_id).is_none() {
+                let at = agenda.now().saturating_add(duration);
+                agenda.push(
+                    at,
+                    Due::Goal {
+                        goal_id,
+                        answer: Box::new(answer),
+                    },
+                );
+            }
+            return;
+        }
+        let delay = Duration::from_millis((duration as f64 / self.speed) as u64);
+        let reports = self.reports.clone();
+        let h = tokio::spawn(async move {
+            tokio::time::sleep(delay).await;
+            if let Some(report) = answer() {
+                let _ = reports.send(report);
+            }
         });
         self.running.insert(goal_id, h);
     }
@@ -182,6 +305,9 @@ impl Connector for ScriptConnector {
     fn abort(&mut self, goal_id: &str) {
         if let Some(h) = self.running.remove(goal_id) {
             h.abort();
+        }
+        if let Some(agenda) = &self.agenda {
+            agenda.cancel_goal(goal_id);
         }
     }
 

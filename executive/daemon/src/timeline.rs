@@ -62,6 +62,19 @@ pub struct Timeline {
     pub span: (i64, i64),
 }
 
+/// The plotted series a system data key belongs to. The battery's state of charge reaches the
+/// record two ways — as system data (`battery_soc_pct`, from telemetry) and as the output of
+/// `power.read_battery` — and both are one quantity: one series, not two.
+fn series_of(key: &str) -> String {
+    match key {
+        "battery_soc_pct" => BATTERY.to_owned(),
+        _ => key.to_owned(),
+    }
+}
+
+/// The battery's series.
+const BATTERY: &str = "battery state of charge (%)";
+
 fn lane_of(resource: &str) -> String {
     let system = resource.split('.').next().unwrap_or(resource);
     format!("system: {system}")
@@ -167,10 +180,7 @@ pub fn build(lines: impl Iterator<Item = String>) -> Timeline {
                     if resource == "power.read_battery"
                         && let Some(soc) = v["output"]["battery"]["soc_pct"].as_f64()
                     {
-                        t.series
-                            .entry("battery state of charge (%)".into())
-                            .or_default()
-                            .push((at, soc));
+                        t.series.entry(BATTERY.into()).or_default().push((at, soc));
                     }
                     t.bars.push(Bar {
                         lane: l,
@@ -207,7 +217,7 @@ pub fn build(lines: impl Iterator<Item = String>) -> Timeline {
             "data" => {
                 if let Some(x) = v["value"].as_f64() {
                     t.series
-                        .entry(v["key"].as_str().unwrap_or("?").to_owned())
+                        .entry(series_of(v["key"].as_str().unwrap_or("?")))
                         .or_default()
                         .push((at, x));
                 }
@@ -245,6 +255,11 @@ pub fn build(lines: impl Iterator<Item = String>) -> Timeline {
         "executive" => 4,
         _ => 1,
     });
+    // A series fed from two sources is drawn as one line in time order.
+    for points in t.series.values_mut() {
+        points.sort_by_key(|p| p.0);
+        points.dedup();
+    }
     t.lanes = lanes;
     t.skipped = reader.skipped;
     t.span = if first <= last { (first, last) } else { (0, 0) };
@@ -281,7 +296,9 @@ mod tests {
             r#"{"v":1,"kind":"caught","seq":2,"idx":1,"mission_ms":1000,"what":"error","name":"TOOL_STUCK","element":{"id":"Fault","name":"Removal Fault","type":"boundaryEvent"}}"#,
             r#"{"v":1,"kind":"reboot","mission_ms":1500,"reboots":1,"recommanded":1}"#,
             r#"{"v":1,"kind":"dispatched","seq":3,"idx":0,"mission_ms":2000,"task":"1-4-1","resource":"power.read_battery","element":{"id":"Read","name":"Read Battery","type":"serviceTask"}}"#,
+            r#"{"v":1,"kind":"data","seq":3,"idx":1,"mission_ms":1800,"key":"battery_soc_pct","value":81.0}"#,
             r#"{"v":1,"kind":"completed","seq":4,"idx":0,"mission_ms":2000,"task":"1-4-1","output":{"battery":{"soc_pct":80.5}}}"#,
+            r#"{"v":1,"kind":"data","seq":4,"idx":2,"mission_ms":2500,"key":"arm_temp_c","value":-120.0}"#,
             r#"{"v":1,"kind":"left","seq":4,"idx":1,"mission_ms":3000,"token":2,"element":{"id":"Exc","name":"Excavate","type":"callActivity"}}"#,
         ];
         let t = build(lines.iter().map(|s| (*s).to_owned()));
@@ -314,7 +331,15 @@ mod tests {
                 .collect::<Vec<_>>(),
             ["fault", "boundary", "reboot"]
         );
-        assert_eq!(t.series["battery state of charge (%)"], [(2000, 80.5)]);
+        // The battery is one series, whether read by a task or reported as system data.
+        assert_eq!(
+            t.series.keys().collect::<Vec<_>>(),
+            ["arm_temp_c", "battery state of charge (%)"]
+        );
+        assert_eq!(
+            t.series["battery state of charge (%)"],
+            [(1800, 81.0), (2000, 80.5)]
+        );
         assert_eq!(t.span, (0, 3000));
     }
 }

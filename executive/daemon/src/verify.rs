@@ -1,6 +1,7 @@
 //! `trace verify`: loads and validates a mission model, translates it to PROMELA, checks it with
 //! Spin, and prints every property with its verdict, states and time; a violation's
-//! counterexample is printed as BPMN steps and written as JSON beside the model's PROMELA.
+//! counterexample is printed as BPMN steps and written as JSON beside the model's PROMELA, in a
+//! work directory outside the model's folder (see [`default_work_dir`]).
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -15,9 +16,10 @@ pub struct VerifyOptions {
     /// The mission's requirements (default: `<mission>.req.toml` beside the model, if there).
     #[arg(long)]
     pub requirements: Option<PathBuf>,
-    /// Where the PROMELA model, pan's output, trails and counterexamples go (default:
-    /// `<mission>.verify/` beside the model).
-    #[arg(long)]
+    /// Where the PROMELA model, pan's output, trails and counterexamples go (default: a
+    /// directory per model under the system's temporary directory,
+    /// `trace-verify-<mission>-<hash>`, never beside the model; the report names it).
+    #[arg(long, visible_alias = "work-dir")]
     pub dir: Option<PathBuf>,
     /// How often a cycle (a retry, a loop body) may repeat per scope activation (every branch
     /// is still explored with 1; more repetitions multiply the states).
@@ -142,10 +144,7 @@ pub fn verify(opts: &VerifyOptions) -> Result<Report, VerifyError> {
         refusals,
     })?;
     let ltls = executive_verify::requirements::claims(&reqs, &formulas, &t);
-    let dir = opts
-        .dir
-        .clone()
-        .unwrap_or_else(|| path.with_extension("verify"));
+    let dir = opts.dir.clone().unwrap_or_else(|| default_work_dir(path));
     let limits = Limits {
         depth: opts.depth,
         ..Limits::default()
@@ -172,6 +171,33 @@ pub fn verify(opts: &VerifyOptions) -> Result<Report, VerifyError> {
         ends: checked.ends,
         native,
     })
+}
+
+/// The work directory when none is given: outside the model's folder, so verifying a mission
+/// kept in a repository leaves the repository clean. It sits in the system's temporary
+/// directory (`$TMPDIR`, else `/tmp`), named after the model and a hash of its absolute path and
+/// the user's home: one per model and user, reused (and overwritten) by the next run of the same
+/// model, so repeated runs do not pile up.
+pub fn default_work_dir(model: &Path) -> PathBuf {
+    let absolute = std::fs::canonicalize(model)
+        .or_else(|_| std::path::absolute(model))
+        .unwrap_or_else(|_| model.to_path_buf());
+    let home = std::env::var_os("HOME").unwrap_or_default();
+    // FNV-1a: stable across builds and platforms (std's hasher is not promised to be).
+    let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in absolute
+        .as_os_str()
+        .as_encoded_bytes()
+        .iter()
+        .chain([0u8].iter())
+        .chain(home.as_encoded_bytes())
+    {
+        hash = (hash ^ u64::from(*b)).wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    let stem = model
+        .file_stem()
+        .map_or_else(|| "mission".into(), |s| s.to_string_lossy());
+    std::env::temp_dir().join(format!("trace-verify-{stem}-{hash:016x}"))
 }
 
 /// A counterexample as an execution record (one minute of mission time per step), so
@@ -364,5 +390,10 @@ pub fn print(report: &Report, out: &mut dyn Write) -> std::io::Result<()> {
             )?;
         }
     }
+    writeln!(
+        out,
+        "work files (PROMELA, pan's output, trails): {}",
+        report.dir.display()
+    )?;
     Ok(())
 }

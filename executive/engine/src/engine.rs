@@ -95,6 +95,20 @@ impl Engine {
         commands.chain(timers).collect()
     }
 
+    /// Whether an instance of `process` started without naming a start event
+    /// (`Event::InstanceStarted` with `start: None`) enters anything: the process has a none
+    /// start event, or an activity or gateway without incoming flow. A process that starts
+    /// only on messages, signals, timers or conditions does not: such an instance would
+    /// complete at once, having entered nothing.
+    pub fn starts_untriggered(&self, process: executive_model::ProcessId) -> bool {
+        let g = &self.graph;
+        let scope = executive_model::Scope::Process(process);
+        g.scope_nodes(scope).iter().any(|n| {
+            matches!(&g.node(*n).kind, NodeKind::Start(s) if s.triggers.is_empty())
+                && g.node(*n).incoming.is_empty()
+        }) || !crate::run::implicit_starts(g, scope).is_empty()
+    }
+
     /// The model.
     pub fn graph(&self) -> &Arc<ProcessGraph> {
         &self.graph

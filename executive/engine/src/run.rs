@@ -872,19 +872,7 @@ impl Run<'_> {
 
     /// Nodes of a scope that start without a start event (no incoming flow).
     pub(crate) fn implicit_starts(&self, scope: Scope) -> Vec<NodeId> {
-        let g = self.g;
-        g.scope_nodes(scope)
-            .iter()
-            .copied()
-            .filter(|n| {
-                let node = g.node(*n);
-                node.incoming.is_empty()
-                    && !node.for_compensation
-                    && !matches!(node.kind, NodeKind::Start(_) | NodeKind::Boundary(_))
-                    && !matches!(&node.kind, NodeKind::Catch(c) if c.triggers.iter().any(|d| matches!(d, EventDefinition::Link(_))))
-                    && !matches!(&node.kind, NodeKind::SubProcess(sp) if matches!(sp.kind, SubProcessKind::Event))
-            })
-            .collect()
+        implicit_starts(self.g, scope)
     }
 
     /// Joins (inclusive, complex) waiting for tokens that can no longer come: fire them.
@@ -1007,4 +995,20 @@ fn sends_message(kind: &NodeKind) -> bool {
             .any(|d| matches!(d, EventDefinition::Message(_))),
         _ => false,
     }
+}
+
+/// Nodes of a scope that start without a start event (no incoming flow).
+pub(crate) fn implicit_starts(g: &ProcessGraph, scope: Scope) -> Vec<NodeId> {
+    g.scope_nodes(scope)
+            .iter()
+            .copied()
+            .filter(|n| {
+                let node = g.node(*n);
+                node.incoming.is_empty()
+                    && !node.for_compensation
+                    && !matches!(node.kind, NodeKind::Start(_) | NodeKind::Boundary(_))
+                    && !matches!(&node.kind, NodeKind::Catch(c) if c.triggers.iter().any(|d| matches!(d, EventDefinition::Link(_))))
+                    && !matches!(&node.kind, NodeKind::SubProcess(sp) if matches!(sp.kind, SubProcessKind::Event))
+            })
+            .collect()
 }

@@ -1,0 +1,264 @@
+//! `docs/protocol.md` is the contract: a system and a ground station written in Python from
+//! the document alone (`tests/python/`, the `eclipse-zenoh` package) fly a mission with
+//! `trace run` — goals, feedback, an error boundary, a ground decision — while sending wrong
+//! messages that the executive must refuse, log and count without changing the mission.
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc;
+use std::time::Duration;
+
+use mission_tests::{bin, repo};
+use serde_json::Value;
+
+use crate::protocol::{endpoint, port, tempdir};
+
+/// How long any one process of the flight may take; the mission itself takes about a second.
+const BOUND: Duration = Duration::from_secs(120);
+
+/// Where `scripts/test` installs the Python Zenoh package (`TRACE_PYTHONPATH`).
+fn python_path() -> PathBuf {
+    std::env::var_os("TRACE_PYTHONPATH")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| {
+            PathBuf::from(std::env::var_os("HOME").unwrap_or_default()).join(".cache/trace-python")
+        })
+}
+
+fn python(script: &str) -> Command {
+    let mut c = Command::new("python3");
+    c.env("PYTHONPATH", python_path())
+        .arg(repo().join("tests/python").join(script));
+    c
+}
+
+/// Starts a Python process and waits for its `ready` line (it serves from then on).
+fn start(script: &str, args: &[String], log: &Path) -> Child {
+    let mut child = python(script)
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(std::fs::File::create(log).expect("log file"))
+        .spawn()
+        .expect("python3 starts");
+    let stdout = child.stdout.take().expect("stdout");
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            if line.starts_with("ready") {
+                let _ = tx.send(line);
+            }
+        }
+    });
+    match rx.recv_timeout(BOUND) {
+        Ok(_) => child,
+        Err(_) => {
+            let _ = child.kill();
+            panic!(
+                "{script} never said it was ready: {}",
+                std::fs::read_to_string(log).unwrap_or_default()
+            );
+        }
+    }
+}
+
+/// Waits for a child to exit within [`BOUND`], killing it (and failing) if it does not.
+fn finish(mut child: Child, what: &str, log: &Path) -> std::process::ExitStatus {
+    let deadline = std::time::Instant::now() + BOUND;
+    loop {
+        if let Some(status) = child.try_wait().expect("try_wait") {
+            return status;
+        }
+        if std::time::Instant::now() > deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!(
+                "{what} did not end within {BOUND:?}; its log:\n{}",
+                std::fs::read_to_string(log).unwrap_or_default()
+            );
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+fn json_file(path: &Path) -> Value {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+#[test]
+fn a_python_system_and_ground_station_written_from_the_document_fly_a_mission() {
+    let import = Command::new("python3")
+        .env("PYTHONPATH", python_path())
+        .args(["-c", "import zenoh"])
+        .output()
+        .expect("python3 runs");
+    assert!(
+        import.status.success(),
+        "the Python package eclipse-zenoh does not import from {}: run scripts/test, which \
+         installs it ({})",
+        python_path().display(),
+        String::from_utf8_lossy(&import.stderr)
+    );
+    let dir = tempdir("python");
+    let hub = endpoint(port());
+    let deployment = format!("py-{}", std::process::id());
+    let (system_report, ground_report) = (dir.join("system.json"), dir.join("ground.json"));
+    let (system_log, ground_log, exec_log) = (
+        dir.join("system.log"),
+        dir.join("ground.log"),
+        dir.join("exec.log"),
+    );
+    let flags = |report: &Path| {
+        vec![
+            "--connect".to_owned(),
+            hub.clone(),
+            "--deployment".to_owned(),
+            deployment.clone(),
+            "--report".to_owned(),
+            report.display().to_string(),
+        ]
+    };
+    let system = start("trace_system.py", &flags(&system_report), &system_log);
+    let ground = start("trace_ground.py", &flags(&ground_report), &ground_log);
+    let store = dir.join("store");
+    let exec = Command::new(bin("trace"))
+        .args(["run"])
+        .arg(repo().join("tests/python/mission.bpmn"))
+        .arg("--connectors")
+        .arg(repo().join("tests/python/connectors.toml"))
+        .arg("--store")
+        .arg(&store)
+        .args([
+            "--catalogue-wait",
+            "60",
+            "-l",
+            &hub,
+            "--deployment",
+            &deployment,
+        ])
+        .env("RUST_LOG", "warn,zenoh=error")
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(&exec_log).expect("exec log"))
+        .spawn()
+        .expect("trace run starts");
+    let status = finish(exec, "trace run", &exec_log);
+    let log = std::fs::read_to_string(&exec_log).unwrap_or_default();
+    assert!(status.success(), "trace run failed ({status}):\n{log}");
+    // Both Python processes end on their own once the executive's token is gone.
+    assert!(finish(system, "the Python system", &system_log).success());
+    assert!(finish(ground, "the Python ground station", &ground_log).success());
+
+    // The record: the mission ran as drawn, and nothing refused reached it.
+    let lines: Vec<Value> = std::fs::read_to_string(store.join("record.jsonl"))
+        .expect("record")
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("record line"))
+        .collect();
+    let of = |kind: &str| -> Vec<&Value> { lines.iter().filter(|v| v["kind"] == kind).collect() };
+    let task_of = |resource: &str| -> String {
+        of("dispatched")
+            .into_iter()
+            .find(|v| v["resource"] == resource)
+            .and_then(|v| v["task"].as_str())
+            .unwrap_or_else(|| panic!("{resource} was never dispatched"))
+            .to_owned()
+    };
+    let ended = |task: &str| -> Vec<&Value> {
+        lines
+            .iter()
+            .filter(|v| v["task"] == task && (v["kind"] == "completed" || v["kind"] == "failed"))
+            .collect()
+    };
+    let dig = ended(&task_of("drill.dig"));
+    assert_eq!(dig.len(), 1, "{dig:?}");
+    assert_eq!(dig[0]["output"]["achieved_cm"], 5.2, "{dig:?}");
+    let feedback: Vec<&Value> = of("feedback");
+    assert_eq!(
+        feedback.len(),
+        1,
+        "only the well-typed feedback: {feedback:?}"
+    );
+    assert_eq!(feedback[0]["fields"]["depth_cm"], 2.5);
+    let heat = ended(&task_of("thermal.heat"));
+    assert_eq!(heat[0]["kind"], "failed");
+    assert_eq!(heat[0]["code"], "HEATER_FAULT");
+    assert_eq!(ended(&task_of("thermal.cool"))[0]["kind"], "completed");
+    let answered = of("user_task_answered");
+    assert_eq!(answered.len(), 1, "{answered:?}");
+    assert_eq!(answered[0]["operator"], "py-op@py-station");
+    assert_eq!(answered[0]["answer"]["approve"], true);
+    assert_eq!(ended(&task_of("arm.stow"))[0]["kind"], "completed");
+    let finished = of("instance_finished");
+    assert_eq!(finished[0]["outcome"]["type"], "completed", "{finished:?}");
+    // Battery telemetry arrived as system data, the mistyped value did not.
+    let data: Vec<&Value> = of("data");
+    assert!(!data.is_empty(), "no telemetry reached the mission");
+    assert!(data.iter().all(|v| v["value"].is_f64()), "{data:?}");
+
+    // What the executive refused, it logged: the mistyped feedback and telemetry, the garbage
+    // result, the result for a goal it never sent.
+    for (reason, what) in [
+        ("mistyped", "feedback"),
+        ("mistyped", "telemetry"),
+        ("garbage", "result"),
+    ] {
+        assert!(
+            log.lines().any(|l| l.contains("message dropped")
+                && l.contains(&format!("reason=\"{reason}\""))
+                && l.contains(&format!("what=\"{what}\""))),
+            "no log line for the {reason} {what}:\n{log}"
+        );
+    }
+
+    // The station: what it was told.
+    let ground = json_file(&ground_report);
+    let user_task = &ground["user_tasks"][0];
+    assert_eq!(user_task["task"], "Approve", "{user_task}");
+    assert_eq!(user_task["name"], "Approve the dig");
+    assert_eq!(user_task["context"]["depth"], 5.2, "{user_task}");
+    let verdict = |label: &str| ground["verdicts"][label]["reply"].clone();
+    let wrong = verdict("wrong_type");
+    assert_eq!(wrong["applied"], false, "{wrong}");
+    assert!(
+        wrong["reason"].as_str().unwrap_or("").contains("approve"),
+        "{wrong}"
+    );
+    let not_open = verdict("not_open");
+    assert_eq!(not_open["applied"], false);
+    assert!(
+        not_open["reason"]
+            .as_str()
+            .unwrap_or("")
+            .contains("no open user task"),
+        "{not_open}"
+    );
+    assert_eq!(verdict("right")["applied"], true);
+    assert_eq!(ground["cancel_reason"], "answered by py-op@py-station");
+    // The monitor state it asked while its task was open: the task by element id and name,
+    // and the drops so far counted by reason.
+    let state = &ground["state"]["reply"];
+    assert_eq!(state["tokens"]["Approve"], 1, "{state}");
+    let open = state["in_flight"]
+        .as_array()
+        .and_then(|a| a.iter().find(|f| f["user_task"] == true))
+        .unwrap_or_else(|| panic!("no open user task in {state}"));
+    assert_eq!(open["element"], "Approve");
+    assert_eq!(open["name"], "Approve the dig");
+    let dropped = &state["dropped"]["py_lander"];
+    for reason in ["mistyped", "garbage", "unknown_goal"] {
+        assert!(
+            dropped["by_reason"][reason].as_u64().unwrap_or(0) >= 1,
+            "no {reason} drop counted: {state}"
+        );
+    }
+
+    // The system: each goal arrived once per goal id, with its typed fields.
+    let system = json_file(&system_report);
+    let goals = system["goals"].as_array().expect("goals");
+    let dig_goal = goals
+        .iter()
+        .find(|g| g["action"] == "drill.dig")
+        .unwrap_or_else(|| panic!("no dig goal in {system}"));
+    assert_eq!(dig_goal["fields"]["depth_cm"], 5.0);
+}
