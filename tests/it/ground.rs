@@ -620,6 +620,14 @@ async fn a_station_of_another_deployment_is_never_offered_a_task() {
         "{:?}",
         other.seen
     );
+    // A's forms are served from the start (the executive checks its user tasks against them),
+    // by a station of A that never answers.
+    let mut quiet = Station::start(
+        &dir,
+        "quiet",
+        "operator = \"sam\"\n[task.\"ground.approve_site\"]\nsilent = true\n",
+        &["-e", &hub, "--deployment", "flight-a"],
+    );
     let mut exec = executive(&dir, &["-l", &hub, "--deployment", "flight-a"]);
     let opened = crate::durability::until_record(
         exec.0.as_mut().expect("running"),
@@ -636,14 +644,17 @@ async fn a_station_of_another_deployment_is_never_offered_a_task() {
         Keys::deployed("trace", "flight-a").expect("keys"),
         Keys::deployed("trace", "flight-b").expect("keys"),
     );
+    // Both are reachable from this session (peers learn of each other through the hub).
     seen(&session, &a.alive("exec", "*")).await;
+    seen(&session, &b.alive("ground", "*")).await;
     assert_eq!(tokens(&session, &a.alive("exec", "*")).await.len(), 1);
     assert!(tokens(&session, &b.alive("exec", "*")).await.is_empty());
     assert_eq!(
         tokens(&session, &b.alive("ground", "*")).await,
         ["trace/flight-b/alive/ground/bravo"]
     );
-    // Nothing is open at B's station; the task waits in A for a station of A.
+    // A's silent station holds the task; nothing is open at B's station.
+    quiet.expect(|l| l.starts_with("task 1 open:"));
     let replies = session
         .get(b.goal("ground", "ground.approve_site", Channel::State, "*"))
         .await
@@ -653,7 +664,7 @@ async fn a_station_of_another_deployment_is_never_offered_a_task() {
         "B's station holds a goal"
     );
     assert!(answered(&dir).is_empty());
-    // A station of A is offered the task and answers it; the mission ends.
+    // A station of A that joins late is offered the task and answers it; the mission ends.
     let mut own = Station::start(
         &dir,
         "alpha",
@@ -665,6 +676,7 @@ async fn a_station_of_another_deployment_is_never_offered_a_task() {
     let answers = answered(&dir);
     assert_eq!(answers.len(), 1, "{answers:#?}");
     assert_eq!(answers[0]["operator"], "amy@alpha");
+    let _ = (quiet.child.kill(), quiet.child.wait());
     // B's station, everything it said until it was stopped: never a task.
     let _ = (other.child.kill(), other.child.wait());
     while let Ok(line) = other.lines.recv_timeout(EVENT) {

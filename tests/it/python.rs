@@ -9,7 +9,7 @@ use std::process::{Child, Command, Stdio};
 use std::sync::mpsc;
 use std::time::Duration;
 
-use mission_tests::{bin, repo};
+use mission_tests::{bin, records, repo};
 use serde_json::Value;
 
 use crate::protocol::{endpoint, port, tempdir};
@@ -150,11 +150,7 @@ fn a_python_system_and_ground_station_written_from_the_document_fly_a_mission() 
     assert!(finish(ground, "the Python ground station", &ground_log).success());
 
     // The record: the mission ran as drawn, and nothing refused reached it.
-    let lines: Vec<Value> = std::fs::read_to_string(store.join("record.jsonl"))
-        .expect("record")
-        .lines()
-        .map(|l| serde_json::from_str(l).expect("record line"))
-        .collect();
+    let lines = records(&store.join("record.jsonl"));
     let of = |kind: &str| -> Vec<&Value> { lines.iter().filter(|v| v["kind"] == kind).collect() };
     let task_of = |resource: &str| -> String {
         of("dispatched")

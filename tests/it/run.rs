@@ -7,7 +7,7 @@ use std::io::BufRead;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
-use mission_tests::bin;
+use mission_tests::{bin, records};
 
 /// `trace run`'s exit status for a stuck mission (documented in `trace run --help`).
 const STUCK: i32 = 3;
@@ -156,14 +156,6 @@ fn text(out: &Output) -> String {
         String::from_utf8_lossy(&out.stdout),
         String::from_utf8_lossy(&out.stderr)
     )
-}
-
-fn records(path: &Path) -> Vec<serde_json::Value> {
-    std::fs::read_to_string(path)
-        .unwrap_or_default()
-        .lines()
-        .map(|l| serde_json::from_str(l).expect("record line"))
-        .collect()
 }
 
 #[test]

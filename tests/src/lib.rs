@@ -51,3 +51,12 @@ pub fn bin(name: &str) -> PathBuf {
         .expect("target/<profile>");
     dir.join(name)
 }
+
+/// The lines of an execution record (`docs/record.md`), parsed; none if the file is not there.
+pub fn records(path: &Path) -> Vec<serde_json::Value> {
+    std::fs::read_to_string(path)
+        .unwrap_or_default()
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("record line"))
+        .collect()
+}
