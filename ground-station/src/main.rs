@@ -65,10 +65,11 @@ async fn main() -> anyhow::Result<()> {
     let keys = cli.zenoh.keys()?;
     let joined = format!("deployment {} (keys {}/…)", keys.deployment(), keys.root());
     let session = cli.zenoh.open(Role::Spoke).await?;
-    let (station, requests) = Station::start(&session, keys, forms, id.clone(), store).await?;
+    let (station, requests) =
+        Station::start(&session, keys, forms, id.clone(), store, policy).await?;
     // The startup line (`trace fly` waits for `ready`): who serves and where.
     say(&format!("ready ground {id} — {joined}"));
-    let serving = tokio::spawn(Arc::clone(&station).serve(requests, policy));
+    let serving = tokio::spawn(Arc::clone(&station).serve(requests));
     if cli.interactive {
         let operator = cli
             .operator

@@ -24,6 +24,12 @@ use crate::policy::{Decision, Policy};
 /// How long an answer waits for the executive's verdict.
 const VERDICT_WAIT: Duration = Duration::from_secs(10);
 
+/// After no executive answered: the first pause before the answer is sent again; it doubles
+/// up to [`RETRY_MAX`]. The answer is sent again while its task is on the desk: an executive
+/// that restarts judges it then (an answer it already applied is confirmed, not applied twice).
+const RETRY_FIRST: Duration = Duration::from_millis(200);
+const RETRY_MAX: Duration = Duration::from_secs(5);
+
 /// A running ground station.
 pub struct Station {
     session: Session,
@@ -32,6 +38,8 @@ pub struct Station {
     /// This station's id (key chunk), recorded with every answer it sends.
     pub id: String,
     desk: Mutex<Desk>,
+    /// Answers the tasks it has rules for, those reopened after a restart included.
+    policy: Option<Arc<Policy>>,
     _server: ActionServer,
     _alive: LivelinessToken,
 }
@@ -44,13 +52,16 @@ pub fn say(line: &str) {
 }
 
 impl Station {
-    /// Serves the forms as station `id`; the receiver yields the tasks and withdrawals.
+    /// Serves the forms as station `id`, answering by `policy` where it has a rule; the
+    /// receiver yields the tasks and withdrawals. Tasks kept in `store` from before a restart
+    /// are reopened on the desk, and the policy answers them like new ones.
     pub async fn start(
         session: &Session,
         keys: Keys,
         forms: Arc<Catalogue>,
         id: String,
         store: Option<sled::Tree>,
+        policy: Option<Arc<Policy>>,
     ) -> Result<(Arc<Station>, mpsc::UnboundedReceiver<Request>), ServerError> {
         connector_api::keys::check_chunk(&id)?;
         let (server, requests) = ActionServer::start(
@@ -76,11 +87,12 @@ impl Station {
             forms,
             id,
             desk: Mutex::new(Desk::default()),
+            policy,
             _server: server,
             _alive: alive,
         });
         for h in resumed {
-            station.open(h, None).await;
+            station.open(h).await;
         }
         Ok((station, requests))
     }
@@ -95,16 +107,11 @@ impl Station {
         &self.forms
     }
 
-    /// Handles tasks and withdrawals until the server stops; answers by `policy` where it
-    /// has a rule.
-    pub async fn serve(
-        self: Arc<Self>,
-        mut requests: mpsc::UnboundedReceiver<Request>,
-        policy: Option<Arc<Policy>>,
-    ) {
+    /// Handles tasks and withdrawals until the server stops.
+    pub async fn serve(self: Arc<Self>, mut requests: mpsc::UnboundedReceiver<Request>) {
         while let Some(r) = requests.recv().await {
             match r {
-                Request::Goal(h) => self.open(h, policy.clone()).await,
+                Request::Goal(h) => self.open(h).await,
                 Request::Cancel(h, reason) => {
                     let why = reason.unwrap_or_else(|| "withdrawn".to_owned());
                     let closed = {
@@ -128,14 +135,16 @@ impl Station {
         }
     }
 
-    async fn open(self: &Arc<Self>, h: connector_zenoh::GoalHandle, policy: Option<Arc<Policy>>) {
+    async fn open(self: &Arc<Self>, h: connector_zenoh::GoalHandle) {
         h.executing().await;
         let (number, line) = match self.desk().open(h.clone()) {
             Some(t) => (t.number, t.line()),
             None => return,
         };
         say(&format!("task {number} open: {line}"));
-        let Some(policy) = policy else { return };
+        let Some(policy) = self.policy.clone() else {
+            return;
+        };
         match policy.decide(&h.action, &h.fields) {
             Decision::Leave => {}
             Decision::Silent => say(&format!(
@@ -186,15 +195,7 @@ impl Station {
             operator: operator.to_owned(),
             station: self.id.clone(),
         };
-        let sent = connector_zenoh::send_answer(
-            &self.session,
-            &self.keys,
-            &self.forms.server,
-            &action,
-            &answer,
-            VERDICT_WAIT,
-        )
-        .await;
+        let sent = self.judged(number, &action, &answer).await;
         match sent {
             Ok(r) if r.applied => {
                 self.desk().close(&goal_id);
@@ -216,6 +217,46 @@ impl Station {
                 self.not_applied(number, &handle).await;
                 false
             }
+        }
+    }
+
+    /// Sends the answer until the executive judges it: while no executive answers (it is
+    /// down, restarting, or the link is cut), again with backoff, saying so — as long as the
+    /// task is on the desk and not withdrawn.
+    async fn judged(
+        &self,
+        number: u32,
+        action: &str,
+        answer: &Answer,
+    ) -> Result<connector_api::wire::AnswerReply, connector_zenoh::AnswerError> {
+        let mut pause = RETRY_FIRST;
+        loop {
+            let sent = connector_zenoh::send_answer(
+                &self.session,
+                &self.keys,
+                &self.forms.server,
+                action,
+                answer,
+                VERDICT_WAIT,
+            )
+            .await;
+            let e = match sent {
+                Err(e @ connector_zenoh::AnswerError::NoExecutive(_)) => e,
+                judged => return judged,
+            };
+            let still = self
+                .desk()
+                .get_mut(number)
+                .is_some_and(|t| t.withdrawn.is_none());
+            if !still {
+                return Err(e);
+            }
+            say(&format!(
+                "task {number} answer pending: {e}; sending it again in {:.1} s",
+                pause.as_secs_f64()
+            ));
+            tokio::time::sleep(pause).await;
+            pause = (pause * 2).min(RETRY_MAX);
         }
     }
 

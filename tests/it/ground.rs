@@ -1,7 +1,9 @@
 //! Ground stations as separate processes answering a running mission's user tasks over Zenoh:
 //! every kind of bad answer refused with the reason and nothing applied, two stations racing
-//! (first valid answer wins, the other is told), and an operator answering at the terminal
-//! through a pseudo-terminal.
+//! (first valid answer wins, the other is told), an operator answering at the terminal
+//! through a pseudo-terminal, and restarts: a station killed with a task open answers it by
+//! its policy when restarted on its store, and an answer sent while the executive is down is
+//! sent again until the resumed executive judges it.
 
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
@@ -121,6 +123,23 @@ fn executive(dir: &Path, zenoh: &[&str]) -> Exec {
     Exec(Some(child))
 }
 
+/// `trace resume` of the mission in `dir` with these Zenoh endpoint flags.
+fn resume(dir: &Path, zenoh: &[&str]) -> Exec {
+    let child = Command::new(bin("trace"))
+        .arg("resume")
+        .arg("--store")
+        .arg(dir.join("store"))
+        .arg("--connectors")
+        .arg(dir.join("connectors.toml"))
+        .args(zenoh)
+        .arg("--no-multicast-scouting")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("trace resume starts");
+    Exec(Some(child))
+}
+
 /// The executive's exit, waited for on a thread so a hang fails the test instead of CI.
 fn exits(mut exec: Exec) -> String {
     let child = exec.0.take().expect("running");
@@ -196,11 +215,14 @@ impl Drop for Station {
     }
 }
 
+/// The record's lines, a line written again after a crash (same `seq` and `idx`) read once.
 fn record(dir: &Path) -> Vec<Value> {
+    let mut seen = std::collections::BTreeSet::new();
     std::fs::read_to_string(dir.join("store/record.jsonl"))
         .unwrap_or_default()
         .lines()
-        .filter_map(|l| serde_json::from_str(l).ok())
+        .filter_map(|l| serde_json::from_str::<Value>(l).ok())
+        .filter(|v| v["seq"].is_null() || seen.insert((v["seq"].to_string(), v["idx"].to_string())))
         .collect()
 }
 
@@ -397,13 +419,48 @@ async fn every_bad_answer_is_refused_with_its_reason_and_changes_nothing() {
     )
     .await;
     assert!(r.applied, "{r:?}");
+    // The same answer again (a station that never heard the verdict) is confirmed, not
+    // applied twice.
+    let ana = json!({"approve": true, "comment": "ice, go"});
+    assert!(send(&goal_id, ana.clone(), "ana").await.applied);
+    let closed = format!("user task `{goal_id}` is closed: answered by ana@desk-1");
     let again = send(&goal_id, json!({"approve": false}), "ben").await;
-    assert_eq!(
-        again.reason.as_deref(),
-        Some(format!("user task `{goal_id}` is closed: answered by ana@desk-1").as_str())
-    );
+    assert_eq!(again.reason.as_deref(), Some(closed.as_str()));
     // The other station is told.
     station.expect(|l| l.ends_with(" closed: answered by ana@desk-1"));
+    // The executive is killed and resumed: it still knows the answer it applied, and who
+    // gave it (from its record).
+    let mut exec = exec;
+    let mut child = exec.0.take().expect("running");
+    let _ = (child.kill(), child.wait());
+    let exec = resume(&dir, &["-l", &hub]);
+    let same = loop {
+        let answer = Answer {
+            goal_id: goal_id.clone(),
+            fields: ana.as_object().cloned().unwrap_or_default(),
+            operator: "ana".to_owned(),
+            station: "desk-1".to_owned(),
+        };
+        let judged = connector_zenoh::send_answer(
+            &session,
+            &keys,
+            "ground",
+            "ground.approve_site",
+            &answer,
+            EVENT,
+        )
+        .await;
+        match judged {
+            // The resumed executive is not up yet: its reply is the event waited for.
+            Err(connector_zenoh::AnswerError::NoExecutive(_)) => {
+                tokio::time::sleep(Duration::from_millis(20)).await;
+            }
+            other => break other.expect("a verdict"),
+        }
+    };
+    assert!(same.applied, "{same:?}");
+    let again = send(&goal_id, json!({"approve": false}), "ben").await;
+    assert_eq!(again.reason.as_deref(), Some(closed.as_str()));
     assert!(send(&other, json!({"approve": false}), "ben").await.applied);
     exits(exec);
     let answers = answered(&dir);
@@ -684,4 +741,58 @@ async fn a_station_of_another_deployment_is_never_offered_a_task() {
     }
     assert_eq!(other.seen.len(), 1, "{:#?}", other.seen);
     session.close().await.expect("close");
+}
+
+/// A policy that approves after `delay_ms`: long enough for the test to kill a process while
+/// the task is open and the answer not yet sent.
+fn approves_after(operator: &str, delay_ms: u64) -> String {
+    format!(
+        "operator = \"{operator}\"\n[task.\"ground.approve_site\"]\nfixed = {{ approve = true }}\ndelay_ms = {delay_ms}\n"
+    )
+}
+
+#[test]
+fn a_station_restarted_on_its_store_answers_its_open_task_by_its_policy() {
+    let dir = setup("ground-station-restart", 1);
+    let hub = endpoint(port());
+    let store = dir.join("keeper.store");
+    let store = store.to_str().expect("path");
+    let policy = approves_after("kim", 3000);
+    let flags = ["-e", &hub, "--store", store];
+    let mut first = Station::start(&dir, "keeper", &policy, &flags);
+    let exec = executive(&dir, &["-l", &hub]);
+    first.expect(|l| l.starts_with("task 1 open:"));
+    // Killed before its policy answered: the task is kept in the station's store.
+    drop(first);
+    // Restarted, it reopens the task from its store (before it says it is ready); before,
+    // the task came back on the desk without the policy and was never answered.
+    let mut again = Station::start(&dir, "keeper", &policy, &flags);
+    again.expect(|l| l.starts_with("task 1 answered: applied (kim@keeper)"));
+    assert!(
+        again.seen.iter().any(|l| l.starts_with("task 1 open:")),
+        "{:#?}",
+        again.seen
+    );
+    exits(exec);
+    assert_eq!(answered(&dir)[0]["operator"], "kim@keeper");
+}
+
+#[test]
+fn an_answer_sent_while_the_executive_is_down_is_sent_again_until_it_is_judged() {
+    let dir = setup("ground-executive-down", 1);
+    let hub = endpoint(port());
+    let mut station = Station::start(&dir, "patient", &approves_after("pat", 3000), &["-e", &hub]);
+    let mut exec = executive(&dir, &["-l", &hub]);
+    station.expect(|l| l.starts_with("task 1 open:"));
+    let mut child = exec.0.take().expect("running");
+    let _ = (child.kill(), child.wait());
+    // The policy answers while no executive is up: the station says so and keeps the answer.
+    // Before, the answer was refused at once ("no executive answered") and never sent again.
+    station.expect(|l| l.starts_with("task 1 answer pending:"));
+    let resumed = resume(&dir, &["-l", &hub]);
+    station.expect(|l| l.starts_with("task 1 answered: applied (pat@patient)"));
+    exits(resumed);
+    let answers = answered(&dir);
+    assert_eq!(answers.len(), 1, "{answers:#?}");
+    assert_eq!(answers[0]["operator"], "pat@patient");
 }

@@ -5,6 +5,7 @@
 mod cli;
 mod conformance;
 mod connectors;
+mod crash;
 mod durability;
 mod engine;
 mod europa;

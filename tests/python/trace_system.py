@@ -13,23 +13,18 @@ Prints `ready py_lander — deployment D (keys trace/D/…)` on stdout when it s
 stderr; writes a JSON report to --report after every notable event. Exits 0 once the
 executive's token (`<root>/alive/exec/<mission>`) has been seen and has disappeared, 2 when
 nothing happens for 120 s.
+
+The server machinery (goal table, queryables, statuses, liveliness, report) is
+trace_protocol.py's; this file holds the catalogue and the activities.
 """
 
-import argparse
-import datetime
-import json
-import logging
 import os
-import sys
 import threading
-import time
 
-import zenoh
+import trace_protocol
+from trace_protocol import now_ms
 
 SERVER = "py_lander"
-IDLE_LIMIT_S = 120.0
-MAX_PAYLOAD = 4 * 1024 * 1024
-TERMINAL = ("SUCCEEDED", "CANCELED", "ABORTED", "REJECTED")
 
 CATALOGUE = {
     "server": SERVER,
@@ -69,460 +64,25 @@ CATALOGUE = {
     ],
     "telemetry": {"battery_soc_pct": "f64"},
 }
-ACTIONS = {a["name"]: a for a in CATALOGUE["actions"]}
-
-log = logging.getLogger(SERVER)
 
 
-def enc(kind):
-    """The encoding of a payload of this protocol (§1a)."""
-    return zenoh.Encoding.APPLICATION_JSON.with_schema(f"trace.{kind}/1")
+class System(trace_protocol.Server):
+    """The lander: runs each accepted goal as a scripted activity (`do_<action>`) and publishes
+    `battery_soc_pct` every 200 ms."""
 
-
-def now_ms():
-    return int(time.time() * 1000)
-
-
-# ---------------------------------------------------------------------------------------------
-# Catalogue types (§3)
-
-
-def check_value(t, v, path):
-    """Problems of value `v` against catalogue type `t` (a list of strings, empty if it fits)."""
-    if isinstance(t, dict):
-        if not isinstance(v, dict):
-            return [f"`{path}` must be an object, got {type_name(v)}"]
-        return check_object(t, v, path + ".")
-    if isinstance(t, list):
-        if not isinstance(v, list):
-            return [f"`{path}` must be a list, got {type_name(v)}"]
-        errs = []
-        for i, x in enumerate(v):
-            errs += check_value(t[0] if t else "json", x, f"{path}[{i}]")
-        return errs
-    if not isinstance(t, str):
-        return [f"`{path}` has an unreadable catalogue type"]
-    if t.endswith("?"):
-        if v is None:
-            return []
-        t = t[:-1]
-    if t == "json":
-        return []
-    if v is None:
-        return [f"`{path}` must be {t}, got null"]
-    if t.startswith("[") and t.endswith("]"):
-        return check_value([t[1:-1]], v, path)
-    ok = {
-        "int": lambda x: isinstance(x, int) and not isinstance(x, bool) and -(2**63) <= x < 2**63,
-        "f64": lambda x: isinstance(x, (int, float)) and not isinstance(x, bool),
-        "string": lambda x: isinstance(x, str),
-        "bool": lambda x: isinstance(x, bool),
-        "timestamp": is_timestamp,
-    }.get(t)
-    if ok is None:
-        return [f"`{path}` has an unknown catalogue type `{t}`"]
-    return [] if ok(v) else [f"`{path}` must be {t}, got {type_name(v)}"]
-
-
-def check_object(schema, obj, prefix=""):
-    errs = []
-    for k in obj:
-        if k not in schema:
-            errs.append(f"`{prefix}{k}` is not a field")
-    for k, t in schema.items():
-        if k in obj:
-            errs += check_value(t, obj[k], prefix + k)
-        elif not (isinstance(t, str) and (t.endswith("?") or t == "json")):
-            errs.append(f"`{prefix}{k}` is missing")
-    return errs
-
-
-def is_timestamp(x):
-    if not isinstance(x, str):
-        return False
-    try:
-        datetime.datetime.fromisoformat(x.replace("Z", "+00:00"))
-        return True
-    except ValueError:
-        return False
-
-
-def type_name(v):
-    if v is None:
-        return "null"
-    if isinstance(v, bool):
-        return "a bool"
-    if isinstance(v, int):
-        return "an int"
-    if isinstance(v, float):
-        return "a f64"
-    if isinstance(v, str):
-        return "a string"
-    if isinstance(v, list):
-        return "a list"
-    return "an object"
-
-
-# ---------------------------------------------------------------------------------------------
-
-
-class Report:
-    """The JSON report, rewritten (atomically) after every notable event."""
-
-    def __init__(self, path, base):
-        self.path = path
-        self.data = base
-        self.lock = threading.Lock()
-
-    def update(self, fn=None):
-        with self.lock:
-            if fn:
-                fn(self.data)
-            if not self.path:
-                return
-            tmp = f"{self.path}.tmp{os.getpid()}"
-            try:
-                with open(tmp, "w") as f:
-                    json.dump(self.data, f, indent=2, default=str)
-                os.replace(tmp, self.path)
-            except OSError as e:
-                log.error("cannot write the report %s: %s", self.path, e)
-
-    def event(self, what, **kw):
-        self.update(lambda d: d["events"].append({"t": now_ms(), "what": what, **kw}))
-
-
-class Goal:
-    def __init__(self, gid, action, fields):
-        self.gid = gid
-        self.action = action
-        self.fields = fields
-        self.status = None
-        self.seq = 0
-        self.reason = None
-        self.result = None
-        self.canceling = False
-        self.cancel = threading.Event()
-
-
-class System:
     def __init__(self, args):
-        self.root = f"{args.key_root}/{args.deployment}"
-        self.args = args
-        self.lock = threading.Lock()
-        self.goals = {}
-        self.last_activity = time.monotonic()
-        self.waiting_for = f"the executive's liveliness token on {self.root}/alive/exec/*"
-        self.exec_alive = set()
-        self.exec_seen = False
-        self.done = threading.Event()
+        super().__init__(
+            args,
+            CATALOGUE,
+            name=SERVER,
+            instance=f"py-{os.getpid()}",
+            report_fields={"telemetry_sent": 0, "bad_telemetry_sent": False},
+        )
         self.bad_tm_sent = False
-        self.report = Report(
-            args.report,
-            {
-                "server": SERVER,
-                "deployment": args.deployment,
-                "root": self.root,
-                "ready": False,
-                "goals": [],
-                "cancels": [],
-                "events": [],
-                "errors": [],
-                "telemetry_sent": 0,
-                "bad_telemetry_sent": False,
-                "executives": {"seen": [], "gone": []},
-                "exit": None,
-            },
-        )
-        self.session = None
-        self.keep = []
 
-    # ---- plumbing
-
-    def touch(self):
-        self.last_activity = time.monotonic()
-
-    def error(self, msg, *a):
-        text = msg % a if a else msg
-        log.warning("%s", text)
-        self.report.update(lambda d: d["errors"].append({"t": now_ms(), "error": text}))
-
-    def safe(self, fn):
-        """A Zenoh callback that never raises: catch, log, continue."""
-
-        def wrapped(x):
-            try:
-                fn(x)
-            except Exception as e:  # noqa: BLE001 — never crash on a bad message
-                log.exception("in %s", fn.__name__)
-                self.error("%s failed: %r", fn.__name__, e)
-
-        return wrapped
-
-    def put(self, key, obj, kind, block=True, express=False, raw=None):
-        payload = raw if raw is not None else json.dumps(obj)
-        self.session.put(
-            key,
-            payload,
-            encoding=enc(kind),
-            congestion_control=(zenoh.CongestionControl.BLOCK if block else zenoh.CongestionControl.DROP),
-            express=express,
-        )
-
-    def act_key(self, action, what):
-        return f"{self.root}/act/{SERVER}/{action}/{what}"
-
-    def parse_key(self, query, kind):
-        """(action, goal_id) of a request on `<root>/act/<server>/<action>/<kind>/<goal_id>`,
-        or None for a key with wildcards."""
-        key = str(query.key_expr)
-        if "*" in key or "$" in key:
-            return None
-        prefix = f"{self.root}/act/{SERVER}/"
-        rest = key[len(prefix):].split("/") if key.startswith(prefix) else []
-        if len(rest) != 3 or rest[1] != kind:
-            raise ValueError(f"unexpected key {key}")
-        return rest[0], rest[2]
-
-    @staticmethod
-    def payload_json(query, what, key):
-        """The request's JSON payload (None when it has none); ValueError naming the problem."""
-        p = query.payload
-        if p is None:
-            return None
-        raw = p.to_bytes()
-        if len(raw) == 0:
-            return None
-        if len(raw) > MAX_PAYLOAD:
-            raise ValueError(f"malformed {what} payload on {key}: over 4 MiB ({len(raw)} bytes)")
-        try:
-            return json.loads(raw.decode("utf-8"))
-        except (UnicodeDecodeError, json.JSONDecodeError) as e:
-            raise ValueError(f"malformed {what} payload on {key}: {e}") from None
-
-    # ---- goal table
-
-    def transition(self, g, status, text="", result=None):
-        """Record a transition (under self.lock) and return the status message to publish."""
-        g.status = status
-        g.seq += 1
-        if result is not None:
-            g.result = result
-        return {"goal_id": g.gid, "status": status, "seq": g.seq, "text": text}
-
-    def publish_status(self, g, st):
-        self.put(self.act_key(g.action, "status"), st, "status")
-        log.info("status %s %s seq %d", g.gid, st["status"], st["seq"])
-        self.report.event("status", goal_id=g.gid, status=st["status"], seq=st["seq"])
-        self.report.update(lambda d: self._goal_report(d, g))
-
-    def _goal_report(self, d, g):
-        for r in d["goals"]:
-            if r["goal_id"] == g.gid:
-                r["status"] = g.status
-                r["seq"] = g.seq
-                if g.reason:
-                    r["reason"] = g.reason
-                if g.result is not None:
-                    r["result"] = g.result
-
-    def goal_reply(self, g):
-        r = {"goal_id": g.gid, "status": g.status}
-        if g.status == "REJECTED" and g.reason:
-            r["reason"] = g.reason
-        if g.status in ("SUCCEEDED", "CANCELED", "ABORTED") and g.result is not None:
-            r["result"] = g.result
-        return r
-
-    def state_reply(self, g):
-        r = {"goal_id": g.gid, "status": g.status, "seq": g.seq}
-        if g.status in ("SUCCEEDED", "CANCELED", "ABORTED") and g.result is not None:
-            r["result"] = g.result
-        return r
-
-    def finish(self, g, status, outputs=None, error=None):
-        """Publish the result, then the terminal status; never change a terminal goal."""
-        result = {"goal_id": g.gid, "status": status, "outputs": outputs or {}}
-        if error:
-            result["error"] = error
-        with self.lock:
-            if g.status in TERMINAL:
-                return False
-            st = self.transition(g, status, text=(error or {}).get("code", ""), result=result)
-        self.put(self.act_key(g.action, "result"), result, "result")
-        log.info("result %s %s", g.gid, json.dumps(result))
-        self.publish_status(g, st)
-        return True
-
-    # ---- queryables
-
-    def on_catalogue(self, query):
-        self.touch()
-        query.reply(query.key_expr, json.dumps(CATALOGUE), encoding=enc("catalogue"))
-        log.debug("catalogue asked on %s", query.key_expr)
-
-    def on_goal(self, query):
-        self.touch()
-        key = str(query.key_expr)
-        try:
-            parsed = self.parse_key(query, "goal")
-            if parsed is None:
-                raise ValueError(f"a goal request needs one goal id, not a wildcard: {key}")
-            action, gid = parsed
-            if action not in ACTIONS:
-                raise ValueError(f"action `{action}` is not served by {SERVER} (key {key})")
-            req = self.payload_json(query, "goal", key)
-            if not isinstance(req, dict):
-                raise ValueError(f"malformed goal payload on {key}: not a JSON object")
-            if not isinstance(req.get("goal_id"), str):
-                raise ValueError(f"malformed goal payload on {key}: missing field `goal_id`")
-            if req["goal_id"] != gid:
-                raise ValueError(f"goal id `{req['goal_id']}` differs from the key's `{gid}` ({key})")
-            fields = req.get("fields", {})
-            if fields is None:
-                fields = {}
-            if not isinstance(fields, dict):
-                raise ValueError(f"malformed goal payload on {key}: `fields` is not an object")
-        except ValueError as e:
-            self.error("goal refused: %s", e)
-            query.reply_err(str(e), encoding=zenoh.Encoding.TEXT_PLAIN)
-            return
-
-        start = None
-        with self.lock:
-            g = self.goals.get(gid)
-            if g is not None:
-                if g.action != action:
-                    msg = f"goal id {gid} is a goal of {g.action}, not {action}"
-                    query.reply_err(msg, encoding=zenoh.Encoding.TEXT_PLAIN)
-                    self.error("%s", msg)
-                    return
-                reply = self.goal_reply(g)
-                st = None
-                log.info("goal %s repeated: %s", gid, g.status)
-            else:
-                g = Goal(gid, action, fields)
-                self.goals[gid] = g
-                errs = check_object(ACTIONS[action].get("goal", {}), fields)
-                if errs:
-                    g.reason = "; ".join(errs)
-                    st = self.transition(g, "REJECTED", text=g.reason)
-                else:
-                    st = self.transition(g, "ACCEPTED")
-                    start = g
-                reply = self.goal_reply(g)
-        if st is not None:
-            log.info("goal %s %s %s from %s: %s", gid, action, json.dumps(fields), req.get("client"), g.status)
-            self.report.update(
-                lambda d: d["goals"].append(
-                    {
-                        "goal_id": gid,
-                        "action": action,
-                        "fields": fields,
-                        "client": req.get("client"),
-                        "decision": g.status,
-                        "status": g.status,
-                        "seq": g.seq,
-                    }
-                )
-            )
-        else:
-            self.report.event("goal_repeated", goal_id=gid, status=g.status)
-        query.reply(query.key_expr, json.dumps(reply), encoding=enc("goal_reply"))
-        if st is not None:
-            self.publish_status(g, st)
-        if start is not None:
-            threading.Thread(target=self.run_activity, args=(start,), daemon=True).start()
-
-    def on_cancel(self, query):
-        self.touch()
-        key = str(query.key_expr)
-        try:
-            parsed = self.parse_key(query, "cancel")
-            if parsed is None:
-                raise ValueError(f"a cancel request needs one goal id, not a wildcard: {key}")
-            action, gid = parsed
-            if action not in ACTIONS:
-                raise ValueError(f"action `{action}` is not served by {SERVER} (key {key})")
-            req = self.payload_json(query, "cancel", key)
-            if req is not None and not isinstance(req, dict):
-                raise ValueError(f"malformed cancel payload on {key}: not a JSON object")
-            reason = (req or {}).get("reason")
-        except ValueError as e:
-            self.error("cancel refused: %s", e)
-            query.reply_err(str(e), encoding=zenoh.Encoding.TEXT_PLAIN)
-            return
-        st = None
-        with self.lock:
-            g = self.goals.get(gid)
-            if g is None or g.action != action:
-                answer = "UNKNOWN_GOAL"
-            elif g.canceling:  # a repeated cancel gets the same reply, no second wind-down (§4.2)
-                answer = "ACCEPTED"
-            elif g.status in TERMINAL:
-                answer = "TERMINATED"
-            else:
-                answer = "ACCEPTED"
-                g.canceling = True
-                st = self.transition(g, "CANCELING")
-        log.info("cancel %s (%s): %s", gid, reason, answer)
-        self.report.update(
-            lambda d: d["cancels"].append({"goal_id": gid, "action": action, "reason": reason, "reply": answer})
-        )
-        query.reply(query.key_expr, json.dumps(answer), encoding=enc("cancel_reply"))
-        if st is not None:
-            self.publish_status(g, st)
-            g.cancel.set()
-
-    def on_state(self, query):
-        self.touch()
-        key = str(query.key_expr)
-        try:
-            parsed = self.parse_key(query, "state")
-        except ValueError as e:
-            self.error("state refused: %s", e)
-            query.reply_err(str(e), encoding=zenoh.Encoding.TEXT_PLAIN)
-            return
-        if parsed is None:  # a wildcard: one reply per known goal, each on its own key
-            with self.lock:
-                replies = [(self.act_key(g.action, f"state/{g.gid}"), self.state_reply(g)) for g in self.goals.values()]
-            n = 0
-            for k, r in replies:
-                if query.key_expr.intersects(zenoh.KeyExpr(k)):
-                    query.reply(k, json.dumps(r), encoding=enc("state_reply"))
-                    n += 1
-            log.info("state %s: %d goals", key, n)
-            return
-        action, gid = parsed
-        if action not in ACTIONS:
-            msg = f"action `{action}` is not served by {SERVER} (key {key})"
-            self.error("state refused: %s", msg)
-            query.reply_err(msg, encoding=zenoh.Encoding.TEXT_PLAIN)
-            return
-        with self.lock:
-            g = self.goals.get(gid)
-            r = self.state_reply(g) if g and g.action == action else {"goal_id": gid, "status": "UNKNOWN", "seq": 0}
-        log.info("state %s: %s", gid, r["status"])
-        self.report.event("state_asked", goal_id=gid, status=r["status"])
-        query.reply(query.key_expr, json.dumps(r), encoding=enc("state_reply"))
-
-    def on_exec_liveliness(self, sample):
-        self.touch()
-        mission = str(sample.key_expr).rsplit("/", 1)[-1]
-        if sample.kind == zenoh.SampleKind.PUT:
-            self.exec_alive.add(mission)
-            self.exec_seen = True
-            self.waiting_for = (
-                f"the end of mission {mission}: goals or its token {self.root}/alive/exec/{mission} to disappear"
-            )
-            log.info("executive %s is up", mission)
-            self.report.update(lambda d: d["executives"]["seen"].append(mission))
-        else:
-            self.exec_alive.discard(mission)
-            log.info("executive %s is gone", mission)
-            self.report.update(lambda d: d["executives"]["gone"].append(mission))
-            if self.exec_seen and not self.exec_alive:
-                self.done.set()
+    def started(self):
+        """Telemetry starts once the tokens are declared (§7)."""
+        threading.Thread(target=self.telemetry_loop, daemon=True).start()
 
     # ---- activities
 
@@ -531,6 +91,7 @@ class System:
         return g.cancel.wait(pause)
 
     def executing(self, g):
+        """ACCEPTED → EXECUTING (§5.1); False if the goal left ACCEPTED meanwhile."""
         with self.lock:
             if g.status != "ACCEPTED":
                 return False
@@ -539,13 +100,14 @@ class System:
         return True
 
     def run_activity(self, g):
+        """A short pause, EXECUTING, then the action's `do_<action>`; ABORTED if it fails."""
         try:
             if self.step(g) or not self.executing(g):
                 self.finish(g, "CANCELED")
                 return
             getattr(self, "do_" + g.action.replace(".", "_"))(g)
         except Exception as e:  # noqa: BLE001
-            log.exception("activity %s", g.gid)
+            self.log.exception("activity %s", g.gid)
             self.error("activity %s failed: %r", g.gid, e)
             self.finish(g, "ABORTED", error={"code": "ABORTED", "message": f"internal error: {e!r}"})
 
@@ -572,7 +134,7 @@ class System:
         mission = g.gid.rsplit(".", 3)[0]
         stranger = {"mission": f"{mission}.99.99.1", "other": "other-mission.99.99.1"}.get(self.args.stranger)
         if stranger is None:
-            log.info("not sending the result for a goal nobody sent (--stranger none)")
+            self.log.info("not sending the result for a goal nobody sent (--stranger none)")
             return self.finish(g, "SUCCEEDED", {"achieved_cm": 5.2})
         self.put(self.act_key(g.action, "result"),
                  {"goal_id": stranger, "status": "SUCCEEDED", "outputs": {"achieved_cm": 1.0}}, "result")
@@ -599,18 +161,21 @@ class System:
     # ---- telemetry (§7)
 
     def tm_key(self):
+        """The telemetry channel `<root>/tm/<server>/power` (§7)."""
         return f"{self.root}/tm/{SERVER}/power"
 
     def send_bad_telemetry(self):
+        """Once: a mistyped `battery_soc_pct` the executive must drop (`mistyped`, §7)."""
         if self.bad_tm_sent:
             return
         self.bad_tm_sent = True
         self.put(self.tm_key(), {"mission_ms": now_ms(), "values": {"battery_soc_pct": "high"}}, "telemetry",
                  block=False)
-        log.info("sent the mistyped telemetry battery_soc_pct = \"high\"")
+        self.log.info("sent the mistyped telemetry battery_soc_pct = \"high\"")
         self.report.update(lambda d: d.__setitem__("bad_telemetry_sent", True))
 
     def telemetry_loop(self):
+        """`battery_soc_pct` every 200 ms, slowly draining, until the server stops."""
         soc = 92.0
         n = 0
         while not self.done.is_set():
@@ -622,75 +187,17 @@ class System:
                 if n % 25 == 1:
                     self.report.update(lambda d: d.__setitem__("telemetry_sent", n))
             except Exception as e:  # noqa: BLE001
-                log.warning("telemetry: %r", e)
+                self.log.warning("telemetry: %r", e)
             self.done.wait(0.2)
         self.report.update(lambda d: d.__setitem__("telemetry_sent", n))
 
-    # ---- main
-
-    def run(self):
-        conf = zenoh.Config()
-        conf.insert_json5("mode", '"peer"')
-        conf.insert_json5("scouting/multicast/enabled", "false")
-        conf.insert_json5("connect/endpoints", json.dumps([self.args.connect]))
-        self.session = zenoh.open(conf)
-        s = self.session
-        base = f"{self.root}/act/{SERVER}"
-        self.keep += [
-            s.declare_queryable(f"{base}/*/goal/*", self.safe(self.on_goal), complete=True),
-            s.declare_queryable(f"{base}/*/cancel/*", self.safe(self.on_cancel), complete=True),
-            s.declare_queryable(f"{base}/*/state/*", self.safe(self.on_state), complete=True),
-            s.declare_queryable(f"{self.root}/cat/{SERVER}", self.safe(self.on_catalogue)),
-        ]
-        self.keep.append(
-            s.liveliness().declare_subscriber(f"{self.root}/alive/exec/*", self.safe(self.on_exec_liveliness),
-                                              history=True)
-        )
-        self.keep.append(s.liveliness().declare_token(f"{self.root}/alive/{SERVER}/py-{os.getpid()}"))
-        for a in ACTIONS:  # the token says the action is served: last
-            self.keep.append(s.liveliness().declare_token(f"{self.root}/alive/act/{SERVER}/{a}"))
-        threading.Thread(target=self.telemetry_loop, daemon=True).start()
-        self.report.update(lambda d: d.__setitem__("ready", True))
-        print(f"ready {SERVER} — deployment {self.args.deployment} (keys {self.root}/…)", flush=True)
-        log.info("serving %s on %s, connected to %s", ", ".join(ACTIONS), self.root, self.args.connect)
-
-        code = 0
-        while True:
-            if self.done.wait(0.5):
-                log.info("the executive is gone: the mission ended")
-                self.report.update(lambda d: d.__setitem__("exit", {"code": 0, "why": "executive gone"}))
-                break
-            idle = time.monotonic() - self.last_activity
-            if idle > IDLE_LIMIT_S:
-                msg = f"nothing happened for {IDLE_LIMIT_S:.0f} s while waiting for {self.waiting_for}"
-                log.error("%s", msg)
-                print(f"{SERVER}: {msg}", file=sys.stderr, flush=True)
-                self.report.update(lambda d: d.__setitem__("exit", {"code": 2, "why": msg}))
-                code = 2
-                break
-        self.done.set()
-        try:
-            for k in self.keep:
-                k.undeclare()
-            s.close()
-        except Exception as e:  # noqa: BLE001
-            log.warning("closing: %r", e)
-        return code
-
 
 def main():
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--connect", "-e", default="tcp/127.0.0.1:7447", help="Zenoh endpoint to connect to")
-    p.add_argument("--deployment", default=os.environ.get("TRACE_DEPLOYMENT", "default"))
-    p.add_argument("--key-root", default="trace")
-    p.add_argument("--report", default=None, help="JSON report file, rewritten after every notable event")
+    p = trace_protocol.arg_parser(__doc__)
     p.add_argument("--stranger", choices=("mission", "other", "none"), default="mission",
                    help="the goal id of the well-formed result for a goal nobody sent, published during drill.dig: "
                         "`<mission>.99.99.1` (default), `other-mission.99.99.1`, or none (to isolate executive issues)")
-    args = p.parse_args()
-    logging.basicConfig(level=logging.INFO, stream=sys.stderr,
-                        format=f"%(asctime)s {SERVER} %(levelname)s %(message)s")
-    sys.exit(System(args).run())
+    trace_protocol.serve(System(p.parse_args()))
 
 
 if __name__ == "__main__":

@@ -31,8 +31,8 @@ use connector_api::wire::{
     GoalReply, ResultMsg, StateReply, StatusMsg, Telemetry, codes,
 };
 use connector_api::{
-    ActionSpec, Catalogue, Channel, Command, Connector, ConnectorConfig, ConnectorError, Keys,
-    Report, Reports, Status, Verdict,
+    ActionSpec, Catalogue, Channel, Command, Connector, ConnectorConfig, ConnectorError, Fields,
+    Keys, Report, Reports, Status, Verdict,
 };
 use serde_json::Value;
 use tokio::sync::{Notify, watch};
@@ -96,6 +96,15 @@ enum Ended {
 /// Goals remembered as ended, so late messages about them are recognised.
 const ENDED_KEPT: usize = 4096;
 
+/// A user task no longer open.
+struct Closed {
+    /// Why, for the stations whose answers come late.
+    why: String,
+    /// The answer applied (`operator@station` and its fields): the same answer sent again —
+    /// a station that never heard the verdict — is confirmed, not refused.
+    applied: Option<(String, Fields)>,
+}
+
 #[derive(Default)]
 struct State {
     flights: HashMap<String, Flight>,
@@ -107,7 +116,7 @@ struct State {
     cancels: HashMap<String, String>,
     last_data: HashMap<String, Value>,
     /// Ground stations: why a user task is no longer open, for refusing late answers.
-    closed: HashMap<String, String>,
+    closed: HashMap<String, Closed>,
     /// Ground stations: answers being decided (their replies are sent before closing).
     answering: Vec<tokio::task::JoinHandle<()>>,
     /// Goals that ended recently, and how (bounded: the oldest are forgotten).
@@ -1068,17 +1077,29 @@ impl Shared {
         if a.operator.trim().is_empty() || a.station.trim().is_empty() {
             return refused("an answer must name its operator and station".to_owned());
         }
+        let operator = format!("{}@{}", a.operator, a.station);
         let _turn = self.answer_turn.lock().await;
         let action = {
             let s = self.state();
-            match s.flights.get(&goal_id) {
-                Some(f) => f.command.action.clone(),
-                None => {
-                    return refused(match s.closed.get(&goal_id) {
-                        Some(why) => format!("user task `{goal_id}` is closed: {why}"),
-                        None => format!("no open user task has goal id `{goal_id}`"),
-                    });
+            match (s.flights.get(&goal_id), s.closed.get(&goal_id)) {
+                (Some(f), _) => f.command.action.clone(),
+                (None, Some(c)) if c.applied == Some((operator.clone(), a.fields.clone())) => {
+                    tracing::info!(goal_id, operator, "answer repeated; it was applied");
+                    return AnswerReply {
+                        goal_id,
+                        applied: true,
+                        reason: None,
+                    };
                 }
+                (None, Some(c)) => {
+                    return refused(format!("user task `{goal_id}` is closed: {}", c.why));
+                }
+                // Not a task of this run: the executive judges it from what it knows (a task
+                // answered before it restarted).
+                (None, None) => match self.opts.keys.action_of(key) {
+                    Some(action) => action.to_owned(),
+                    None => return refused(format!("no open user task has goal id `{goal_id}`")),
+                },
             }
         };
         if let Some(Err(e)) = self.spec(&action).map(|s| s.check_result(&a.fields)) {
@@ -1086,11 +1107,10 @@ impl Shared {
                 "the answer does not fit the form of `{action}`: {e}"
             ));
         }
-        let operator = format!("{}@{}", a.operator, a.station);
         let (verdict, decided) = Verdict::new();
         self.report(Report::Answer {
             goal_id: goal_id.clone(),
-            fields: a.fields,
+            fields: a.fields.clone(),
             operator: operator.clone(),
             verdict,
         });
@@ -1100,7 +1120,13 @@ impl Shared {
                 {
                     let mut s = self.state();
                     s.land(&goal_id, Ended::Reported);
-                    s.closed.insert(goal_id.clone(), why.clone());
+                    s.closed.insert(
+                        goal_id.clone(),
+                        Closed {
+                            why: why.clone(),
+                            applied: Some((operator.clone(), a.fields)),
+                        },
+                    );
                 }
                 // Every other station drops the task, then the winner hears it won.
                 Arc::clone(self)
@@ -1621,7 +1647,13 @@ impl Connector for ZenohConnector {
         s.cancels.insert(goal_id.to_owned(), action.clone());
         let reason = self.shared.opts.config.answers.then(|| {
             let r = "withdrawn by the mission (a boundary event or the end of its scope)";
-            s.closed.insert(goal_id.to_owned(), r.to_owned());
+            s.closed.insert(
+                goal_id.to_owned(),
+                Closed {
+                    why: r.to_owned(),
+                    applied: None,
+                },
+            );
             r.to_owned()
         });
         let alive = s.served(&action);

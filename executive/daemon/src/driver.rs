@@ -155,7 +155,18 @@ struct Flight {
     user: bool,
     /// The last feedback (progress and fields), for monitors.
     feedback: Option<serde_json::Value>,
+    /// The dispatch's place in the store (step, action), marked done once the system has
+    /// acknowledged the goal: until then a restart sends the goal again rather than asking
+    /// the system about a goal it may never have received.
+    mark: Option<(u64, u32)>,
+    /// The system acknowledged the goal.
+    acked: bool,
 }
+
+/// The store's meta key listing, as of the newest snapshot, the tasks whose goals no system
+/// had acknowledged: their dispatch steps are not replayed after that snapshot, so a restart
+/// learns from here that they must be sent again.
+const UNACKED: &str = "unacknowledged";
 
 /// FNV-1a: a stable digest of the model bytes, to recognise the mission a store belongs to.
 fn digest(bytes: &[u8]) -> String {
@@ -377,6 +388,11 @@ struct Driver {
     goals: HashMap<String, TaskKey>,
     /// Operators' answers waiting to be stepped, each with the verdict its sender waits for.
     answers: Vec<(String, Event, Verdict)>,
+    /// Dispatches whose goals were acknowledged since the last step: marked done with it.
+    acked: Vec<(u64, u32)>,
+    /// User tasks answered, by goal id: who answered and what (from the record on resume),
+    /// so the same answer sent again is confirmed rather than refused.
+    answered: HashMap<String, (String, Vars)>,
     snapshot_every: u64,
 }
 
@@ -606,6 +622,11 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
         .into_iter()
         .filter(|p| !engine.state().instances.values().any(|i| i.process == *p))
         .collect();
+    let answered = if resumed {
+        answered_in(&record_path, &mission)
+    } else {
+        HashMap::new()
+    };
     let mut d = Driver {
         g: graph,
         engine,
@@ -621,6 +642,8 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
         flights: BTreeMap::new(),
         goals: HashMap::new(),
         answers: Vec::new(),
+        acked: Vec::new(),
+        answered,
         snapshot_every: opts.snapshot_every.max(1),
         agenda,
         outside,
@@ -649,7 +672,15 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
         // Actions committed but not performed, except commands: those come from the state.
         // A command committed but never performed is sent; one performed before the crash is
         // reconciled with its system (still running, finished, or lost).
-        let mut unsent = BTreeSet::new();
+        // A dispatch is done once its system acknowledged the goal; the ones not done (in the
+        // steps replayed, or listed at the newest snapshot) are sent again — harmless, a goal
+        // id is idempotent — and only acknowledged goals are asked about.
+        let mut unsent: BTreeMap<TaskKey, Option<(u64, u32)>> = meta(&rec, UNACKED)
+            .and_then(|v| serde_json::from_str::<Vec<TaskKey>>(&v).ok())
+            .unwrap_or_default()
+            .into_iter()
+            .map(|t| (t, None))
+            .collect();
         for step in &rec.steps {
             for (i, a) in step.actions.iter().enumerate() {
                 if step.done.get(i).copied().unwrap_or(false) {
@@ -657,7 +688,7 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
                 }
                 match a {
                     Action::DispatchTask { task, .. } | Action::OpenUserTask { task, .. } => {
-                        unsent.insert(*task);
+                        unsent.insert(*task, Some((step.input.seq, i as u32)));
                     }
                     Action::StartTimer { .. } => {}
                     _ => d.perform(step.input.seq, i, a.clone())?,
@@ -665,16 +696,17 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
             }
         }
         for a in in_flight {
-            let sent = match &a {
+            match &a {
                 Action::DispatchTask { task, .. } | Action::OpenUserTask { task, .. } => {
-                    !unsent.contains(task)
+                    match unsent.get(task).copied() {
+                        None => d.reconcile(a),
+                        Some(mark) => {
+                            d.command_of(a, false, mark);
+                        }
+                    }
                 }
-                _ => false,
-            };
-            if sent {
-                d.reconcile(a);
-            } else {
-                d.perform(d.seq, usize::MAX, a)?;
+                // Timers armed before the crash are armed again.
+                _ => d.perform(d.seq, usize::MAX, a)?,
             }
         }
     } else {
@@ -745,6 +777,7 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
                 break;
             }
         }
+        d.mark_acked()?;
         d.feed_all(events)?;
         d.apply_answers()?;
     }
@@ -946,6 +979,10 @@ impl Driver {
             }
             Report::Accepted { goal_id } => {
                 let task = task_of(&self.goals, &goal_id)?;
+                if let Some(f) = self.flights.get_mut(&task) {
+                    f.acked = true;
+                    self.acked.extend(f.mark.take());
+                }
                 self.note("accepted", task, &goal_id, serde_json::json!({}));
                 None
             }
@@ -975,7 +1012,19 @@ impl Driver {
                 let task = match self.goals.get(&goal_id) {
                     Some(t) if self.flights.get(t).is_some_and(|f| f.user) => *t,
                     _ => {
-                        verdict.give(Err(format!("user task `{goal_id}` is not open")));
+                        let same =
+                            serde_json::from_value::<Vars>(serde_json::Value::Object(fields)).ok();
+                        verdict.give(match self.answered.get(&goal_id) {
+                            Some((by, answer))
+                                if *by == operator && same.as_ref() == Some(answer) =>
+                            {
+                                Ok(())
+                            }
+                            Some((by, _)) => {
+                                Err(format!("user task `{goal_id}` is closed: answered by {by}"))
+                            }
+                            None => Err(format!("no open user task has goal id `{goal_id}`")),
+                        });
                         return None;
                     }
                 };
@@ -1052,9 +1101,18 @@ impl Driver {
             // Out of flight first, so closing the answered task withdraws it from no station.
             let task = self.goals.remove(&goal_id);
             let flight = task.and_then(|t| self.flights.remove(&t));
+            let applied = match &event {
+                Event::UserTaskAnswered {
+                    operator, answer, ..
+                } => Some((operator.clone(), answer.clone())),
+                _ => None,
+            };
             let refused = self.feed_all(vec![event])?.pop().flatten();
             match refused {
-                None => verdict.give(Ok(())),
+                None => {
+                    self.answered.extend(applied.map(|a| (goal_id, a)));
+                    verdict.give(Ok(()));
+                }
                 Some(reason) => {
                     if let (Some(task), Some(flight)) = (task, flight) {
                         self.goals.insert(goal_id, task);
@@ -1122,16 +1180,44 @@ impl Driver {
             }
         }
         if snapshot {
+            // First the goals no system has acknowledged, then the snapshot after which their
+            // dispatches are no longer replayed (a crash between the two only sends more again).
+            let unacked: Vec<TaskKey> = self
+                .flights
+                .iter()
+                .filter(|(_, f)| !f.acked)
+                .map(|(task, _)| *task)
+                .collect();
+            let unacked = serde_json::to_string(&unacked).unwrap_or_else(|_| "[]".to_owned());
+            self.store.set_meta(UNACKED, &unacked)?;
             self.store.snapshot(self.seq, self.engine.state())?;
         }
         Ok(refusals)
+    }
+
+    /// Marks the dispatches whose goals were acknowledged as done (flushed with the next
+    /// commit: a mark lost in a crash only sends a goal again). A dispatch whose step was
+    /// pruned since is covered by the snapshot's list instead.
+    fn mark_acked(&mut self) -> Result<(), RunError> {
+        for (seq, index) in std::mem::take(&mut self.acked) {
+            match self.store.done(seq, index) {
+                Err(StoreError::UnknownAction { .. }) => {
+                    tracing::debug!(seq, index, "acknowledged dispatch already pruned");
+                }
+                other => other?,
+            }
+        }
+        Ok(())
     }
 
     /// Performs one action; `index` `usize::MAX` for re-commands (nothing to mark done).
     fn perform(&mut self, seq: u64, index: usize, a: Action) -> Result<(), RunError> {
         match a {
             a @ (Action::DispatchTask { .. } | Action::OpenUserTask { .. }) => {
-                self.command_of(a, false)
+                // Done when the system acknowledges the goal (`Report::Accepted`), not now.
+                let mark = (index != usize::MAX).then_some((seq, index as u32));
+                self.command_of(a, false, mark);
+                return Ok(());
             }
             Action::CancelTask { task } | Action::CloseUserTask { task } => {
                 if let Some(f) = self.flights.remove(&task) {
@@ -1283,18 +1369,32 @@ impl Driver {
 
     /// After a restart: asks the system about a command performed before the crash.
     fn reconcile(&mut self, a: Action) {
-        self.command_of(a, true);
+        if let Some(task) = self.command_of(a, true, None)
+            && let Some(f) = self.flights.get_mut(&task)
+        {
+            f.acked = true;
+        }
     }
 
-    /// A dispatch or a user task, sent (or, `reconcile`, asked about) through its connector.
-    fn command_of(&mut self, a: Action, reconcile: bool) {
+    /// A dispatch or a user task, sent (or, `reconcile`, asked about) through its connector;
+    /// `mark` is the dispatch's place in the store, marked done once the system acknowledges
+    /// the goal. Returns the task.
+    fn command_of(
+        &mut self,
+        a: Action,
+        reconcile: bool,
+        mark: Option<(u64, u32)>,
+    ) -> Option<TaskKey> {
         match a {
             Action::DispatchTask {
                 task,
                 resource,
                 request,
                 ..
-            } => self.command(task, &resource, request, false, reconcile),
+            } => {
+                self.command(task, &resource, request, false, reconcile, mark);
+                Some(task)
+            }
             Action::OpenUserTask {
                 task,
                 node,
@@ -1302,9 +1402,10 @@ impl Driver {
             } => {
                 let resource = self.user_resource(node);
                 let fields = self.user_goal(task, node, context);
-                self.command(task, &resource, fields, true, reconcile);
+                self.command(task, &resource, fields, true, reconcile, mark);
+                Some(task)
             }
-            _ => {}
+            _ => None,
         }
     }
 
@@ -1317,6 +1418,7 @@ impl Driver {
         fields: Vars,
         user: bool,
         reconcile: bool,
+        mark: Option<(u64, u32)>,
     ) {
         if self.flights.contains_key(&task) {
             return;
@@ -1353,6 +1455,8 @@ impl Driver {
                 resource: resource.to_owned(),
                 user,
                 feedback: None,
+                mark,
+                acked: false,
             },
         );
         let c = &mut self.connectors.list[route.connector];
@@ -1362,6 +1466,26 @@ impl Driver {
             c.execute(command);
         }
     }
+}
+
+/// The user tasks answered in an execution record, by goal id: who answered and what.
+fn answered_in(record: &Path, mission: &str) -> HashMap<String, (String, Vars)> {
+    let text = std::fs::read_to_string(record).unwrap_or_default();
+    text.lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .filter(|v| v["kind"] == "user_task_answered")
+        .filter_map(|v| {
+            let mut parts = v["task"].as_str()?.split('-').map(str::parse::<u64>);
+            let (i, t, a) = (
+                parts.next()?.ok()?,
+                parts.next()?.ok()?,
+                parts.next()?.ok()?,
+            );
+            let goal = connector_api::keys::goal_id(mission, i, t, u32::try_from(a).ok()?);
+            let answer = serde_json::from_value::<Vars>(v["answer"].clone()).ok()?;
+            Some((goal, (v["operator"].as_str()?.to_owned(), answer)))
+        })
+        .collect()
 }
 
 /// A mission id: the model's file stem (key-safe) and the first start's wall time.
