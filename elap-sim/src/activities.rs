@@ -48,6 +48,26 @@ pub struct Effect {
     pub arm_temp_k: Option<f64>,
 }
 
+/// An activity under way: its plan and when it started (mission time), kept with the world so
+/// a restarted simulator carries it on instead of starting it over.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Running {
+    /// What it does.
+    pub plan: Plan,
+    /// When it started, ms.
+    pub started_ms: i64,
+}
+
+/// How an activity ended, kept until its goal's result is recorded: ending the same goal again
+/// returns this instead of applying its effects twice.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Ended {
+    /// It was cancelled (partial effects).
+    pub cancelled: bool,
+    /// Its outputs, or its failure.
+    pub outcome: Result<Fields, (String, String)>,
+}
+
 /// The simulator core: world, fault profile, scripted faults, call counts.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Sim {
@@ -55,6 +75,12 @@ pub struct Sim {
     pub world: World,
     /// Calls per action so far (scripted faults count them).
     pub calls: BTreeMap<String, u32>,
+    /// Activities under way, by goal id.
+    #[serde(default)]
+    pub running: BTreeMap<String, Running>,
+    /// Activities ended whose results may not be recorded yet, by goal id.
+    #[serde(default)]
+    pub ended: BTreeMap<String, Ended>,
     #[serde(skip)]
     profile: Option<Profile>,
     #[serde(skip)]
@@ -82,6 +108,8 @@ impl Sim {
         Sim {
             world,
             calls: BTreeMap::new(),
+            running: BTreeMap::new(),
+            ended: BTreeMap::new(),
             profile: Some(profile),
             script,
         }
@@ -483,6 +511,52 @@ impl Sim {
             outcome,
             effect,
         })
+    }
+
+    /// Starts the activity of goal `goal_id` at `now`, or, if that goal is already under way
+    /// (the simulator restarted), carries on with the plan it had: each goal is planned once,
+    /// so a restart neither redraws its faults nor restarts its clock.
+    pub fn begin(
+        &mut self,
+        goal_id: &str,
+        action: &str,
+        goal: &Fields,
+        now: i64,
+    ) -> Result<Running, Refused> {
+        if let Some(r) = self.running.get(goal_id) {
+            return Ok(r.clone());
+        }
+        let running = Running {
+            plan: self.plan(action, goal)?,
+            started_ms: now,
+        };
+        self.running.insert(goal_id.to_owned(), running.clone());
+        Ok(running)
+    }
+
+    /// Ends goal `goal_id`'s activity at `t`, cancelled or not, applying its effects once:
+    /// a goal that already ended gets the same outcome back and changes nothing. `None` for a
+    /// goal that was never begun.
+    pub fn end(&mut self, goal_id: &str, cancelled: bool, t: i64) -> Option<Ended> {
+        if let Some(e) = self.ended.get(goal_id) {
+            return Some(e.clone());
+        }
+        let r = self.running.remove(goal_id)?;
+        let fraction = if cancelled {
+            ((t - r.started_ms) as f64 / r.plan.duration_ms.max(1) as f64).min(0.99)
+        } else {
+            1.0
+        };
+        let done = r.started_ms + (r.plan.duration_ms as f64 * fraction) as i64;
+        let outcome = self.finish(&r.plan, fraction, t.max(done));
+        let e = Ended { cancelled, outcome };
+        self.ended.insert(goal_id.to_owned(), e.clone());
+        Some(e)
+    }
+
+    /// The goal's result is recorded where it cannot be lost: its outcome need not be kept.
+    pub fn forget(&mut self, goal_id: &str) {
+        self.ended.remove(goal_id);
     }
 
     /// Applies a plan that ran `fraction` of its duration (1 when it ended on its own) at time

@@ -21,7 +21,7 @@ pub mod faults;
 pub mod rng;
 pub mod world;
 
-pub use activities::{Plan, Sim};
+pub use activities::{Ended, Plan, Running, Sim};
 pub use faults::{Profile, Script};
 pub use world::World;
 

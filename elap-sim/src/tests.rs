@@ -1,5 +1,6 @@
 //! Core model tests: energy bookkeeping, determinism for a seed, scripted faults, cancellation
-//! with partial effects, and an activity behind every catalogue entry.
+//! with partial effects, an activity behind every catalogue entry, and goals keyed so that a
+//! restart carries an activity on and never applies its effects twice.
 
 use serde_json::json;
 
@@ -150,4 +151,45 @@ fn every_catalogue_action_has_an_activity() {
         let goal: connector_api::Fields = a.goal.keys().map(|k| (k.clone(), json!(null))).collect();
         assert!(s.plan(&a.name, &goal).is_ok(), "{} has no activity", a.name);
     }
+}
+
+#[test]
+fn a_goal_is_planned_once_and_its_effects_applied_once() {
+    let mut s = sim(7, Profile::Quiet, Script::default());
+    let goal = fields(json!({"site_id": 1, "target_depth_cm": 10.0}));
+    s.begin(
+        "g1",
+        "world_model.build_terrain_map",
+        &Default::default(),
+        0,
+    )
+    .expect("map");
+    s.end("g1", false, 1000).expect("ended");
+    s.forget("g1");
+    let site = s.world.sites.first().map(|x| x.site_id).expect("a site");
+    let goal = fields(json!({"site_id": site, "target_depth_cm": goal["target_depth_cm"]}));
+    let first = s
+        .begin("g2", "excavation.excavate", &goal, 5_000)
+        .expect("dig");
+    // Saved and restored (a restart): the same goal carries on with the same plan.
+    let again: Sim =
+        serde_json::from_value(serde_json::to_value(&s).expect("save")).expect("restore");
+    let mut again = again.with(Profile::Quiet, Script::default());
+    let resumed = again
+        .begin("g2", "excavation.excavate", &goal, 9_000)
+        .expect("resume");
+    assert_eq!(resumed, first, "replanned after a restart");
+    let t = first.started_ms + first.plan.duration_ms;
+    let ended = again.end("g2", false, t).expect("ended");
+    let depth = again.world.site_mut(site).map(|x| x.depth_cm);
+    let energy = again.world.energy_wh;
+    // Ending it again (a crash before its result was recorded) changes nothing.
+    assert_eq!(again.end("g2", false, t + 60_000), Some(ended));
+    assert_eq!(again.world.site_mut(site).map(|x| x.depth_cm), depth);
+    assert_eq!(again.world.energy_wh, energy);
+    again.forget("g2");
+    assert!(
+        again.end("g2", false, t).is_none(),
+        "a forgotten goal is unknown"
+    );
 }

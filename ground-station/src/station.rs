@@ -40,6 +40,8 @@ pub struct Station {
     desk: Mutex<Desk>,
     /// Answers the tasks it has rules for, those reopened after a restart included.
     policy: Option<Arc<Policy>>,
+    /// Tasks kept in the store from before a restart, reopened when serving starts.
+    resumed: Mutex<Vec<connector_zenoh::GoalHandle>>,
     _server: ActionServer,
     _alive: LivelinessToken,
 }
@@ -54,7 +56,8 @@ pub fn say(line: &str) {
 impl Station {
     /// Serves the forms as station `id`, answering by `policy` where it has a rule; the
     /// receiver yields the tasks and withdrawals. Tasks kept in `store` from before a restart
-    /// are reopened on the desk, and the policy answers them like new ones.
+    /// are reopened on the desk when [`Station::serve`] starts, and the policy answers them
+    /// like new ones.
     pub async fn start(
         session: &Session,
         keys: Keys,
@@ -80,7 +83,7 @@ impl Station {
             .declare_token(keys.alive("ground", &id))
             .await
             .map_err(|e| ServerError::Zenoh(e.to_string()))?;
-        let resumed = server.unfinished();
+        let resumed = Mutex::new(server.unfinished());
         let station = Arc::new(Station {
             session: session.clone(),
             keys,
@@ -88,12 +91,10 @@ impl Station {
             id,
             desk: Mutex::new(Desk::default()),
             policy,
+            resumed,
             _server: server,
             _alive: alive,
         });
-        for h in resumed {
-            station.open(h).await;
-        }
         Ok((station, requests))
     }
 
@@ -109,6 +110,10 @@ impl Station {
 
     /// Handles tasks and withdrawals until the server stops.
     pub async fn serve(self: Arc<Self>, mut requests: mpsc::UnboundedReceiver<Request>) {
+        let resumed = std::mem::take(&mut *self.resumed.lock().unwrap_or_else(|p| p.into_inner()));
+        for h in resumed {
+            self.open(h).await;
+        }
         while let Some(r) = requests.recv().await {
             match r {
                 Request::Goal(h) => self.open(h).await,

@@ -1,5 +1,8 @@
 //! Crash anywhere: each finding of the crash matrix as a test — a goal the system never
-//! acknowledged before the executive was killed is sent again on resume (not declared lost).
+//! acknowledged before the executive was killed is sent again on resume (not declared lost),
+//! and a simulator killed mid-activity carries the activity on when restarted, its mission
+//! clock never going back — and the crash matrix, reduced: Europa with two kills of each kind
+//! ends as the uninterrupted flight does.
 
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
@@ -8,7 +11,7 @@ use mission_tests::{bin, records};
 use serde_json::json;
 
 use crate::durability::until_record;
-use crate::protocol::{endpoint, mock_process, port, tempdir};
+use crate::protocol::{command, connector, endpoint, expect, mock_process, open, port, tempdir};
 
 /// Two branches: a timer, then a task on the `lander` system; and a longer timer, whose step
 /// (committed, flushed) comes while the task's goal is still undelivered.
@@ -115,4 +118,128 @@ fn a_goal_never_acknowledged_before_a_kill_is_sent_again_not_lost() {
     assert_eq!(ends.len(), 1, "{ends:#?}");
     assert_eq!(ends[0]["kind"], "completed", "{ends:#?}");
     assert!(lines.iter().any(|v| v["kind"] == "reboot"));
+}
+
+/// `elap-sim` connecting to `hub`, keeping its world and goals in `store`; returns once it
+/// serves (its session is connected by then, so nothing it publishes afterwards is lost).
+fn simulator(hub: &str, store: &Path) -> Child {
+    use std::io::BufRead;
+    let mut child = Command::new(bin("elap-sim"))
+        .args(["--speed", "1000", "--profile", "quiet", "--seed", "1"])
+        .arg("--store")
+        .arg(store)
+        .args(["-e", hub, "--no-multicast-scouting"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("elap-sim starts");
+    let mut line = String::new();
+    std::io::BufReader::new(child.stdout.take().expect("stdout"))
+        .read_line(&mut line)
+        .expect("ready line");
+    assert!(line.starts_with("ready"), "{line}");
+    child
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_restarted_simulator_carries_its_activity_on_and_its_clock_never_goes_back() {
+    use connector_api::{Connector, Report};
+    let dir = tempdir("crash-simulator");
+    // The test is the hub: the simulator connects to it, so a restarted simulator is heard
+    // from its first message on.
+    let hub = endpoint(port());
+    let session = open(std::slice::from_ref(&hub), &[]).await;
+    let store = dir.join("sim");
+    let mut sim = simulator(&hub, &store);
+    // The simulator's mission clock, as it reports it.
+    let (clock_tx, mut clock) = tokio::sync::mpsc::unbounded_channel::<i64>();
+    let _clock = session
+        .declare_subscriber(connector_api::Keys::default().telemetry("lander_sim", "clock"))
+        .callback(move |s| {
+            let t: serde_json::Value =
+                serde_json::from_slice(&s.payload().to_bytes()).unwrap_or_default();
+            if let Some(ms) = t["mission_ms"].as_i64() {
+                let _ = clock_tx.send(ms);
+            }
+        })
+        .await
+        .expect("clock subscriber");
+    let (mut c, mut rx) = connector(&session, "lander_sim", 60_000).await;
+    // One mission hour of seismometer recording: 3.6 s of wall time, feedback every quarter.
+    c.execute(command(
+        "m.1.1.1",
+        "seismometer.record",
+        json!({"duration_s": 3600}),
+    ));
+    let progress = |r: &Report| match r {
+        Report::Feedback { progress_pct, .. } => *progress_pct,
+        _ => None,
+    };
+    let first = expect(&mut rx, |r| progress(r).is_some()).await;
+    assert_eq!(progress(&first), Some(25.0));
+    // Killed a quarter of the way through; what its clock said last.
+    let _ = (sim.kill(), sim.wait());
+    let mut before = 0;
+    while let Ok(ms) = clock.try_recv() {
+        before = before.max(ms);
+    }
+    let mut sim = simulator(&hub, &store);
+    let after = tokio::time::timeout(std::time::Duration::from_secs(30), clock.recv())
+        .await
+        .expect("the restarted simulator reports its clock")
+        .expect("clock reports");
+    // Before, the clock went back to the last periodic save (up to an hour of mission time).
+    assert!(
+        after >= before,
+        "the clock went back {} ms across the restart",
+        before - after
+    );
+    // The recording carries on from where it was: its progress never starts over, and it
+    // ends once.
+    let mut seen = Vec::new();
+    let outcome = loop {
+        match expect(&mut rx, |r| {
+            matches!(
+                r,
+                Report::Feedback { .. } | Report::Done { .. } | Report::Failed { .. }
+            )
+        })
+        .await
+        {
+            r @ Report::Feedback { .. } => seen.extend(progress(&r)),
+            r => break r,
+        }
+    };
+    let _ = (sim.kill(), sim.wait());
+    assert!(matches!(outcome, Report::Done { .. }), "{outcome:?}");
+    assert!(
+        seen.iter().all(|p| *p > 25.0),
+        "restarted from the beginning: {seen:?}"
+    );
+    c.close().await;
+}
+
+#[test]
+fn the_crash_matrix_reduced_loses_nothing_repeats_nothing_and_never_sticks() {
+    use mission_tests::matrix::{self, Tally, Victim};
+    let root = tempdir("crash-matrix");
+    let bound = std::time::Duration::from_secs(240);
+    let reference = matrix::fly(&root.join("reference"), 1, Victim::Executive, 0, bound);
+    // Europa ends by its terminate end event once its samples are analysed.
+    assert!(
+        reference.outcome.is_some() && reference.analysed == 5,
+        "the uninterrupted flight: {reference:?}"
+    );
+    for victim in Victim::ALL {
+        let f = matrix::fly(&root.join(format!("{victim:?}")), 1, victim, 2, bound);
+        let mut tally = Tally::default();
+        tally.add(&f, &reference);
+        assert!(f.kills >= 1, "{}: no kill was made: {f:?}", victim.name());
+        assert_eq!(
+            (tally.same, tally.stuck, tally.lost, tally.duplicated),
+            (1, 0, 0, 0),
+            "{}: {f:?} against {reference:?}",
+            victim.name()
+        );
+    }
 }

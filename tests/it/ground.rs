@@ -764,8 +764,8 @@ fn a_station_restarted_on_its_store_answers_its_open_task_by_its_policy() {
     first.expect(|l| l.starts_with("task 1 open:"));
     // Killed before its policy answered: the task is kept in the station's store.
     drop(first);
-    // Restarted, it reopens the task from its store (before it says it is ready); before,
-    // the task came back on the desk without the policy and was never answered.
+    // Restarted, it reopens the task from its store; before, the task came back on the desk
+    // without the policy and was never answered.
     let mut again = Station::start(&dir, "keeper", &policy, &flags);
     again.expect(|l| l.starts_with("task 1 answered: applied (kim@keeper)"));
     assert!(

@@ -42,7 +42,7 @@ pub(crate) fn args(listen: &[String], connect: &[String]) -> ZenohArgs {
     }
 }
 
-async fn open(listen: &[String], connect: &[String]) -> Session {
+pub(crate) async fn open(listen: &[String], connect: &[String]) -> Session {
     args(listen, connect)
         .open(Role::Spoke)
         .await
@@ -131,7 +131,7 @@ fn connector_config(server: &str, grace_ms: u64) -> ConnectorConfig {
     }
 }
 
-async fn connector(
+pub(crate) async fn connector(
     session: &Session,
     server: &str,
     grace_ms: u64,
@@ -157,7 +157,7 @@ async fn connector(
 }
 
 /// The next report matching `want`, skipping others; fails after a generous bound.
-async fn expect(
+pub(crate) async fn expect(
     rx: &mut mpsc::UnboundedReceiver<Report>,
     want: impl Fn(&Report) -> bool,
 ) -> Report {
@@ -174,7 +174,7 @@ async fn expect(
     found.expect("the expected report arrived")
 }
 
-fn command(goal_id: &str, action: &str, fields: serde_json::Value) -> Command {
+pub(crate) fn command(goal_id: &str, action: &str, fields: serde_json::Value) -> Command {
     Command {
         goal_id: goal_id.into(),
         action: action.into(),

@@ -1,5 +1,7 @@
 //! mission-tests: shared helpers for the integration tiers (paths, the `trace` binary, corpora).
 
+pub mod matrix;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;

@@ -10,6 +10,11 @@ use connector_api::Keys;
 /// to, so a one-host mission needs no router and no configuration.
 pub const DEFAULT_HUB: &str = "tcp/127.0.0.1:7447";
 
+/// How often a lost connection is tried again in the embedded defaults: from 20 ms, growing
+/// by half each time, at most every 200 ms.
+const CONNECT_RETRY: &str =
+    "{ period_init_ms: 20, period_max_ms: 200, period_increase_factor: 1.5 }";
+
 /// The environment variable naming the deployment when `--deployment` is not given.
 const DEPLOYMENT_ENV: &str = "TRACE_DEPLOYMENT";
 
@@ -78,6 +83,12 @@ impl ZenohArgs {
                 let mut c = zenoh::Config::default();
                 c.insert_json5("mode", "\"peer\"").map_err(bad)?;
                 c.insert_json5("scouting/multicast/enabled", "false")
+                    .map_err(bad)?;
+                // A process whose peer went away (an executive restarting) tries again soon and
+                // often, not on Zenoh's default 1 s growing to 4 s: on the embedded topology the
+                // peers are a loopback hop apart, and a restarted executive should have its
+                // systems back within a fraction of a second.
+                c.insert_json5("connect/retry", CONNECT_RETRY)
                     .map_err(bad)?;
                 if self.listen.is_empty() && self.connect.is_empty() {
                     let (listen, connect): (&[&str], &[&str]) = match role {
@@ -182,6 +193,19 @@ mod tests {
             n += 1;
         }
         assert!(n >= 3);
+    }
+
+    #[test]
+    fn the_embedded_defaults_retry_lost_connections_soon() {
+        let c = ZenohArgs::default().config(Role::Spoke).expect("defaults");
+        assert_eq!(
+            c.get_json("connect/retry/period_init_ms").expect("set"),
+            "20"
+        );
+        assert_eq!(
+            c.get_json("connect/endpoints").expect("set"),
+            format!("[\"{DEFAULT_HUB}\"]")
+        );
     }
 
     #[test]

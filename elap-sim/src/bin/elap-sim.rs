@@ -1,16 +1,21 @@
 //! `elap-sim`: the lander simulator process. Serves every activity of the catalogue over the
 //! Zenoh activity protocol, runs the mission clock at `--speed`, publishes telemetry, and keeps
-//! its world and goal table in sled so a restarted simulator carries on where it was.
+//! its world and goal table in sled so a restarted simulator carries on where it was: the
+//! mission clock runs on through the downtime (the lander does not stop ageing while its
+//! software restarts), activities under way continue with the plan they had, and an activity's
+//! effects are saved with the fact that it ended, keyed by its goal, so they apply once.
 
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use clap::Parser;
+use connector_api::Status;
 use connector_api::wire::Telemetry;
 use connector_zenoh::{ActionServer, GoalHandle, Request, Role, ServerOptions, ZenohArgs};
 use elap_sim::catalogue::{SERVER, catalogue};
-use elap_sim::{Profile, Script, Sim, World};
+use elap_sim::{Ended, Profile, Script, Sim, World};
+use serde::{Deserialize, Serialize};
 use serde_json::json;
 use tokio::sync::watch;
 
@@ -48,6 +53,24 @@ struct Clock {
     speed: f64,
 }
 
+/// Where the running clock stood against the wall clock, saved when it starts so a restarted
+/// simulator's clock goes on from where the downtime has taken it, not from its last save.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
+struct Anchor {
+    /// Mission time at `wall_ms`.
+    mission_ms: i64,
+    /// Wall time, ms since the epoch.
+    wall_ms: i64,
+    /// Mission ms per wall ms since then.
+    speed: f64,
+}
+
+fn wall_now_ms() -> i64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_millis() as i64)
+}
+
 impl Clock {
     fn now(&self) -> i64 {
         match self.at.get() {
@@ -55,9 +78,17 @@ impl Clock {
             None => self.base_ms,
         }
     }
-    /// Starts the clock (first goal); later calls do nothing.
-    fn run(&self) {
-        let _ = self.at.set(Instant::now());
+    /// Starts the clock; `true` the first time (later calls do nothing).
+    fn run(&self) -> bool {
+        self.at.set(Instant::now()).is_ok()
+    }
+    /// The anchor of the running clock, now.
+    fn anchor(&self) -> Anchor {
+        Anchor {
+            mission_ms: self.now(),
+            wall_ms: wall_now_ms(),
+            speed: self.speed,
+        }
     }
     /// The speed telemetry reports: 0 while held.
     fn rate(&self) -> f64 {
@@ -79,16 +110,34 @@ struct Shared {
 }
 
 impl Shared {
-    fn save(&self, sim: &Sim) {
+    /// Saves the simulator (world, activities under way and ended) durably, under its lock:
+    /// saves never overtake one another, so an older copy cannot overwrite a newer one.
+    fn save(&self) {
+        let sim = self.sim();
+        self.put("sim", &*sim);
+    }
+
+    fn put(&self, key: &str, value: &impl Serialize) {
         if let Some(t) = &self.tree {
-            let done = serde_json::to_vec(sim)
+            let done = serde_json::to_vec(value)
                 .map_err(|e| e.to_string())
-                .and_then(|b| t.insert("sim", b).map_err(|e| e.to_string()))
+                .and_then(|b| t.insert(key, b).map_err(|e| e.to_string()))
                 .and_then(|_| t.flush().map_err(|e| e.to_string()));
             if let Err(e) = done {
-                tracing::error!(error = %e, "world not saved");
+                tracing::error!(error = %e, key, "simulator state not saved");
             }
         }
+    }
+
+    /// Starts the mission clock at the first goal, saving where it stands.
+    fn run_clock(&self) {
+        if self.clock.run() {
+            self.put("clock", &self.clock.anchor());
+        }
+    }
+
+    fn sim(&self) -> std::sync::MutexGuard<'_, Sim> {
+        self.sim.lock().unwrap_or_else(|p| p.into_inner())
     }
 }
 
@@ -129,8 +178,23 @@ async fn main() -> anyhow::Result<()> {
             Sim::new(World::new(start, cli.seed), cli.profile, script)
         }
     };
+    // A clock that was running before a restart ran on through the downtime.
+    let anchor = match tree.as_ref().and_then(|t| t.get("clock").ok().flatten()) {
+        Some(b) => Some(
+            serde_json::from_slice::<Anchor>(&b)
+                .map_err(|e| anyhow::anyhow!("the saved clock is damaged: {e}"))?,
+        ),
+        None => None,
+    };
+    let base_ms = match anchor {
+        Some(a) => {
+            let downtime = (wall_now_ms() - a.wall_ms).max(0) as f64 * a.speed;
+            (a.mission_ms + downtime as i64).max(sim.world.now_ms)
+        }
+        None => sim.world.now_ms,
+    };
     let clock = Clock {
-        base_ms: sim.world.now_ms,
+        base_ms,
         at: std::sync::OnceLock::new(),
         speed: cli.speed,
     };
@@ -139,6 +203,9 @@ async fn main() -> anyhow::Result<()> {
         clock,
         tree,
     });
+    if anchor.is_some() {
+        shared.run_clock();
+    }
     let session = cli.zenoh.open(Role::Spoke).await?;
     let keys = cli.zenoh.keys()?;
     let joined = format!("deployment {} (keys {}/…)", keys.deployment(), keys.root());
@@ -173,7 +240,20 @@ async fn main() -> anyhow::Result<()> {
             .insert(h.goal_id.clone(), tx);
         tokio::spawn(activity(h, Arc::clone(&shared), rx));
     };
-    // Goals that were running when the simulator stopped start over.
+    // Outcomes kept for goals whose results were recorded before the restart are dropped;
+    // goals under way when the simulator stopped carry on (or, ended but unrecorded, report).
+    {
+        let mut sim = shared.sim();
+        let recorded: Vec<String> = sim
+            .ended
+            .keys()
+            .filter(|g| server.status(g).is_none_or(Status::is_terminal))
+            .cloned()
+            .collect();
+        for g in &recorded {
+            sim.forget(g);
+        }
+    }
     for h in server.unfinished() {
         start(h);
     }
@@ -193,64 +273,78 @@ async fn main() -> anyhow::Result<()> {
             _ = tokio::signal::ctrl_c() => break,
         }
     }
-    let sim = shared.sim.lock().unwrap_or_else(|p| p.into_inner()).clone();
-    shared.save(&sim);
+    shared.save();
     drop(server);
     session.close().await.map_err(|e| anyhow::anyhow!("{e}"))?;
     Ok(())
 }
 
-/// Runs one activity: plan at the start, wait its duration on the mission clock (feedback on
-/// the way, cancel honoured), then apply it and report.
+/// Runs one activity: begun (planned once per goal, saved), waited on the mission clock with
+/// feedback on the way and cancel honoured, then ended (its effects saved with its outcome)
+/// and reported. After a restart the same goal carries on where it was, and one that had ended
+/// only reports its outcome again.
 async fn activity(h: GoalHandle, shared: Arc<Shared>, mut cancel: watch::Receiver<bool>) {
-    shared.clock.run();
-    let plan = {
-        let mut sim = shared.sim.lock().unwrap_or_else(|p| p.into_inner());
+    shared.run_clock();
+    let begun = {
+        let mut sim = shared.sim();
         sim.world.advance(shared.clock.now());
-        sim.plan(&h.action, &h.fields)
+        match sim.ended.get(&h.goal_id) {
+            Some(e) => Ok(Err(e.clone())),
+            None => sim
+                .begin(&h.goal_id, &h.action, &h.fields, shared.clock.now())
+                .map(Ok),
+        }
     };
-    let plan = match plan {
-        Ok(p) => p,
+    let running = match begun {
+        Ok(Ok(r)) => r,
+        Ok(Err(ended)) => return report(&h, &shared, ended).await,
         Err(e) => {
             h.abort("REJECTED", &e.to_string()).await;
             return;
         }
     };
+    shared.save();
     h.executing().await;
-    let started = shared.clock.now();
+    // A cancel accepted before a restart still holds.
+    let mut cancelled = h.status() == Status::Canceling;
     let steps = 4;
-    let mut cancelled = false;
+    let resumed_at = shared.clock.now();
     for k in 1..=steps {
-        let wait = shared.clock.wall(plan.duration_ms / steps);
+        if cancelled {
+            break;
+        }
+        let at = running.started_ms + running.plan.duration_ms * k / steps;
+        // Progress reported before a restart (or passed during it) is not reported again.
+        if k < steps && at <= resumed_at && resumed_at > running.started_ms {
+            continue;
+        }
+        let wait = shared.clock.wall((at - shared.clock.now()).max(0));
         tokio::select! {
             () = tokio::time::sleep(wait) => {}
             r = cancel.wait_for(|c| *c) => { cancelled = r.is_ok(); }
         }
-        if cancelled {
-            break;
-        }
-        if k < steps {
+        if !cancelled && k < steps {
             h.feedback(Some(100.0 * k as f64 / steps as f64), Default::default())
                 .await;
         }
     }
-    let now = shared.clock.now();
-    let fraction = if cancelled {
-        ((now - started) as f64 / plan.duration_ms.max(1) as f64).min(0.99)
-    } else {
-        1.0
+    let ended = {
+        let mut sim = shared.sim();
+        sim.end(&h.goal_id, cancelled, shared.clock.now())
     };
-    let (outcome, sim) = {
-        let mut sim = shared.sim.lock().unwrap_or_else(|p| p.into_inner());
-        let o = sim.finish(
-            &plan,
-            fraction,
-            now.max(started + (plan.duration_ms as f64 * fraction) as i64),
-        );
-        (o, sim.clone())
+    let Some(ended) = ended else {
+        h.abort("REJECTED", "the activity's plan was lost").await;
+        return;
     };
-    shared.save(&sim);
-    match (cancelled, outcome) {
+    // The effects and the outcome are durable before the result goes out.
+    shared.save();
+    report(&h, &shared, ended).await;
+}
+
+/// Publishes how an activity ended (the goal's result, recorded in the goal table), then
+/// forgets the outcome kept for it.
+async fn report(h: &GoalHandle, shared: &Shared, ended: Ended) {
+    match (ended.cancelled, ended.outcome) {
         (true, Ok(partial)) => {
             h.canceled(partial).await;
         }
@@ -265,33 +359,29 @@ async fn activity(h: GoalHandle, shared: Arc<Shared>, mut cancel: watch::Receive
             h.abort(&code, &message).await;
         }
     }
+    shared.sim().forget(&h.goal_id);
 }
 
 /// Publishes the clock, power, thermal and comm telemetry every 100 ms of wall time.
 async fn telemetry(session: zenoh::Session, keys: connector_api::Keys, shared: Arc<Shared>) {
-    let mut n: u64 = 0;
     loop {
         let now = shared.clock.now();
-        let (values, sim) = {
-            let mut sim = shared.sim.lock().unwrap_or_else(|p| p.into_inner());
+        // Nothing to save here: between activities the world only ages, and a restarted
+        // simulator ages it again from its clock.
+        let values = {
+            let mut sim = shared.sim();
             sim.world.advance(now);
             let w = &sim.world;
-            (
-                [
-                    ("clock", json!({"speed": shared.clock.rate()})),
-                    (
-                        "power",
-                        json!({"battery_soc_pct": w.soc_pct(), "battery_energy_wh": w.energy_wh}),
-                    ),
-                    ("thermal", json!({"arm_temp_c": w.arm_temp_k - 273.15})),
-                    ("comm", json!({"comm_window_open": w.window_open(now)})),
-                ],
-                n.is_multiple_of(10).then(|| sim.clone()),
-            )
+            [
+                ("clock", json!({"speed": shared.clock.rate()})),
+                (
+                    "power",
+                    json!({"battery_soc_pct": w.soc_pct(), "battery_energy_wh": w.energy_wh}),
+                ),
+                ("thermal", json!({"arm_temp_c": w.arm_temp_k - 273.15})),
+                ("comm", json!({"comm_window_open": w.window_open(now)})),
+            ]
         };
-        if let Some(sim) = sim {
-            shared.save(&sim);
-        }
         for (channel, v) in values {
             let t = Telemetry {
                 mission_ms: now,
@@ -306,7 +396,6 @@ async fn telemetry(session: zenoh::Session, keys: connector_api::Keys, shared: A
                 return;
             }
         }
-        n += 1;
         tokio::time::sleep(Duration::from_millis(100)).await;
     }
 }
