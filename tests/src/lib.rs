@@ -38,20 +38,26 @@ pub fn bin(name: &str) -> PathBuf {
     static BUILT: OnceLock<()> = OnceLock::new();
     BUILT.get_or_init(|| {
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        // A bench runs from the release directory: its binaries are release builds.
+        let release = profile_dir().ends_with("release");
         let status = Command::new(cargo)
             .args(["build", "--quiet", "--workspace", "--bins"])
+            .args(release.then_some("--release"))
             .current_dir(repo())
             .status()
             .expect("cargo runs");
         assert!(status.success(), "building the workspace binaries failed");
     });
-    // The test binary lives in <target>/<profile>/deps; binaries one level up.
+    profile_dir().join(name)
+}
+
+/// `<target>/<profile>`: the test or bench binary lives in its `deps`, the binaries in it.
+fn profile_dir() -> PathBuf {
     let exe = std::env::current_exe().expect("test binary path");
-    let dir = exe
-        .parent()
+    exe.parent()
         .and_then(Path::parent)
-        .expect("target/<profile>");
-    dir.join(name)
+        .expect("target/<profile>")
+        .to_owned()
 }
 
 /// The lines of an execution record (`docs/record.md`), parsed; none if the file is not there.
