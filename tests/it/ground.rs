@@ -107,26 +107,21 @@ impl Drop for Exec {
 
 /// `trace run` on the mission in `dir` with these Zenoh endpoint flags.
 fn executive(dir: &Path, zenoh: &[&str]) -> Exec {
-    let child = Command::new(bin("trace"))
-        .arg("run")
-        .arg(dir.join("mission.bpmn"))
-        .arg("--store")
-        .arg(dir.join("store"))
-        .arg("--connectors")
-        .arg(dir.join("connectors.toml"))
-        .args(zenoh)
-        .arg("--no-multicast-scouting")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
-        .spawn()
-        .expect("trace run starts");
-    Exec(Some(child))
+    trace(
+        &["run", dir.join("mission.bpmn").to_str().expect("path")],
+        dir,
+        zenoh,
+    )
 }
 
 /// `trace resume` of the mission in `dir` with these Zenoh endpoint flags.
 fn resume(dir: &Path, zenoh: &[&str]) -> Exec {
+    trace(&["resume"], dir, zenoh)
+}
+
+fn trace(verb: &[&str], dir: &Path, zenoh: &[&str]) -> Exec {
     let child = Command::new(bin("trace"))
-        .arg("resume")
+        .args(verb)
         .arg("--store")
         .arg(dir.join("store"))
         .arg("--connectors")
@@ -136,7 +131,7 @@ fn resume(dir: &Path, zenoh: &[&str]) -> Exec {
         .stdout(Stdio::piped())
         .stderr(Stdio::inherit())
         .spawn()
-        .expect("trace resume starts");
+        .expect("trace starts");
     Exec(Some(child))
 }
 
