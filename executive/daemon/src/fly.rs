@@ -317,12 +317,30 @@ struct Net {
     hub: String,
 }
 
-/// A free TCP port on 127.0.0.1: bound, read and released (the executive binds it next).
+/// Where flight ports are picked: below Linux's ephemeral range (32768–60999), from which the
+/// system hands out the source ports of outgoing connections and the ports of `bind(0)`: a
+/// port picked there could be taken by any connection before the executive binds it.
+const FLIGHT_PORTS: std::ops::Range<u16> = 20_000..32_000;
+
+/// A free TCP port on 127.0.0.1 outside the ephemeral range: found free by binding it, then
+/// released (the executive binds it next). Tried from a point that differs per process and
+/// per call, so two flights started together do not try the same ports in the same order.
 fn free_port() -> Result<u16, FlyError> {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .map_err(|e| FlyError::Dir(format!("no free port on 127.0.0.1: {e}")))
+    let span = u32::from(FLIGHT_PORTS.end - FLIGHT_PORTS.start);
+    let seed = std::process::id()
+        ^ std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.subsec_nanos());
+    for i in 0..span {
+        let port = FLIGHT_PORTS.start + ((seed.wrapping_mul(2_654_435_761) + i) % span) as u16;
+        if std::net::TcpListener::bind(("127.0.0.1", port)).is_ok() {
+            return Ok(port);
+        }
+    }
+    Err(FlyError::Dir(format!(
+        "no free port on 127.0.0.1 in {}..{}",
+        FLIGHT_PORTS.start, FLIGHT_PORTS.end
+    )))
 }
 
 /// The first listen endpoint of a Zenoh configuration (a list, or one per mode).
