@@ -228,6 +228,19 @@ fn answered(dir: &Path) -> Vec<Value> {
         .collect()
 }
 
+/// Waits for the next liveliness change of `kind` on a subscriber's channel.
+async fn until(
+    changes: &mut tokio::sync::mpsc::UnboundedReceiver<zenoh::sample::SampleKind>,
+    kind: zenoh::sample::SampleKind,
+) {
+    while tokio::time::timeout(EVENT, changes.recv())
+        .await
+        .expect("a liveliness change")
+        .expect("subscriber open")
+        != kind
+    {}
+}
+
 /// Waits until `session` sees a liveliness token on `key`.
 async fn seen(session: &zenoh::Session, key: &str) {
     let (tx, rx) = tokio::sync::oneshot::channel();
@@ -425,34 +438,24 @@ async fn every_bad_answer_is_refused_with_its_reason_and_changes_nothing() {
     station.expect(|l| l.ends_with(" closed: answered by ana@desk-1"));
     // The executive is killed and resumed: it still knows the answer it applied, and who
     // gave it (from its record).
+    // Its liveliness token says when it is gone and when it is back (it declares the token
+    // after its answer queryable).
+    let (tokens_tx, mut tokens) = tokio::sync::mpsc::unbounded_channel();
+    let _tokens = session
+        .liveliness()
+        .declare_subscriber(keys.alive("exec", "*"))
+        .callback(move |s| {
+            let _ = tokens_tx.send(s.kind());
+        })
+        .await
+        .expect("liveliness subscriber");
     let mut exec = exec;
     let mut child = exec.0.take().expect("running");
     let _ = (child.kill(), child.wait());
+    until(&mut tokens, zenoh::sample::SampleKind::Delete).await;
     let exec = resume(&dir, &["-l", &hub]);
-    let same = loop {
-        let answer = Answer {
-            goal_id: goal_id.clone(),
-            fields: ana.as_object().cloned().unwrap_or_default(),
-            operator: "ana".to_owned(),
-            station: "desk-1".to_owned(),
-        };
-        let judged = connector_zenoh::send_answer(
-            &session,
-            &keys,
-            "ground",
-            "ground.approve_site",
-            &answer,
-            EVENT,
-        )
-        .await;
-        match judged {
-            // The resumed executive is not up yet: its reply is the event waited for.
-            Err(connector_zenoh::AnswerError::NoExecutive(_)) => {
-                tokio::time::sleep(Duration::from_millis(20)).await;
-            }
-            other => break other.expect("a verdict"),
-        }
-    };
+    until(&mut tokens, zenoh::sample::SampleKind::Put).await;
+    let same = send(&goal_id, ana.clone(), "ana").await;
     assert!(same.applied, "{same:?}");
     let again = send(&goal_id, json!({"approve": false}), "ben").await;
     assert_eq!(again.reason.as_deref(), Some(closed.as_str()));

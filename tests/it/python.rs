@@ -62,22 +62,24 @@ fn start(script: &str, args: &[String], log: &Path) -> Child {
     }
 }
 
-/// Waits for a child to exit within [`BOUND`], killing it (and failing) if it does not.
-fn finish(mut child: Child, what: &str, log: &Path) -> std::process::ExitStatus {
-    let deadline = std::time::Instant::now() + BOUND;
-    loop {
-        if let Some(status) = child.try_wait().expect("try_wait") {
-            return status;
-        }
-        if std::time::Instant::now() > deadline {
-            let _ = child.kill();
-            let _ = child.wait();
+/// Waits for a child to exit (on a thread, so the exit is the event) within [`BOUND`],
+/// killing it (and failing) if it does not.
+fn finish(child: Child, what: &str, log: &Path) -> std::process::ExitStatus {
+    let pid = child.id();
+    let (tx, rx) = mpsc::channel();
+    let mut child = child;
+    std::thread::spawn(move || {
+        let _ = tx.send(child.wait());
+    });
+    match rx.recv_timeout(BOUND) {
+        Ok(status) => status.expect("wait"),
+        Err(_) => {
+            let _ = Command::new("kill").args(["-9", &pid.to_string()]).status();
             panic!(
                 "{what} did not end within {BOUND:?}; its log:\n{}",
                 std::fs::read_to_string(log).unwrap_or_default()
             );
         }
-        std::thread::sleep(Duration::from_millis(50));
     }
 }
 

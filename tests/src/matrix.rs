@@ -247,6 +247,8 @@ fn until(
         if ready(&lines(record), n) {
             return true;
         }
+        // The record's lines are the events (a kill point is a line count); this pause between
+        // two reads of the file only spares the CPU the flight runs on.
         std::thread::sleep(Duration::from_millis(2));
     }
 }
@@ -337,17 +339,23 @@ pub fn fly(dir: &Path, seed: u64, victim: Victim, kills: usize, bound: Duration)
             }
         }
     }
-    // Then the flight runs to its end, or the bound says it is stuck.
-    let ended = loop {
-        if let Some(c) = exec.0.as_mut()
-            && c.try_wait().ok().flatten().is_some()
-        {
-            break true;
+    // Then the flight runs to its end (the executive's exit, waited for on a thread), or the
+    // bound says it is stuck.
+    let ended = match exec.0.take() {
+        Some(mut child) => {
+            let pid = child.id();
+            let (tx, rx) = std::sync::mpsc::channel();
+            std::thread::spawn(move || {
+                let _ = tx.send(child.wait());
+            });
+            let left = deadline.saturating_duration_since(Instant::now());
+            let ended = rx.recv_timeout(left).is_ok();
+            if !ended {
+                let _ = Command::new("kill").args(["-9", &pid.to_string()]).status();
+            }
+            ended
         }
-        if Instant::now() > deadline {
-            break false;
-        }
-        std::thread::sleep(Duration::from_millis(10));
+        None => true,
     };
     exec.kill();
     sim.kill();

@@ -277,29 +277,17 @@ pub fn assess(
             On::Timer { due, .. } if *due != Millis::MAX => {
                 sure.push(item(key, instance, w.node, What::Timer { due: *due }))
             }
-            On::Message(m, _) => {
-                let it = item(key, instance, w.node, What::Message(m.clone()));
-                if outside.messages {
-                    &mut sure
-                } else {
-                    &mut maybe
-                }
-                .push(it);
+            on => {
+                // What only an outside system can deliver is sure to come if one can.
+                let (what, from_outside) = match on {
+                    On::Message(m, _) => (What::Message(m.clone()), outside.messages),
+                    On::Signal(m) => (What::Signal(m.clone()), outside.signals),
+                    On::Condition { .. } => (What::Condition, outside.data),
+                    _ => continue,
+                };
+                let it = item(key, instance, w.node, what);
+                if from_outside { &mut sure } else { &mut maybe }.push(it);
             }
-            On::Signal(m) => {
-                let it = item(key, instance, w.node, What::Signal(m.clone()));
-                if outside.signals {
-                    &mut sure
-                } else {
-                    &mut maybe
-                }
-                .push(it);
-            }
-            On::Condition { .. } => {
-                let it = item(key, instance, w.node, What::Condition);
-                if outside.data { &mut sure } else { &mut maybe }.push(it);
-            }
-            _ => {}
         }
     }
     for &p in unstarted {
