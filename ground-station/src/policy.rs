@@ -86,12 +86,20 @@ pub struct Policy {
 impl Policy {
     /// Reads and checks a policy against the forms the station serves.
     pub fn load(path: &Path, forms: Arc<Catalogue>) -> Result<Policy, PolicyError> {
-        let bad = |reason: String| PolicyError {
+        let text = std::fs::read_to_string(path).map_err(|e| PolicyError {
             path: path.display().to_string(),
+            reason: e.to_string(),
+        })?;
+        Policy::parse(&text, &path.display().to_string(), forms)
+    }
+
+    /// Reads and checks a policy's text (`path` names it in errors) against the forms.
+    pub fn parse(text: &str, path: &str, forms: Arc<Catalogue>) -> Result<Policy, PolicyError> {
+        let bad = |reason: String| PolicyError {
+            path: path.to_owned(),
             reason,
         };
-        let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
-        let file: PolicyFile = toml::from_str(&text).map_err(|e| bad(e.to_string()))?;
+        let file: PolicyFile = toml::from_str(text).map_err(|e| bad(e.to_string()))?;
         let mut problems = Vec::new();
         let mut rules = HashMap::new();
         for (task, r) in file.task {

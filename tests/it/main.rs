@@ -11,6 +11,7 @@ mod engine;
 mod europa;
 mod feel;
 mod fly;
+mod fuzz;
 mod ground;
 mod hostile;
 mod missions;

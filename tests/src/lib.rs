@@ -1,5 +1,6 @@
 //! mission-tests: shared helpers for the integration tiers (paths, the `trace` binary, corpora).
 
+pub mod fuzz;
 pub mod matrix;
 
 use std::path::{Path, PathBuf};

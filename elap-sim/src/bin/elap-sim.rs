@@ -257,6 +257,8 @@ async fn main() -> anyhow::Result<()> {
     for h in server.unfinished() {
         start(h);
     }
+    // Watched from before `ready` on, so a Ctrl-C between two requests is never missed.
+    let mut interrupt = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::interrupt())?;
     // The startup line (`trace fly` waits for `ready`): what is served and where.
     println!("ready {SERVER} — {joined}");
     loop {
@@ -270,7 +272,7 @@ async fn main() -> anyhow::Result<()> {
                 }
                 None => break,
             },
-            _ = tokio::signal::ctrl_c() => break,
+            _ = interrupt.recv() => break,
         }
     }
     shared.save();

@@ -130,28 +130,31 @@ pub struct ConfigError(pub String);
 
 impl Settings {
     /// Applies a configuration file.
-    pub fn with_file(mut self, path: &Path) -> Result<Settings, ConfigError> {
+    pub fn with_file(self, path: &Path) -> Result<Settings, ConfigError> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| ConfigError(format!("{}: {e}", path.display())))?;
-        let f: File =
-            toml::from_str(&text).map_err(|e| ConfigError(format!("{}: {e}", path.display())))?;
-        let from = path.display().to_string();
+        self.with_text(&text, &path.display().to_string())
+    }
+
+    /// Applies a configuration file's text; `from` names it in errors.
+    pub fn with_text(mut self, text: &str, from: &str) -> Result<Settings, ConfigError> {
+        let f: File = toml::from_str(text).map_err(|e| ConfigError(format!("{from}: {e}")))?;
         self.store = f.store.dir.or(self.store);
         if let Some(n) = f.store.snapshot_every {
-            self.snapshot_every = positive_int("store.snapshot_every", n, &from)?;
+            self.snapshot_every = positive_int("store.snapshot_every", n, from)?;
         }
         self.record = f.record.path.or(self.record);
         if let Some(s) = f.clock.speed {
-            self.speed = positive("clock.speed", s, &from)?;
+            self.speed = positive("clock.speed", s, from)?;
         }
         self.script = f.connector.script.or(self.script);
         self.connectors = f.connector.config.or(self.connectors);
         self.log_filter = f.log.filter.unwrap_or(self.log_filter);
         if let Some(fmt) = f.log.format {
-            self.log_json = format_is_json(&fmt, &from)?;
+            self.log_json = format_is_json(&fmt, from)?;
         }
         if let Some(d) = f.zenoh.deployment {
-            self.deployment = Some(deployment("zenoh.deployment", d, &from)?);
+            self.deployment = Some(deployment("zenoh.deployment", d, from)?);
         }
         Ok(self)
     }

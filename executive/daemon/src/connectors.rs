@@ -75,10 +75,16 @@ fn read_config(path: &Path) -> Result<ConnectorsConfig, SetupError> {
         reason,
     };
     let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
-    let config: ConnectorsConfig = toml::from_str(&text).map_err(|e| bad(e.to_string()))?;
+    parse_config(&text).map_err(bad)
+}
+
+/// Reads a connectors file's text (`connectors.toml`) and checks it: the reason when it is
+/// not TOML of that shape or its routes are inconsistent.
+pub fn parse_config(text: &str) -> Result<ConnectorsConfig, String> {
+    let config: ConnectorsConfig = toml::from_str(text).map_err(|e| e.to_string())?;
     let problems = config.problems();
     if !problems.is_empty() {
-        return Err(bad(problems.join("; ")));
+        return Err(problems.join("; "));
     }
     Ok(config)
 }

@@ -562,6 +562,13 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
     store.set_meta("digest", &given)?;
 
     // Restore and replay: the journal after the snapshot must give the committed actions.
+    if let Some((seq, state)) = &rec.snapshot {
+        state.check(&graph).map_err(|reason| StoreError::Corrupt {
+            tree: "snapshots",
+            key: seq.to_string(),
+            reason: format!("the state does not fit the mission model: {reason}"),
+        })?;
+    }
     let mut engine = match &rec.snapshot {
         Some((_, state)) => Engine::restore(Arc::clone(&graph), state.clone()),
         None => Engine::new(Arc::clone(&graph)),
@@ -721,8 +728,13 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
     }
     d.feed_all(early)?;
     let mut interrupted = false;
-    let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
+    // Both signals are watched from here on, so one that arrives between two turns of the
+    // loop (or before its first) is still seen, never the default action that kills.
+    use tokio::signal::unix::{SignalKind, signal};
+    let mut term = signal(SignalKind::terminate())
         .map_err(|e| RunError::Io(format!("cannot watch SIGTERM: {e}")))?;
+    let mut int = signal(SignalKind::interrupt())
+        .map_err(|e| RunError::Io(format!("cannot watch SIGINT: {e}")))?;
     let mut stuck = None;
     while !d.finished() {
         let a = d.assess();
@@ -754,7 +766,7 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
         };
         let first = tokio::select! {
             biased;
-            _ = tokio::signal::ctrl_c() => { interrupted = true; break }
+            _ = int.recv() => { interrupted = true; break }
             _ = term.recv() => { interrupted = true; break }
             m = rx.recv() => m,
             r = reports.recv() => r.and_then(|r| d.event_of(r)),

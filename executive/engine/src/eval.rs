@@ -27,6 +27,12 @@ pub(crate) fn eval(
     explained(expr, now, lookup, read).map(|(v, _)| v)
 }
 
+/// Evaluates `expr` over `vars` at mission time `now`, exactly as the engine does in flight
+/// (for tools that check an expression before a mission runs it, and for fuzzing).
+pub fn evaluate(expr: &Expression, now: Millis, vars: &Vars) -> Result<Value, String> {
+    eval(expr, now, &|name| vars.get(name).cloned(), &mut Vars::new())
+}
+
 /// [`eval`], with why a FEEL result is null (`: no variable `x``, or empty), for messages about
 /// a result of the wrong type.
 fn explained(

@@ -35,6 +35,7 @@ mod state;
 mod value;
 
 pub use engine::{Engine, Game};
+pub use eval::evaluate;
 pub use io::{
     Action, Entry, Event, Input, InstanceId, Millis, Outcome, Record, Rejected, ScopeId, TaskKey,
     TimerKey, TokenId, Trigger, WaitId,

@@ -256,3 +256,140 @@ mod pairs {
         Ok(Vec::<(K, V)>::deserialize(d)?.into_iter().collect())
     }
 }
+
+impl State {
+    /// Checks that a state read back from a store can be resumed on `graph`: every element,
+    /// flow and process it names exists, and every instance, scope, token and wait it refers to
+    /// is held. A store damaged (or edited) into another shape is refused with the first
+    /// problem, before the engine relies on it.
+    pub fn check(&self, graph: &executive_model::ProcessGraph) -> Result<(), String> {
+        let node = |n: NodeId, what: &str| {
+            (n.index() < graph.nodes.len())
+                .then_some(())
+                .ok_or_else(|| format!("{what} names element #{} of {}", n.0, graph.nodes.len()))
+        };
+        let flow = |f: FlowId, what: &str| {
+            (f.index() < graph.flows.len())
+                .then_some(())
+                .ok_or_else(|| format!("{what} names flow #{} of {}", f.0, graph.flows.len()))
+        };
+        let process = |p: ProcessId, what: &str| {
+            (p.index() < graph.processes.len())
+                .then_some(())
+                .ok_or_else(|| {
+                    format!("{what} names process #{} of {}", p.0, graph.processes.len())
+                })
+        };
+        let instance = |i: InstanceId, what: &str| {
+            self.instances
+                .contains_key(&i)
+                .then_some(())
+                .ok_or_else(|| format!("{what} names instance {} which is not held", i.0))
+        };
+        let scope = |s: ScopeId, what: &str| {
+            self.scopes
+                .contains_key(&s)
+                .then_some(())
+                .ok_or_else(|| format!("{what} names scope {} which is not held", s.0))
+        };
+        let token = |t: TokenId, what: &str| {
+            self.tokens
+                .contains_key(&t)
+                .then_some(())
+                .ok_or_else(|| format!("{what} names token {} which is not held", t.0))
+        };
+        let wait = |w: WaitId, what: &str| {
+            self.waits
+                .contains_key(&w)
+                .then_some(())
+                .ok_or_else(|| format!("{what} names wait {} which is not held", w.0))
+        };
+        fn compensable(
+            c: &[Compensable],
+            node: &dyn Fn(NodeId, &str) -> Result<(), String>,
+        ) -> Result<(), String> {
+            c.iter().try_for_each(|c| {
+                node(c.node, "a compensable activity")?;
+                compensable(&c.inner, node)
+            })
+        }
+        let kind = |k: &ScopeKind, what: &str| match *k {
+            ScopeKind::Process(p) => process(p, what),
+            ScopeKind::SubProcess(n) | ScopeKind::Body(n) => node(n, what),
+        };
+        for (id, i) in &self.instances {
+            let what = format!("instance {}", id.0);
+            process(i.process, &what)?;
+            if let Some(s) = i.root {
+                scope(s, &what)?;
+            }
+            i.incidents.iter().try_for_each(|(n, _)| node(*n, &what))?;
+        }
+        for (id, s) in &self.scopes {
+            let what = format!("scope {}", id.0);
+            instance(s.instance, &what)?;
+            if let Some(p) = s.parent {
+                scope(p, &what)?;
+            }
+            if let Some(t) = s.owner {
+                token(t, &what)?;
+            }
+            kind(&s.kind, &what)?;
+            compensable(&s.compensable, &node)?;
+            s.tokens.iter().try_for_each(|t| token(*t, &what))?;
+            s.waits.iter().try_for_each(|w| wait(*w, &what))?;
+        }
+        for (id, t) in &self.tokens {
+            let what = format!("token {}", id.0);
+            instance(t.instance, &what)?;
+            scope(t.scope, &what)?;
+            node(t.node, &what)?;
+            if let Some(f) = t.via {
+                flow(f, &what)?;
+            }
+            t.waits.iter().try_for_each(|w| wait(*w, &what))?;
+            match &t.at {
+                At::Scope(s) => scope(*s, &what)?,
+                At::Looping(l) => l.running.iter().try_for_each(|s| scope(*s, &what))?,
+                At::Task(k) | At::UserTask(k) => instance(k.instance, &what)?,
+                _ => {}
+            }
+            if let Some(run) = &t.compensating {
+                if let Some(w) = run.waiter {
+                    token(w, &what)?;
+                }
+                for h in &run.rest {
+                    match h {
+                        Handler::Activity(n) | Handler::Done(n) => node(*n, &what)?,
+                        Handler::EventSub(n, c) => {
+                            node(*n, &what)?;
+                            compensable(c, &node)?;
+                        }
+                    }
+                }
+            }
+        }
+        for (id, w) in &self.waits {
+            let what = format!("wait {}", id.0);
+            instance(w.instance, &what)?;
+            node(w.node, &what)?;
+            scope(w.scope, &what)?;
+            if let Some(t) = w.token {
+                token(t, &what)?;
+            }
+        }
+        self.joins.iter().try_for_each(|t| token(*t, "a join"))?;
+        for ((s, n), ts) in &self.joining {
+            scope(*s, "a join")?;
+            node(*n, "a join")?;
+            ts.iter().try_for_each(|t| token(*t, "a join"))?;
+        }
+        for (s, n) in &self.fired_complex {
+            scope(*s, "a complex gateway")?;
+            node(*n, "a complex gateway")?;
+        }
+        self.start_conditions
+            .iter()
+            .try_for_each(|n| node(*n, "a conditional start"))
+    }
+}

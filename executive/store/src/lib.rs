@@ -24,7 +24,7 @@ mod mem;
 mod sled_store;
 
 pub use mem::MemStore;
-pub use sled_store::SledStore;
+pub use sled_store::{Raw, RawStep, SledStore};
 
 use executive_engine::{Action, Input, State};
 use serde::{Deserialize, Serialize};

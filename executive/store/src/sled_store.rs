@@ -249,21 +249,108 @@ impl Store for SledStore {
     }
 
     fn recover(&self) -> Result<Recovered, StoreError> {
-        let snapshot = match self.snapshots.last().map_err(io)? {
-            Some((k, v)) => {
-                let seq = seq_of("snapshots", &k)?;
-                Some((seq, decode::<State>("snapshots", seq, &v)?))
-            }
-            None => None,
+        self.raw()?.decode()
+    }
+}
+
+impl SledStore {
+    /// What recovery reads, as stored: the newest snapshot, the journal after it with its
+    /// outbox entries and done marks, and the metadata (for tools that inspect a store, and
+    /// the fuzzer's seeds).
+    pub fn raw(&self) -> Result<Raw, StoreError> {
+        let snapshot = self
+            .snapshots
+            .last()
+            .map_err(io)?
+            .map(|(k, v)| (k.to_vec(), v.to_vec()));
+        let after = match &snapshot {
+            Some((k, _)) => seq_of("snapshots", k)?,
+            None => 0,
         };
-        let after = snapshot.as_ref().map_or(0, |(s, _)| *s);
         let mut steps = Vec::new();
         for entry in self.journal.range(seq_key(after + 1)..) {
             let (k, v) = entry.map_err(io)?;
-            let seq = seq_of("journal", &k)?;
-            let input: Input = decode("journal", seq, &v)?;
-            let actions: Vec<Action> = match self.outbox.get(&k).map_err(io)? {
-                Some(bytes) => decode("outbox", seq, &bytes)?,
+            let actions = self.outbox.get(&k).map_err(io)?.map(|a| a.to_vec());
+            let mut done = Vec::new();
+            for d in self.done.scan_prefix(&k) {
+                done.push(d.map_err(io)?.0.to_vec());
+            }
+            steps.push(RawStep {
+                key: k.to_vec(),
+                input: v.to_vec(),
+                actions,
+                done,
+            });
+        }
+        let mut meta = Vec::new();
+        for entry in self.meta.iter() {
+            let (k, v) = entry.map_err(io)?;
+            meta.push((k.to_vec(), v.to_vec()));
+        }
+        Ok(Raw {
+            snapshot,
+            steps,
+            meta,
+        })
+    }
+}
+
+/// What recovery reads from the store, as bytes: the newest snapshot (key, value), the
+/// journal after it with each step's outbox entry and done marks, and the metadata. Decoding
+/// it is a pure function, so damaged entries are refused the same way whatever held them,
+/// and fuzzing reaches it without a disk.
+#[derive(Clone, Debug, Default)]
+pub struct Raw {
+    /// The newest snapshot's key and value.
+    pub snapshot: Option<(Vec<u8>, Vec<u8>)>,
+    /// The journaled steps after it, in key order.
+    pub steps: Vec<RawStep>,
+    /// Metadata keys and values (the format marker among them).
+    pub meta: Vec<(Vec<u8>, Vec<u8>)>,
+}
+
+/// One journaled step as stored.
+#[derive(Clone, Debug, Default)]
+pub struct RawStep {
+    /// The journal key (the big-endian sequence number).
+    pub key: Vec<u8>,
+    /// The journaled input.
+    pub input: Vec<u8>,
+    /// The outbox entry of the same key, if there is one.
+    pub actions: Option<Vec<u8>>,
+    /// The keys of the step's done marks (sequence number, then action index).
+    pub done: Vec<Vec<u8>>,
+}
+
+impl Raw {
+    /// Decodes what was read into what the executive resumes from; a damaged or missing entry
+    /// is refused with its tree, key and reason.
+    pub fn decode(&self) -> Result<Recovered, StoreError> {
+        let snapshot = match &self.snapshot {
+            Some((k, v)) => {
+                let seq = seq_of("snapshots", k)?;
+                Some((seq, decode::<State>("snapshots", seq, v)?))
+            }
+            None => None,
+        };
+        let mut steps: Vec<Step> = Vec::new();
+        let mut last = snapshot.as_ref().map_or(0, |(s, _)| *s);
+        for raw in &self.steps {
+            let seq = seq_of("journal", &raw.key)?;
+            let input: Input = decode("journal", seq, &raw.input)?;
+            if seq <= last || input.seq != seq {
+                return Err(StoreError::Corrupt {
+                    tree: "journal",
+                    key: seq.to_string(),
+                    reason: format!(
+                        "the entry holds input {} after step {last}: the journal is out of order",
+                        input.seq
+                    ),
+                });
+            }
+            last = seq;
+            let actions: Vec<Action> = match &raw.actions {
+                Some(bytes) => decode("outbox", seq, bytes)?,
                 None => {
                     return Err(StoreError::Corrupt {
                         tree: "outbox",
@@ -273,8 +360,7 @@ impl Store for SledStore {
                 }
             };
             let mut done = vec![false; actions.len()];
-            for d in self.done.scan_prefix(&k) {
-                let (dk, _) = d.map_err(io)?;
+            for dk in &raw.done {
                 let index = dk
                     .get(8..12)
                     .and_then(|b| <[u8; 4]>::try_from(b).ok())
@@ -289,17 +375,17 @@ impl Store for SledStore {
                 done,
             });
         }
-        let mut meta = Vec::new();
-        for entry in self.meta.iter() {
-            let (k, v) = entry.map_err(io)?;
-            if k.as_ref() == b"format" {
-                continue;
-            }
-            meta.push((
-                String::from_utf8_lossy(&k).into_owned(),
-                String::from_utf8_lossy(&v).into_owned(),
-            ));
-        }
+        let meta = self
+            .meta
+            .iter()
+            .filter(|(k, _)| k.as_slice() != b"format")
+            .map(|(k, v)| {
+                (
+                    String::from_utf8_lossy(k).into_owned(),
+                    String::from_utf8_lossy(v).into_owned(),
+                )
+            })
+            .collect();
         Ok(Recovered {
             snapshot,
             steps,

@@ -107,12 +107,20 @@ const RESERVED: [&str; 6] = [
 
 /// Reads and compiles a requirements file against the model.
 pub fn load(path: &Path, g: &ProcessGraph) -> Result<Loaded, RequirementsError> {
-    let bad = |reason: String| RequirementsError {
+    let text = std::fs::read_to_string(path).map_err(|e| RequirementsError {
         path: path.display().to_string(),
+        reason: e.to_string(),
+    })?;
+    parse(&text, &path.display().to_string(), g)
+}
+
+/// Reads and compiles a requirements file's text (`path` names it in errors).
+pub fn parse(text: &str, path: &str, g: &ProcessGraph) -> Result<Loaded, RequirementsError> {
+    let bad = |reason: String| RequirementsError {
+        path: path.to_owned(),
         reason,
     };
-    let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
-    let file: File = toml::from_str(&text).map_err(|e| bad(e.to_string()))?;
+    let file: File = toml::from_str(text).map_err(|e| bad(e.to_string()))?;
     let mut problems = Vec::new();
     let mut variables = crate::data::Variables::new();
     for (name, decl) in &file.variables {

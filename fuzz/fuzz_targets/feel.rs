@@ -1,0 +1,4 @@
+//! libFuzzer target `feel`: the body is `mission_tests::fuzz::feel` (see there for what it reads).
+#![no_main]
+
+libfuzzer_sys::fuzz_target!(|data: &[u8]| mission_tests::fuzz::feel(data));

@@ -1,0 +1,4 @@
+//! libFuzzer target `record`: the body is `mission_tests::fuzz::record` (see there for what it reads).
+#![no_main]
+
+libfuzzer_sys::fuzz_target!(|data: &[u8]| mission_tests::fuzz::record(data));
