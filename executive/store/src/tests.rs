@@ -237,3 +237,70 @@ fn out_of_order_commits_and_unknown_actions_are_refused() {
     ));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn recovery_refuses_damaged_entries_naming_tree_key_and_reason() {
+    use crate::{Raw, RawStep};
+    let step = |seq: u64, input_seq: u64| RawStep {
+        key: seq.to_be_bytes().to_vec(),
+        input: serde_json::to_vec(&input(input_seq)).expect("JSON"),
+        actions: Some(serde_json::to_vec(&actions(input_seq, 2)).expect("JSON")),
+        done: vec![[&seq.to_be_bytes()[..], &1u32.to_be_bytes()[..]].concat()],
+    };
+    let refused = |raw: Raw| match raw.decode() {
+        Err(StoreError::Corrupt { tree, key, reason }) => format!("{tree} {key}: {reason}"),
+        other => panic!("not refused: {other:?}"),
+    };
+    // Whole: decoded, with its done mark.
+    let ok = Raw {
+        steps: vec![step(1, 1), step(2, 2)],
+        ..Raw::default()
+    }
+    .decode()
+    .expect("decodes");
+    assert_eq!(ok.steps[1].done, vec![false, true]);
+    // A journal entry under another step's key.
+    let why = refused(Raw {
+        steps: vec![step(1, 1), step(2, 5)],
+        ..Raw::default()
+    });
+    assert!(
+        why.starts_with("journal 2: ") && why.contains("out of order"),
+        "{why}"
+    );
+    // A step without its outbox entry.
+    let mut lost = step(1, 1);
+    lost.actions = None;
+    let why = refused(Raw {
+        steps: vec![lost],
+        ..Raw::default()
+    });
+    assert!(
+        why.starts_with("outbox 1: ") && why.contains("no outbox entry"),
+        "{why}"
+    );
+    // Bytes that are not an entry, in each tree.
+    let mut garbled = step(1, 1);
+    garbled.input = b"{\"seq\":1,".to_vec();
+    assert!(
+        refused(Raw {
+            steps: vec![garbled],
+            ..Raw::default()
+        })
+        .starts_with("journal 1: ")
+    );
+    assert!(
+        refused(Raw {
+            snapshot: Some((7u64.to_be_bytes().to_vec(), b"not a state".to_vec())),
+            ..Raw::default()
+        })
+        .starts_with("snapshots 7: ")
+    );
+    assert!(
+        refused(Raw {
+            snapshot: Some((b"k".to_vec(), b"{}".to_vec())),
+            ..Raw::default()
+        })
+        .contains("not a sequence number")
+    );
+}

@@ -2,7 +2,7 @@
 
 use std::sync::Arc;
 
-use crate::{Action, Engine, Entry, Event, Input, Outcome, Rejected, TaskKey, Value, Vars};
+use crate::{Action, Engine, Entry, Event, Input, Outcome, Rejected, State, TaskKey, Value, Vars};
 
 // One module per construct whose rule docs/engine-semantics.md writes down from chapter 13 of
 // BPMN 2.0.2, including combinations no corpus has.
@@ -686,4 +686,31 @@ fn a_hundred_thousand_iteration_loop_completes() {
         flow("out", "x", "e"),
     ));
     assert_eq!(d.start(&[("n", Value::Int(0))]), ["completed"]);
+}
+
+#[test]
+fn a_state_is_checked_against_the_model_before_it_is_resumed() {
+    let mut d = Driver::new(&format!(
+        r#"<process id="p" isExecutable="true"><startEvent id="s"/>{}{}<endEvent id="e"/>{}</process>"#,
+        flow("f1", "s", "a"),
+        task("a", "f1", "f2"),
+        flow("f2", "a", "e"),
+    ));
+    assert_eq!(d.start(&[]), ["dispatch a"]);
+    let graph = Arc::clone(d.e.graph());
+    let good = d.e.state().clone();
+    assert_eq!(good.check(&graph), Ok(()));
+    let damaged = |f: &dyn Fn(&mut State)| {
+        let mut s = good.clone();
+        f(&mut s);
+        s.check(&graph).expect_err("damage is found")
+    };
+    let why = damaged(&|s| s.tokens.values_mut().for_each(|t| t.node.0 = 999));
+    assert!(why.contains("names element #999 of"), "{why}");
+    let why = damaged(&|s| s.tokens.values_mut().for_each(|t| t.scope.0 = 77));
+    assert!(why.contains("names scope 77 which is not held"), "{why}");
+    let why = damaged(&|s| s.instances.values_mut().for_each(|i| i.process.0 = 5));
+    assert!(why.contains("names process #5 of 1"), "{why}");
+    let why = damaged(&|s| s.scopes.clear());
+    assert!(why.contains("which is not held"), "{why}");
 }
