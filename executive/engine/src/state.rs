@@ -263,47 +263,30 @@ impl State {
     /// is held. A store damaged (or edited) into another shape is refused with the first
     /// problem, before the engine relies on it.
     pub fn check(&self, graph: &executive_model::ProcessGraph) -> Result<(), String> {
-        let node = |n: NodeId, what: &str| {
-            (n.index() < graph.nodes.len())
+        fn within(index: usize, len: usize, kind: &str, what: &str) -> Result<(), String> {
+            (index < len)
                 .then_some(())
-                .ok_or_else(|| format!("{what} names element #{} of {}", n.0, graph.nodes.len()))
-        };
-        let flow = |f: FlowId, what: &str| {
-            (f.index() < graph.flows.len())
+                .ok_or_else(|| format!("{what} names {kind} #{index} of {len}"))
+        }
+        fn held<K: Ord, V>(
+            map: &BTreeMap<K, V>,
+            k: &K,
+            id: u64,
+            kind: &str,
+            what: &str,
+        ) -> Result<(), String> {
+            map.contains_key(k)
                 .then_some(())
-                .ok_or_else(|| format!("{what} names flow #{} of {}", f.0, graph.flows.len()))
-        };
-        let process = |p: ProcessId, what: &str| {
-            (p.index() < graph.processes.len())
-                .then_some(())
-                .ok_or_else(|| {
-                    format!("{what} names process #{} of {}", p.0, graph.processes.len())
-                })
-        };
-        let instance = |i: InstanceId, what: &str| {
-            self.instances
-                .contains_key(&i)
-                .then_some(())
-                .ok_or_else(|| format!("{what} names instance {} which is not held", i.0))
-        };
-        let scope = |s: ScopeId, what: &str| {
-            self.scopes
-                .contains_key(&s)
-                .then_some(())
-                .ok_or_else(|| format!("{what} names scope {} which is not held", s.0))
-        };
-        let token = |t: TokenId, what: &str| {
-            self.tokens
-                .contains_key(&t)
-                .then_some(())
-                .ok_or_else(|| format!("{what} names token {} which is not held", t.0))
-        };
-        let wait = |w: WaitId, what: &str| {
-            self.waits
-                .contains_key(&w)
-                .then_some(())
-                .ok_or_else(|| format!("{what} names wait {} which is not held", w.0))
-        };
+                .ok_or_else(|| format!("{what} names {kind} {id} which is not held"))
+        }
+        let node = |n: NodeId, what: &str| within(n.index(), graph.nodes.len(), "element", what);
+        let flow = |f: FlowId, what: &str| within(f.index(), graph.flows.len(), "flow", what);
+        let process =
+            |p: ProcessId, what: &str| within(p.index(), graph.processes.len(), "process", what);
+        let instance = |i: InstanceId, what: &str| held(&self.instances, &i, i.0, "instance", what);
+        let scope = |s: ScopeId, what: &str| held(&self.scopes, &s, s.0, "scope", what);
+        let token = |t: TokenId, what: &str| held(&self.tokens, &t, t.0, "token", what);
+        let wait = |w: WaitId, what: &str| held(&self.waits, &w, w.0, "wait", what);
         fn compensable(
             c: &[Compensable],
             node: &dyn Fn(NodeId, &str) -> Result<(), String>,
