@@ -1,6 +1,6 @@
 //! The fuzz targets' bodies without libFuzzer: every crash input kept in `fuzz/regressions/`
-//! goes through its target again, and so do seeds made from the deployment; damaged stores
-//! found by fuzzing are refused by `trace resume` with the entry named.
+//! goes through its target again, and so do seeds made from the deployment; and a store whose
+//! snapshot decodes but does not fit the model is refused by `trace resume`, entry named.
 
 use std::process::{Command, Stdio};
 
