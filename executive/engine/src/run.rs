@@ -37,11 +37,8 @@ pub(crate) struct Run<'a> {
 const MAX_CONDITION_ROUNDS: usize = 1000;
 
 /// Token arrivals in one step at most. A model that loops without ever waiting would otherwise
-/// never return; its tokens become incidents instead. A hundred thousand is far beyond what a
-/// mission does between two waits, and is reached in well under a second; a million took over
-/// ten seconds on a looping multi-instance activity (found by fuzzing), and filled the
-/// record with millions of moves.
-const MAX_MOVES: usize = 100_000;
+/// never return; its tokens become incidents instead.
+const MAX_MOVES: usize = 1_000_000;
 
 impl Run<'_> {
     pub(crate) fn mint(&mut self) -> u64 {
