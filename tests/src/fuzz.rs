@@ -438,19 +438,20 @@ pub fn seed(
         std::fs::write(dir.join(format!("seed-{n:05}")), bytes)
     };
     let repo = crate::repo();
+    // The corpora's small models (the fuzzer's speed goes with the input's size, and what a
+    // large one holds, small ones hold too), and the shipped missions whatever their size.
     let mut models = Vec::new();
-    for root in corpora
-        .iter()
-        .cloned()
-        .chain([repo.join("deploy/missions")])
-    {
-        models.extend(files(&root, "bpmn"));
+    for root in corpora {
+        models.extend(files(root, "bpmn").into_iter().map(|p| (p, 12 << 10)));
     }
-    for path in &models {
-        // Small models: the fuzzer's speed goes with the input's size, and what a large one
-        // holds, small ones hold too.
+    models.extend(
+        files(&repo.join("deploy/missions"), "bpmn")
+            .into_iter()
+            .map(|p| (p, usize::MAX)),
+    );
+    for (path, limit) in &models {
         let bytes = std::fs::read(path)?;
-        if bytes.len() > 12 << 10 {
+        if bytes.len() > *limit {
             continue;
         }
         put("loader", &bytes)?;
