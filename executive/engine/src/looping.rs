@@ -7,6 +7,12 @@ use crate::run::{Run, triggers_of};
 use crate::state::{At, Loop, ScopeKind, ScopeState};
 use crate::value::{Value, Vars};
 
+/// Bodies a parallel multi-instance activity may start at once: each is a scope and a token
+/// the engine keeps, and a cardinality or collection comes from data (a wrong value of a
+/// trillion would exhaust memory within one step). A sequential one runs its bodies one by
+/// one, unbounded.
+pub(crate) const MAX_PARALLEL: u64 = 10_000;
+
 impl Run<'_> {
     /// A looping activity starts.
     pub(crate) fn start_loop(&mut self, t: TokenId) {
@@ -79,6 +85,14 @@ impl Run<'_> {
                 self.set_loop(t, state);
                 if total == 0 {
                     return self.loop_done(t);
+                }
+                if !mi.sequential && total > MAX_PARALLEL {
+                    return self.incident(
+                        t,
+                        format!(
+                            "{total} parallel instances are more than the {MAX_PARALLEL} one activity may run at once; make it sequential or split the collection"
+                        ),
+                    );
                 }
                 let n = if mi.sequential { 1 } else { total };
                 for _ in 0..n {

@@ -1767,4 +1767,5 @@ fn quantity(raw: Option<&str>) -> u32 {
     raw.and_then(|v| v.trim().parse().ok())
         .filter(|&q| q > 0)
         .unwrap_or(1)
+        .min(crate::MAX_QUANTITY)
 }

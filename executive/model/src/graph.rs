@@ -57,6 +57,11 @@ id_type!(
     EscalationId
 );
 
+/// The most tokens a `startQuantity` or `completionQuantity` may name. More is refused in an
+/// executable process (each token is state the engine keeps; a fuzzed `completionQuantity` of
+/// four billion would have exhausted memory in one step) and read as this in a drawing.
+pub const MAX_QUANTITY: u32 = 1000;
+
 /// A loaded mission model: one BPMN `definitions` document (plus the documents it imports).
 #[derive(Debug)]
 pub struct ProcessGraph {
@@ -336,9 +341,11 @@ pub struct Node {
     pub looping: Option<Looping>,
     /// `isForCompensation`.
     pub for_compensation: bool,
-    /// `startQuantity`: tokens that must arrive before the activity starts (1 unless set).
+    /// `startQuantity`: tokens that must arrive before the activity starts (1 unless set; at
+    /// most [`MAX_QUANTITY`]).
     pub start_quantity: u32,
-    /// `completionQuantity`: tokens the activity emits on each outgoing flow (1 unless set).
+    /// `completionQuantity`: tokens the activity emits on each outgoing flow (1 unless set; at
+    /// most [`MAX_QUANTITY`]).
     pub completion_quantity: u32,
     /// Compensation handler reached from this activity's compensation boundary event.
     pub compensation_handler: Option<NodeId>,

@@ -903,3 +903,19 @@ fn a_boundary_event_may_come_before_its_activity() {
     let t = g.node_by_id("x").expect("x");
     assert_eq!(g.node(t).boundaries, vec![g.node_by_id("b").expect("b")]);
 }
+
+#[test]
+fn a_quantity_over_the_bound_is_refused_when_executable_and_read_as_the_bound_in_a_drawing() {
+    let task =
+        |q: &str| format!(r#"<bpmn:task id="x" startQuantity="1" completionQuantity="{q}"/>"#);
+    assert_eq!(errors(&around(&task("4000000000"))), ["bad-quantity"]);
+    let loaded = load(around(&task("4000000000")).as_bytes());
+    let d = loaded.errors().next().expect("an error");
+    assert!(d.message.contains("over the 1000 tokens"), "{}", d.message);
+    assert!(errors(&around(&task("1000"))).is_empty());
+    let drawing =
+        around(&task("5000")).replace(r#"isExecutable="true""#, r#"isExecutable="false""#);
+    let g = ok(&drawing);
+    let x = g.node(g.node_by_id("x").expect("x"));
+    assert_eq!(x.completion_quantity, crate::MAX_QUANTITY);
+}

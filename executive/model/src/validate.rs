@@ -1014,6 +1014,28 @@ pub(crate) fn element_checks(root: &Element, sink: &mut Sink) {
                 ("completionQuantity", "EXT.038"),
             ] {
                 if let Some(v) = el.attr(attr)
+                    && let Ok(q) = v.trim().parse::<u32>()
+                    && q > crate::MAX_QUANTITY
+                {
+                    let max = crate::MAX_QUANTITY;
+                    if executable {
+                        sink.error(
+                            "bad-quantity",
+                            el.offset,
+                            id,
+                            format!("{attr}=\"{v}\" is over the {max} tokens TRACE runs for one activity"),
+                        )
+                        .constraint(constraint);
+                    } else {
+                        sink.bent(
+                            "bad-quantity",
+                            constraint,
+                            el.offset,
+                            id,
+                            format!("{attr}=\"{v}\" is over {max} tokens; it is read as {max}"),
+                        );
+                    }
+                } else if let Some(v) = el.attr(attr)
                     && v.trim().parse::<u32>().map_or(true, |q| q < 1)
                 {
                     // How many tokens to wait for is undefined at zero: an executable process

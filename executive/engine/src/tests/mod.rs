@@ -714,3 +714,30 @@ fn a_state_is_checked_against_the_model_before_it_is_resumed() {
     let why = damaged(&|s| s.scopes.clear());
     assert!(why.contains("which is not held"), "{why}");
 }
+
+#[test]
+fn a_parallel_multi_instance_beyond_the_bound_is_an_incident_and_a_sequential_one_runs() {
+    let model = |sequential: bool| {
+        format!(
+            r#"<process id="p" isExecutable="true"><startEvent id="s"><outgoing>f0</outgoing></startEvent>
+        <serviceTask id="a"><extensionElements><trace:task resource="sys.a"/></extensionElements>
+          <incoming>f0</incoming><outgoing>f1</outgoing>
+          <multiInstanceLoopCharacteristics isSequential="{sequential}"><loopCardinality>n</loopCardinality></multiInstanceLoopCharacteristics></serviceTask>
+        <endEvent id="e"><incoming>f1</incoming></endEvent>
+        <sequenceFlow id="f0" sourceRef="s" targetRef="a"/><sequenceFlow id="f1" sourceRef="a" targetRef="e"/></process>"#
+        )
+    };
+    let huge = Value::Int(1_000_000_000_000);
+    let out = Driver::new(&model(false)).start(&[("n", huge.clone())]);
+    assert_eq!(out.len(), 1, "{out:?}");
+    assert!(
+        out[0].starts_with("incident 1000000000000 parallel instances are more than the 10000"),
+        "{out:?}"
+    );
+    assert_eq!(
+        Driver::new(&model(true)).start(&[("n", huge)]),
+        ["dispatch a"]
+    );
+    let at_bound = Driver::new(&model(false)).start(&[("n", Value::Int(10_000))]);
+    assert_eq!(at_bound.len(), 10_000);
+}
