@@ -173,7 +173,9 @@ fn the_nominal_europa_mission_runs_across_processes_to_communicate_until_death()
         "{:?}",
         run.failed
     );
-    assert!(run.days > 10.0 && run.days < 23.0, "{} days", run.days);
+    // About 19.5 days on an idle machine; the upper bound only rules out a runaway, since at
+    // 200,000x every second a loaded machine holds a process back is 2.3 mission days.
+    assert!(run.days > 10.0 && run.days < 30.0, "{} days", run.days);
 }
 
 #[test]
