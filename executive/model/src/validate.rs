@@ -1013,53 +1013,36 @@ pub(crate) fn element_checks(root: &Element, sink: &mut Sink) {
                 ("startQuantity", "EXT.037"),
                 ("completionQuantity", "EXT.038"),
             ] {
-                if let Some(v) = el.attr(attr)
-                    && let Ok(q) = v.trim().parse::<u32>()
-                    && q > crate::MAX_QUANTITY
-                {
-                    let max = crate::MAX_QUANTITY;
-                    if executable {
-                        sink.error(
-                            "bad-quantity",
-                            el.offset,
-                            id,
-                            format!("{attr}=\"{v}\" is over the {max} tokens TRACE runs for one activity"),
-                        )
-                        .constraint(constraint);
-                    } else {
-                        sink.bent(
-                            "bad-quantity",
-                            constraint,
-                            el.offset,
-                            id,
-                            format!("{attr}=\"{v}\" is over {max} tokens; it is read as {max}"),
-                        );
+                let Some(v) = el.attr(attr) else { continue };
+                let max = crate::MAX_QUANTITY;
+                // How many tokens to wait for is undefined at zero: an executable process
+                // cannot run with it; a drawing (ADONIS writes 0 throughout) is read as 1. Over
+                // the bound the model is fine BPMN that TRACE will not run (each token is state).
+                let (error, bent, limit) = match v.trim().parse::<u32>() {
+                    Ok(q) if q > max => (
+                        format!(
+                            "{attr}=\"{v}\" is over the {max} tokens TRACE runs for one activity"
+                        ),
+                        format!("{attr}=\"{v}\" is over {max} tokens; it is read as {max}"),
+                        true,
+                    ),
+                    Ok(q) if q >= 1 => continue,
+                    _ => (
+                        format!("{attr}=\"{v}\" must be a whole number of at least 1"),
+                        format!(
+                            "{attr}=\"{v}\" should be a whole number of at least 1; it is read as 1"
+                        ),
+                        false,
+                    ),
+                };
+                if executable {
+                    let d = sink.error("bad-quantity", el.offset, id, error);
+                    d.constraint(constraint);
+                    if limit || !declared {
+                        d.execution();
                     }
-                } else if let Some(v) = el.attr(attr)
-                    && v.trim().parse::<u32>().map_or(true, |q| q < 1)
-                {
-                    // How many tokens to wait for is undefined at zero: an executable process
-                    // cannot run with it; a drawing (ADONIS writes 0 throughout) is read as 1.
-                    if executable {
-                        let d = sink.error(
-                            "bad-quantity",
-                            el.offset,
-                            id,
-                            format!("{attr}=\"{v}\" must be a whole number of at least 1"),
-                        );
-                        d.constraint(constraint);
-                        if !declared {
-                            d.execution();
-                        }
-                    } else {
-                        sink.bent(
-                            "bad-quantity",
-                            constraint,
-                            el.offset,
-                            id,
-                            format!("{attr}=\"{v}\" should be a whole number of at least 1; it is read as 1"),
-                        );
-                    }
+                } else {
+                    sink.bent("bad-quantity", constraint, el.offset, id, bent);
                 }
             }
             if let Some(dir) = el.attr("gatewayDirection") {
