@@ -141,6 +141,21 @@ impl Shared {
     }
 }
 
+/// The value saved under `key` in the simulator's `world` tree, if one was saved; `what` names
+/// it when it is damaged.
+fn saved<T: serde::de::DeserializeOwned>(
+    tree: Option<&sled::Tree>,
+    key: &str,
+    what: &str,
+) -> anyhow::Result<Option<T>> {
+    match tree.and_then(|t| t.get(key).ok().flatten()) {
+        Some(b) => serde_json::from_slice(&b)
+            .map(Some)
+            .map_err(|e| anyhow::anyhow!("the saved {what} is damaged: {e}")),
+        None => Ok(None),
+    }
+}
+
 #[tokio::main(flavor = "multi_thread", worker_threads = 2)]
 async fn main() -> anyhow::Result<()> {
     connector_zenoh::log_to_stderr();
@@ -160,14 +175,7 @@ async fn main() -> anyhow::Result<()> {
     };
     let tree = db.as_ref().map(|d| d.open_tree("world")).transpose()?;
     let goals = db.as_ref().map(|d| d.open_tree("goals")).transpose()?;
-    let saved = match tree.as_ref().and_then(|t| t.get("sim").ok().flatten()) {
-        Some(b) => Some(
-            serde_json::from_slice::<Sim>(&b)
-                .map_err(|e| anyhow::anyhow!("the saved world is damaged: {e}"))?,
-        ),
-        None => None,
-    };
-    let sim = match saved {
+    let sim = match saved::<Sim>(tree.as_ref(), "sim", "world")? {
         Some(s) => s.with(cli.profile, script),
         None => {
             let start = cli.start_ms.unwrap_or_else(|| {
@@ -179,13 +187,7 @@ async fn main() -> anyhow::Result<()> {
         }
     };
     // A clock that was running before a restart ran on through the downtime.
-    let anchor = match tree.as_ref().and_then(|t| t.get("clock").ok().flatten()) {
-        Some(b) => Some(
-            serde_json::from_slice::<Anchor>(&b)
-                .map_err(|e| anyhow::anyhow!("the saved clock is damaged: {e}"))?,
-        ),
-        None => None,
-    };
+    let anchor = saved::<Anchor>(tree.as_ref(), "clock", "clock")?;
     let base_ms = match anchor {
         Some(a) => {
             let downtime = (wall_now_ms() - a.wall_ms).max(0) as f64 * a.speed;

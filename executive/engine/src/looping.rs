@@ -9,7 +9,7 @@ use crate::value::{Value, Vars};
 
 /// Bodies a parallel multi-instance activity may start at once: each is a scope and a token
 /// the engine keeps, and a cardinality or collection comes from data (a wrong value of a
-/// trillion would exhaust memory within one step). A sequential one runs its bodies one by
+/// trillion would be a trillion scopes within one step). A sequential one runs its bodies one by
 /// one, unbounded.
 pub(crate) const MAX_PARALLEL: u64 = 10_000;
 

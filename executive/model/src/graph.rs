@@ -59,7 +59,7 @@ id_type!(
 
 /// The most tokens a `startQuantity` or `completionQuantity` may name. More is refused in an
 /// executable process (each token is state the engine keeps; a fuzzed `completionQuantity` of
-/// four billion would have exhausted memory in one step) and read as this in a drawing.
+/// four billion is four billion tokens spawned in one step) and read as this in a drawing.
 pub const MAX_QUANTITY: u32 = 1000;
 
 /// A loaded mission model: one BPMN `definitions` document (plus the documents it imports).
