@@ -14,6 +14,7 @@ mod fly;
 mod fuzz;
 mod ground;
 mod hostile;
+mod hosts;
 mod missions;
 mod protocol;
 mod python;

@@ -1,6 +1,7 @@
 //! mission-tests: shared helpers for the integration tiers (paths, the `trace` binary, corpora).
 
 pub mod fuzz;
+pub mod hosts;
 pub mod matrix;
 
 use std::path::{Path, PathBuf};
@@ -41,7 +42,27 @@ pub fn bin(name: &str) -> PathBuf {
         let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
         // A bench runs from the release directory: its binaries are release builds.
         let release = profile_dir().ends_with("release");
-        let status = Command::new(cargo)
+        let mut build = Command::new(cargo);
+        // What cargo set for this test binary (its package's name and directory) must not
+        // reach the build: build scripts that watch those variables (ring's does) would run
+        // again, and everything above them would be rebuilt, here and in the next build.
+        for (key, _) in std::env::vars_os() {
+            let key = key.to_string_lossy();
+            if key.starts_with("CARGO_PKG_")
+                || key.starts_with("CARGO_MANIFEST_")
+                || key.starts_with("CARGO_BIN_")
+                || matches!(
+                    &*key,
+                    "CARGO_CRATE_NAME"
+                        | "CARGO_PRIMARY_PACKAGE"
+                        | "CARGO_TARGET_TMPDIR"
+                        | "OUT_DIR"
+                )
+            {
+                build.env_remove(&*key);
+            }
+        }
+        let status = build
             .args(["build", "--quiet", "--workspace", "--bins"])
             .args(release.then_some("--release"))
             .current_dir(repo())

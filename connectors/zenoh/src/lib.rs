@@ -10,10 +10,13 @@
 //! - [`ActionServer`]: the reusable server side for any system (the lander simulator, the
 //!   ground station, test servers);
 //! - [`send_answer`]: a ground station's answer to a user task, and the executive's verdict;
-//! - [`ZenohArgs`]: the Zenoh flags and embedded defaults every TRACE binary shares.
+//! - [`ZenohArgs`]: the Zenoh flags and embedded defaults every TRACE binary shares;
+//! - [`router`]: `trace router`, a Zenoh router for multi-host deployments that logs what its
+//!   access control refuses.
 //!
-//! Dependencies: `zenoh` 1.10.2 with `default-features = false` and only `transport_tcp`
-//! (the other transports cost most of the build; TLS is a deployment feature to add); no
+//! Dependencies: `zenoh` 1.10.2 with `default-features = false` and only `transport_tcp` and
+//! `transport_tls` (TCP on one host, TLS with client certificates between hosts; the other
+//! transports cost most of the build); no
 //! `zenoh-ext`: results survive link loss through `state` reconciliation on reappearance
 //! instead of AdvancedPublisher caches, which also covers executive restarts. `sled` keeps a
 //! server's goal table across restarts; `clap` for the shared flags.
@@ -23,6 +26,7 @@ mod client;
 mod codec;
 mod drops;
 pub mod mock;
+pub mod router;
 mod server;
 mod session;
 

@@ -39,6 +39,11 @@ pub struct ZenohArgs {
     /// Enable UDP multicast scouting.
     #[arg(long, conflicts_with = "no_multicast_scouting")]
     pub multicast_scouting: bool,
+    /// One key of Zenoh's configuration, set after the file and the other flags (repeatable):
+    /// `KEY=VALUE` with VALUE in JSON5, e.g.
+    /// `--zenoh-set 'transport/link/tls/root_ca_certificate="certs/ca.pem"'`.
+    #[arg(long = "zenoh-set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
     /// Root of every key expression, before the deployment name.
     #[arg(long = "key-root", value_name = "ROOT", default_value = connector_api::keys::DEFAULT_ROOT)]
     pub root: String,
@@ -131,6 +136,15 @@ impl ZenohArgs {
             )
             .map_err(bad)?;
         }
+        for item in &self.set {
+            let Some((key, value)) = item.split_once('=') else {
+                return Err(SessionError::Config(format!(
+                    "--zenoh-set {item}: expected KEY=VALUE"
+                )));
+            };
+            c.insert_json5(key.trim(), value.trim())
+                .map_err(|e| SessionError::Config(format!("--zenoh-set {item}: {e}")))?;
+        }
         Ok(c)
     }
 
@@ -182,17 +196,24 @@ mod tests {
     fn shipped_zenoh_configurations_parse() {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../deploy/zenoh");
         let mut n = 0;
-        for entry in std::fs::read_dir(&dir).expect("deploy/zenoh") {
-            let path = entry.expect("entry").path();
-            let args = ZenohArgs {
-                zenoh_config: Some(path.clone()),
-                ..ZenohArgs::default()
-            };
-            args.config(Role::Spoke)
-                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-            n += 1;
+        let mut dirs = vec![dir];
+        while let Some(dir) = dirs.pop() {
+            for entry in std::fs::read_dir(&dir).expect("deploy/zenoh") {
+                let path = entry.expect("entry").path();
+                if path.is_dir() {
+                    dirs.push(path);
+                    continue;
+                }
+                let args = ZenohArgs {
+                    zenoh_config: Some(path.clone()),
+                    ..ZenohArgs::default()
+                };
+                args.config(Role::Spoke)
+                    .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+                n += 1;
+            }
         }
-        assert!(n >= 3);
+        assert!(n >= 9, "{n} files");
     }
 
     #[test]
@@ -224,5 +245,23 @@ mod tests {
                 .to_string()
                 .contains("/nonexistent.json5")
         );
+        let args = ZenohArgs {
+            set: vec!["transport/link/tx/lease=2500".into()],
+            ..ZenohArgs::default()
+        };
+        let c = args.config(Role::Hub).expect("a set key");
+        assert_eq!(c.get_json("transport/link/tx/lease").expect("set"), "2500");
+        for bad in [
+            "no-equals-sign",
+            "no/such/key=1",
+            "transport/link/tx/lease=\"x\"",
+        ] {
+            let args = ZenohArgs {
+                set: vec![bad.into()],
+                ..ZenohArgs::default()
+            };
+            let e = args.config(Role::Hub).unwrap_err().to_string();
+            assert!(e.contains(&format!("--zenoh-set {bad}")), "{e}");
+        }
     }
 }

@@ -85,6 +85,14 @@ enum Command {
         #[command(flatten)]
         zenoh: connector_zenoh::ZenohArgs,
     },
+    /// Run a Zenoh router (for deployments across hosts, deploy/zenoh/two-hosts/): the zenoh
+    /// library in router mode on a configuration file `zenohd -c` would read, with TLS and
+    /// access control as that file says; every operation access control refuses is logged as
+    /// a warning. Runs until Ctrl-C or SIGTERM.
+    Router {
+        #[command(flatten)]
+        zenoh: connector_zenoh::ZenohArgs,
+    },
     /// Verify a mission model with Spin before it flies: no deadlock, safeness, no dead
     /// activities, every run ends, no lost signal (exit 0 all hold, 1 violated, 2 incomplete
     /// or not verifiable).
@@ -198,6 +206,7 @@ fn main() -> anyhow::Result<ExitCode> {
             | Command::Resume { .. }
             | Command::Fly { .. }
             | Command::Monitor { .. }
+            | Command::Router { .. }
     ) {
         logging("warn", false);
     }
@@ -241,6 +250,27 @@ fn main() -> anyhow::Result<ExitCode> {
                 lines,
                 &mut stdout,
             ))?;
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Router { zenoh } => {
+            connector_zenoh::router::log_router();
+            let rt = tokio::runtime::Builder::new_multi_thread()
+                .worker_threads(1)
+                .enable_all()
+                .build()?;
+            rt.block_on(async {
+                let (session, ready) = connector_zenoh::router::open(&zenoh).await?;
+                println!("{ready}");
+                let mut term =
+                    tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())?;
+                tokio::select! {
+                    _ = tokio::signal::ctrl_c() => {}
+                    _ = term.recv() => {}
+                }
+                tracing::info!("router stopping");
+                session.close().await.map_err(|e| anyhow::anyhow!("{e}"))?;
+                anyhow::Ok(())
+            })?;
             Ok(ExitCode::SUCCESS)
         }
         Command::Verify(opts) => {

@@ -1,0 +1,192 @@
+//! `trace router`: a Zenoh router opened from the zenoh library every TRACE binary already
+//! links, reading the same JSON5 files `zenohd -c` reads (`deploy/zenoh/two-hosts/`).
+//!
+//! Why not `zenohd`: it is a second full build of zenoh (with plugins and the admin space we do
+//! not use: about 12 minutes on these machines) whose version must be kept equal to ours by
+//! hand. The library in `router` mode routes, scouts, terminates TLS and enforces access
+//! control exactly as `zenohd` does; the binary adds only plugins. A site that wants
+//! `zenohd` (for its REST or storage plugins) runs `zenohd -c` on the same files.
+//!
+//! What the library does not do on its own is say when access control refuses something:
+//! Zenoh logs each decision at trace level, among every allowed one. [`log_router`] keeps the
+//! refusals and writes each as a warning (`refused by access control: …`, naming the peer,
+//! its certificate's common name, the operation and the key), so an operator sees a denied
+//! publisher, and the tests wait for that line.
+
+use std::cell::RefCell;
+use std::fmt;
+
+use tracing::field::{Field, Visit};
+use tracing_subscriber::filter::{EnvFilter, filter_fn};
+use tracing_subscriber::layer::{Context, SubscriberExt};
+use tracing_subscriber::util::SubscriberInitExt;
+use tracing_subscriber::{Layer, Registry};
+
+use crate::session::{Role, SessionError, ZenohArgs};
+
+/// The module Zenoh logs its access-control decisions from.
+const ACL_TARGET: &str = "zenoh::net::routing::interceptor::access_control";
+
+/// What a refusal in Zenoh's log says (`<zid> on <subject> is unauthorized to <op> on <key>`).
+const REFUSED: &str = "is unauthorized to";
+
+/// What Zenoh says of a peer that no subject matches (the default permission then applies to
+/// everything it does, without a line per message).
+const NO_SUBJECT: &str = "did not match any configured ACL subject";
+
+/// What Zenoh says before it works out, on the same thread, every permission of a key
+/// expression a peer declared (one line per kind of message, refused ones included, though
+/// nothing was sent yet): those lines are not refusals.
+const CACHING: &str = "caching permissions for `";
+
+/// What Zenoh says when a message is decided from that cache.
+const CACHED: &str = "Using cached result";
+
+/// The prefix of every refusal this router writes.
+pub const REFUSAL: &str = "refused by access control:";
+
+/// Opens the router: the configuration of `args` (file, flags, `--zenoh-set`) in `router`
+/// mode, listening on the default loopback endpoint if nothing says otherwise. The router
+/// runs until the session is dropped. Returns the session and a `ready` line naming its id
+/// and endpoints.
+pub async fn open(args: &ZenohArgs) -> Result<(zenoh::Session, String), SessionError> {
+    let mut config = args.config(Role::Hub)?;
+    config
+        .insert_json5("mode", "\"router\"")
+        .map_err(|e| SessionError::Config(e.to_string()))?;
+    let listen = config
+        .get_json("listen/endpoints")
+        .unwrap_or_else(|_| "[]".to_owned());
+    let acl = config
+        .get_json("access_control/enabled")
+        .is_ok_and(|v| v == "true");
+    let session = zenoh::open(config)
+        .await
+        .map_err(|e| SessionError::Open(e.to_string()))?;
+    let zid = session.info().zid().await;
+    tracing::info!(%zid, %listen, acl, "router open");
+    let ready = format!(
+        "ready router {zid} — listening on {listen}, access control {}",
+        if acl { "on" } else { "off" }
+    );
+    Ok((session, ready))
+}
+
+/// Logging for `trace router`: `RUST_LOG` (default: info, Zenoh's own warnings) to stderr, and
+/// every operation access control refuses as a warning line starting with [`REFUSAL`].
+pub fn log_router() {
+    let env =
+        EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new("info,zenoh=warn"));
+    let fmt = tracing_subscriber::fmt::layer()
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
+        .with_writer(std::io::stderr)
+        .with_filter(env);
+    let refusals = Refusals.with_filter(filter_fn(|m| m.target().starts_with(ACL_TARGET)));
+    Registry::default().with(fmt).with(refusals).init();
+}
+
+/// Keeps the refusals among Zenoh's access-control log events.
+struct Refusals;
+
+thread_local! {
+    /// The key expression whose permissions this thread is working out, if it is.
+    static CACHING_KEY: RefCell<Option<String>> = const { RefCell::new(None) };
+}
+
+impl<S: tracing::Subscriber> Layer<S> for Refusals {
+    fn on_event(&self, event: &tracing::Event<'_>, _: Context<'_, S>) {
+        let mut message = Message(String::new());
+        event.record(&mut message);
+        if is_refusal(&message.0) {
+            // Written directly: emitting a tracing event from inside a layer would re-enter it.
+            eprintln!("WARN trace::router: {REFUSAL} {}", message.0);
+        }
+    }
+}
+
+/// Whether a line of Zenoh's access control is a message refused (or a peer that no subject
+/// names), telling the permissions worked out for a new key expression apart.
+fn is_refusal(line: &str) -> bool {
+    CACHING_KEY.with(|caching| {
+        let mut caching = caching.borrow_mut();
+        if let Some(at) = line.find(CACHING) {
+            let key = &line[at + CACHING.len()..];
+            *caching = key.split('`').next().map(str::to_owned);
+            return false;
+        }
+        let working_out = !line.starts_with(CACHED)
+            && caching
+                .as_deref()
+                .is_some_and(|key| line.ends_with(&format!(" on {key}")));
+        if !working_out {
+            *caching = None;
+        }
+        !working_out && (line.contains(REFUSED) || line.contains(NO_SUBJECT))
+    })
+}
+
+/// The `message` field of an event.
+struct Message(String);
+
+impl Visit for Message {
+    fn record_debug(&mut self, field: &Field, value: &dyn fmt::Debug) {
+        if field.name() == "message" {
+            self.0 = format!("{value:?}");
+        }
+    }
+
+    fn record_str(&mut self, field: &Field, value: &str) {
+        if field.name() == "message" {
+            self.0 = value.to_owned();
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn permissions_worked_out_for_a_new_key_are_not_refusals_but_decisions_are() {
+        let peer = "5c6f on CertCommonName(monitor)+Transport(Tls)";
+        let lines = [
+            (
+                "ACL (ingress): caching permissions for `trace/d/tm/x` ...",
+                false,
+            ),
+            (
+                &*format!("{peer} is unauthorized to Put (ingress) on trace/d/tm/x"),
+                false,
+            ),
+            (
+                &*format!(
+                    "{peer} is authorized to Declare/Undeclare Subscriber (ingress) on trace/d/tm/x"
+                ),
+                false,
+            ),
+            (
+                &*format!("{peer} is unauthorized to Reply (ingress) on trace/d/tm/x"),
+                false,
+            ),
+            (
+                "Using cached result: 5c6f is unauthorized to Put (ingress) on trace/d/tm/x",
+                true,
+            ),
+            (
+                &*format!("{peer} is unauthorized to Query (ingress) on trace/d/act/a/goal/1"),
+                true,
+            ),
+            (
+                "5c6f did not match any configured ACL subject. Default permission `Deny` will be applied on all messages",
+                true,
+            ),
+            (
+                "Using cached result: 5c6f is authorized to Put (ingress) on trace/d/tm/x",
+                false,
+            ),
+        ];
+        for (line, refused) in lines {
+            assert_eq!(is_refusal(line), refused, "{line}");
+        }
+    }
+}

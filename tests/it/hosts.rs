@@ -1,0 +1,462 @@
+//! Lander and ground on separate hosts (network namespaces made by the test, joined by veth
+//! links) through two `trace router`s with mutual TLS and access control by certificate: every
+//! operation a role may not do refused, a client without the deployment's certificate kept
+//! out, and a user task answered across a link cut for an hour of mission time.
+
+use std::time::Duration;
+
+use mission_tests::hosts::Lab;
+use mission_tests::{records, repo};
+
+const REFUSAL: &str = connector_zenoh::router::REFUSAL;
+
+/// A ground station with certificate `cert` on ground host `k`, answering by `policy`.
+fn station_with(lab: &mut Lab, k: usize, cert: &str, policy: &str) {
+    let cert_set = format!("transport/link/tls/connect_certificate=\"certs/{cert}.pem\"");
+    let key_set = format!("transport/link/tls/connect_private_key=\"certs/{cert}.key\"");
+    let c = lab.command(
+        &lab.grounds[k - 1].clone(),
+        "ground-station",
+        &[
+            "--zenoh-config",
+            &Lab::config("station.json5"),
+            "--zenoh-set",
+            &cert_set,
+            "--zenoh-set",
+            &key_set,
+            "--station",
+            cert,
+            "--policy",
+            policy,
+        ],
+    );
+    lab.start(cert, c);
+}
+
+/// What one forbidden operation is: who tries it from where, and which router refuses it.
+struct Forbidden {
+    what: &'static str,
+    ground: bool,
+    cert: &'static str,
+    op: &'static str,
+    key: &'static str,
+    refused_by: &'static str,
+}
+
+const WAIT: Duration = Duration::from_secs(20);
+
+#[test]
+fn every_operation_a_role_may_not_do_is_refused_by_the_routers_and_never_delivered() {
+    let mut lab = Lab::new("acl", 1);
+    lab.routers();
+    let (lander, ground) = (lab.lander.clone(), lab.grounds[0].clone());
+    // The honest side: the executive hears everything and serves the answers; the lander
+    // simulator serves its actions; a station serves the user tasks.
+    let c = lab.probe(&lander, "exec", &["sub", "trace/d/**"]);
+    lab.start("exec-sub", c);
+    let c = lab.probe(
+        &lander,
+        "exec",
+        &["queryable", "trace/d/act/ground/*/answer/*"],
+    );
+    lab.start("exec-answers", c);
+    let c = lab.probe(&lander, "exec", &["alive", "trace/d/alive/**"]);
+    lab.start("exec-alive", c);
+    let c = lab.probe(
+        &lander,
+        "lander_sim",
+        &["queryable", "trace/d/act/lander_sim/**"],
+    );
+    lab.start("sim-serves", c);
+    let c = lab.probe(
+        &ground,
+        "station-a",
+        &["queryable", "trace/d/act/ground/*/goal/*"],
+    );
+    lab.start("station-serves", c);
+    // The routers have propagated every declaration once an allowed query reaches its server:
+    // the executive's goal to the simulator, and a station's answer to the executive.
+    for (ns, cert, key, server) in [
+        (
+            &lander,
+            "exec",
+            "trace/d/act/lander_sim/drill/goal/m.1.1.1",
+            "sim-serves",
+        ),
+        (
+            &ground,
+            "station-a",
+            "trace/d/act/ground/approve/answer/m.1.1.1",
+            "exec-answers",
+        ),
+        (
+            &lander,
+            "exec",
+            "trace/d/act/ground/approve/goal/m.1.1.1",
+            "station-serves",
+        ),
+    ] {
+        let out = lab
+            .probe(ns, cert, &["get", key, "{}"])
+            .output()
+            .expect("probe");
+        let out = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.contains(&format!("reply ok {key} probe")),
+            "{cert} {key}: {out}"
+        );
+        lab.until_said(server, &["query", key], WAIT);
+    }
+
+    let forbidden = [
+        Forbidden {
+            what: "a station sends a goal to a system",
+            ground: true,
+            cert: "station-a",
+            op: "get",
+            key: "trace/d/act/lander_sim/drill/goal/m.1.9.1",
+            refused_by: "ground-router1",
+        },
+        Forbidden {
+            what: "a station cancels a system's goal",
+            ground: true,
+            cert: "station-a",
+            op: "get",
+            key: "trace/d/act/lander_sim/drill/cancel/m.1.1.1",
+            refused_by: "ground-router1",
+        },
+        Forbidden {
+            what: "a station publishes the clock",
+            ground: true,
+            cert: "station-a",
+            op: "put",
+            key: "trace/d/tm/lander_sim/clock",
+            refused_by: "ground-router1",
+        },
+        Forbidden {
+            what: "a station publishes a system's result",
+            ground: true,
+            cert: "station-a",
+            op: "put",
+            key: "trace/d/act/lander_sim/drill/result",
+            refused_by: "ground-router1",
+        },
+        Forbidden {
+            what: "a station spoofs a system's presence",
+            ground: true,
+            cert: "station-a",
+            op: "token",
+            key: "trace/d/alive/act/lander_sim/drill",
+            refused_by: "ground-router1",
+        },
+        Forbidden {
+            what: "a monitor answers a user task",
+            ground: true,
+            cert: "monitor",
+            op: "get",
+            key: "trace/d/act/ground/approve/answer/m.1.1.1",
+            refused_by: "ground-router1",
+        },
+        Forbidden {
+            what: "a monitor serves user tasks",
+            ground: true,
+            cert: "monitor",
+            op: "queryable",
+            key: "trace/d/act/ground/*/goal/*",
+            refused_by: "ground-router1",
+        },
+        Forbidden {
+            what: "a monitor publishes a record line",
+            ground: true,
+            cert: "monitor",
+            op: "put",
+            key: "trace/d/exec/m/record",
+            refused_by: "ground-router1",
+        },
+        Forbidden {
+            what: "an unknown certificate publishes telemetry",
+            ground: true,
+            cert: "intruder",
+            op: "put",
+            key: "trace/d/tm/lander_sim/battery",
+            refused_by: "ground-router1",
+        },
+        Forbidden {
+            what: "a system sends a user task",
+            ground: false,
+            cert: "lander_sim",
+            op: "get",
+            key: "trace/d/act/ground/approve/goal/m.1.9.1",
+            refused_by: "lander-router",
+        },
+        Forbidden {
+            what: "a system publishes under another system's keys",
+            ground: false,
+            cert: "lander_sim",
+            op: "put",
+            key: "trace/d/act/camera/snap/result",
+            refused_by: "lander-router",
+        },
+        Forbidden {
+            what: "a system publishes a user task's result",
+            ground: false,
+            cert: "lander_sim",
+            op: "put",
+            key: "trace/d/act/ground/approve/result",
+            refused_by: "lander-router",
+        },
+        Forbidden {
+            what: "a system that is not the clock's source publishes the clock",
+            ground: false,
+            cert: "camera",
+            op: "put",
+            key: "trace/d/tm/camera/clock",
+            refused_by: "lander-router",
+        },
+    ];
+    for (i, f) in forbidden.iter().enumerate() {
+        let ns = if f.ground { &ground } else { &lander };
+        let payload = format!("forbidden-{i}");
+        let name = format!("forbidden-{i}");
+        let mut c = lab.probe(ns, f.cert, &[f.op, f.key, &payload]);
+        if f.op == "get" {
+            let out = c.output().expect("probe runs");
+            let out = String::from_utf8_lossy(&out.stdout);
+            assert!(!out.contains("reply ok"), "{}: answered: {out}", f.what);
+        } else {
+            lab.start(&name, c);
+        }
+        // An unknown certificate matches no subject: Zenoh says so once, at its connection.
+        let needle = if f.cert == "intruder" {
+            "did not match"
+        } else {
+            f.key
+        };
+        lab.until_logged(f.refused_by, &[REFUSAL, needle], WAIT);
+        eprintln!("refused as it must be: {}", f.what);
+    }
+    // The same kinds of operation by the roles that may do them are delivered, after the
+    // forbidden ones: what the executive heard by then is all it will hear of those.
+    for (ns, cert, key) in [
+        (&lander, "lander_sim", "trace/d/act/lander_sim/drill/result"),
+        (&lander, "lander_sim", "trace/d/tm/lander_sim/clock"),
+        (&lander, "camera", "trace/d/tm/camera/temperature"),
+        (&ground, "station-a", "trace/d/act/ground/approve/result"),
+    ] {
+        let name = format!("allowed-{cert}-{}", key.replace('/', "_"));
+        let c = lab.probe(ns, cert, &["put", key, "allowed"]);
+        lab.start(&name, c);
+        lab.until_said("exec-sub", &["sample", key, "allowed"], WAIT);
+    }
+    let c = lab.probe(
+        &ground,
+        "station-a",
+        &["token", "trace/d/alive/ground/station-a"],
+    );
+    lab.start("allowed-token", c);
+    lab.until_said(
+        "exec-alive",
+        &["alive trace/d/alive/ground/station-a"],
+        WAIT,
+    );
+    let heard = lab.output("exec-sub") + &lab.output("exec-alive") + &lab.output("exec-answers");
+    assert!(
+        !heard.contains("forbidden"),
+        "the executive heard:\n{heard}"
+    );
+    assert!(
+        !heard.contains("lander_sim/drill\n"),
+        "a spoofed token arrived:\n{heard}"
+    );
+    let served = lab.output("sim-serves") + &lab.output("station-serves");
+    assert!(
+        !served.contains("m.1.9.1"),
+        "a forbidden goal was served:\n{served}"
+    );
+    assert!(
+        !served.contains("cancel"),
+        "a forbidden cancel was served:\n{served}"
+    );
+}
+
+#[test]
+fn a_client_without_a_certificate_of_the_deployment_cannot_connect() {
+    let mut lab = Lab::new("mtls", 1);
+    lab.routers();
+    let ground = lab.grounds[0].clone();
+    // Its own authority: a certificate the deployment never issued.
+    let other = lab.dir.join("other");
+    let out = std::process::Command::new(repo().join("deploy/certs.sh"))
+        .arg(&other)
+        .arg("station-a")
+        .output()
+        .expect("certs.sh");
+    assert!(out.status.success());
+    for (what, sets) in [
+        (
+            "no certificate",
+            vec!["transport/link/tls/enable_mtls=false".to_owned()],
+        ),
+        (
+            "a certificate of another authority",
+            vec![
+                "transport/link/tls/connect_certificate=\"other/station-a.pem\"".to_owned(),
+                "transport/link/tls/connect_private_key=\"other/station-a.key\"".to_owned(),
+            ],
+        ),
+    ] {
+        let mut args = vec![
+            "--zenoh-config".to_owned(),
+            Lab::config("station.json5"),
+            "--zenoh-set".to_owned(),
+            "connect/timeout_ms/client=3000".to_owned(),
+        ];
+        for s in &sets {
+            args.extend(["--zenoh-set".to_owned(), s.clone()]);
+        }
+        args.extend([
+            "put".into(),
+            "trace/d/tm/lander_sim/clock".into(),
+            "x".into(),
+        ]);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let out = lab
+            .command(&ground, "zenoh-probe", &args)
+            .output()
+            .expect("probe runs");
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            !out.status.success() && text.contains("error"),
+            "{what}: {text}"
+        );
+    }
+}
+
+/// A policy that approves every site after `delay_ms` (wall time), written into the lab.
+fn slow_policy(lab: &Lab, delay_ms: u64) -> String {
+    let file = lab.dir.join("slow-policy.toml");
+    std::fs::write(
+        &file,
+        format!(
+            "operator = \"policy\"\n[task.\"ground.approve_site\"]\ndelay_ms = {delay_ms}\n\
+             fixed = {{ approve = true, comment = \"given while the link was cut\" }}\n"
+        ),
+    )
+    .expect("policy");
+    file.to_string_lossy().into_owned()
+}
+
+const HOUR_MS: i64 = 3_600_000;
+
+/// A ground decision alone: Europa's site approval (same resource, form and PT6H timer).
+const APPROVAL: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
+<bpmn:definitions xmlns:bpmn="http://www.omg.org/spec/BPMN/20100524/MODEL" xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance" xmlns:trace="urn:trace:bpmn:1.0" id="Approval" targetNamespace="urn:trace:tests">
+  <bpmn:process id="Approve" isExecutable="true">
+    <bpmn:startEvent id="Start"><bpmn:outgoing>f1</bpmn:outgoing></bpmn:startEvent>
+    <bpmn:userTask id="ApproveSite" name="Approve Excavation Site">
+      <bpmn:incoming>f1</bpmn:incoming><bpmn:outgoing>f2</bpmn:outgoing>
+      <bpmn:extensionElements>
+        <trace:task resource="ground.approve_site">
+          <trace:input target="candidates" source='[{"site_id": 3, "score": 0.9, "material": "ice"}]' type="json"/>
+          <trace:output source="approve" target="site_approved" type="bool"/>
+        </trace:task>
+      </bpmn:extensionElements>
+    </bpmn:userTask>
+    <bpmn:boundaryEvent id="ApprovalTimeout" attachedToRef="ApproveSite">
+      <bpmn:outgoing>f3</bpmn:outgoing>
+      <bpmn:timerEventDefinition><bpmn:timeDuration xsi:type="bpmn:tFormalExpression">PT6H</bpmn:timeDuration></bpmn:timerEventDefinition>
+    </bpmn:boundaryEvent>
+    <bpmn:endEvent id="Approved"><bpmn:incoming>f2</bpmn:incoming></bpmn:endEvent>
+    <bpmn:endEvent id="TimedOut"><bpmn:incoming>f3</bpmn:incoming></bpmn:endEvent>
+    <bpmn:sequenceFlow id="f1" sourceRef="Start" targetRef="ApproveSite"/>
+    <bpmn:sequenceFlow id="f2" sourceRef="ApproveSite" targetRef="Approved"/>
+    <bpmn:sequenceFlow id="f3" sourceRef="ApprovalTimeout" targetRef="TimedOut"/>
+  </bpmn:process>
+</bpmn:definitions>
+"#;
+
+/// The ground connector of `deploy/connectors.toml` alone.
+const GROUND_ONLY: &str = r#"[[connector]]
+name = "ground"
+kind = "zenoh"
+server = "ground"
+resources = ["ground.*"]
+answers = true
+grace_ms = 600000
+"#;
+
+#[test]
+fn an_answer_given_while_the_link_is_cut_is_applied_once_when_the_link_returns_an_hour_later() {
+    let mut lab = Lab::new("cut-answer", 1);
+    lab.routers();
+    std::fs::write(lab.dir.join("approval.bpmn"), APPROVAL).expect("mission");
+    std::fs::write(lab.dir.join("ground.toml"), GROUND_ONLY).expect("connectors");
+    let policy = slow_policy(&lab, 1500);
+    station_with(&mut lab, 1, "station-a", &policy);
+    // 300x: an hour of mission time is 12 s, longer than Zenoh's 10 s lease, so the routers'
+    // link is declared dead and opened again; the approval's timer (PT6H) is 72 s away.
+    let exec = lab.command(
+        &lab.lander,
+        "trace",
+        &[
+            "run",
+            "approval.bpmn",
+            "--store",
+            "store",
+            "--connectors",
+            "ground.toml",
+            "--speed",
+            "300",
+            "--zenoh-config",
+            &Lab::config("executive.json5"),
+        ],
+    );
+    lab.spawn("executive", exec);
+    let record = lab.dir.join("store/record.jsonl");
+    let (open, _) = lab.until_recorded(&record, "the approval opened", WAIT, |l| {
+        l["kind"] == "user_task_opened"
+    });
+    let task = open["task"].as_str().expect("task key").to_owned();
+    // The station has the task on its desk; the link goes before its answer (1.5 s later).
+    lab.until_said("station-a", &["task", "open"], WAIT);
+    lab.link(1, false);
+    let cut_ms = open["mission_ms"].as_i64().expect("mission time");
+    lab.until_said("station-a", &["answer pending"], WAIT);
+    // The link stays down for an hour of mission time: this wait is the fault's length, not a
+    // synchronisation (the assertion below checks the hour on the mission clock).
+    std::thread::sleep(Duration::from_millis(12_500));
+    lab.link(1, true);
+    let (answered, _) = lab.until_recorded(
+        &record,
+        "the answer applied",
+        Duration::from_secs(60),
+        |l| l["kind"] == "user_task_answered" && l["task"] == task.as_str(),
+    );
+    assert_eq!(answered["operator"], "policy@station-a", "{answered}");
+    let after = answered["mission_ms"].as_i64().expect("mission time") - cut_ms;
+    assert!(after >= HOUR_MS, "applied {after} ms after the cut");
+    lab.until_said("station-a", &["answered: applied"], WAIT);
+    let status = lab.proc("executive").child.wait().expect("executive exits");
+    assert!(
+        status.success(),
+        "executive: {status}\n{}",
+        lab.log("executive")
+    );
+    // Applied once; the approval's own end, not its timer or a lost connection.
+    let lines = records(&record);
+    let once = lines
+        .iter()
+        .filter(|l| l["kind"] == "user_task_answered")
+        .count();
+    assert_eq!(once, 1);
+    for l in &lines {
+        assert_ne!(l["code"], "CONNECTOR_LOST", "{l}");
+        assert_ne!(l["kind"], "timer_fired", "{l}");
+    }
+    let end = lines
+        .iter()
+        .rev()
+        .find(|l| l["kind"] == "instance_finished")
+        .expect("ended");
+    assert_eq!(end["outcome"]["type"], "completed", "{end}");
+}

@@ -1,0 +1,137 @@
+//! `zenoh-probe`: one raw Zenoh operation under a chosen identity, for the tests across hosts
+//! (tests/it/hosts.rs) — what an honest or a hostile process on the bus could try.
+//!
+//!   zenoh-probe [ZENOH FLAGS] sub KEY             subscribe; print `sample KEY PAYLOAD` per sample
+//!   zenoh-probe [ZENOH FLAGS] put KEY PAYLOAD      put (Block), then stay up
+//!   zenoh-probe [ZENOH FLAGS] get KEY [PAYLOAD]    query (3 s); print `reply …` per reply, `done`
+//!   zenoh-probe [ZENOH FLAGS] queryable KEY        serve KEY; print `query KEY` per query
+//!   zenoh-probe [ZENOH FLAGS] token KEY            declare a liveliness token, then stay up
+//!   zenoh-probe [ZENOH FLAGS] alive KEY            liveliness subscriber with history; print
+//!                                                  `alive KEY` / `gone KEY`
+//!
+//! Every operation prints `ready` once its session is open and its declaration or send made;
+//! a session that cannot open prints `error: …` and exits 1.
+
+use std::io::Write;
+use std::time::Duration;
+
+use clap::Parser;
+use zenoh::qos::CongestionControl;
+use zenoh::sample::SampleKind;
+
+#[derive(Parser)]
+struct Cli {
+    #[command(flatten)]
+    zenoh: connector_zenoh::ZenohArgs,
+    /// sub, put, get, queryable, token or alive.
+    op: String,
+    /// The key expression.
+    key: String,
+    /// The payload of put and get.
+    payload: Option<String>,
+}
+
+fn say(line: &str) {
+    let mut out = std::io::stdout().lock();
+    let _ = writeln!(out, "{line}");
+    let _ = out.flush();
+}
+
+#[tokio::main(flavor = "multi_thread", worker_threads = 1)]
+async fn main() -> std::process::ExitCode {
+    let cli = Cli::parse();
+    match probe(&cli).await {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            say(&format!("error: {e}"));
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+async fn probe(cli: &Cli) -> Result<(), String> {
+    let session = cli
+        .zenoh
+        .open(connector_zenoh::Role::Spoke)
+        .await
+        .map_err(|e| e.to_string())?;
+    let key = cli.key.as_str();
+    let payload = cli.payload.clone().unwrap_or_default();
+    let text = |s: &zenoh::bytes::ZBytes| String::from_utf8_lossy(&s.to_bytes()).into_owned();
+    match cli.op.as_str() {
+        "sub" => {
+            let sub = session
+                .declare_subscriber(key)
+                .await
+                .map_err(|e| e.to_string())?;
+            say("ready");
+            while let Ok(s) = sub.recv_async().await {
+                say(&format!("sample {} {}", s.key_expr(), text(s.payload())));
+            }
+        }
+        "put" => {
+            session
+                .put(key, payload)
+                .congestion_control(CongestionControl::Block)
+                .await
+                .map_err(|e| e.to_string())?;
+            say("ready");
+            std::future::pending::<()>().await;
+        }
+        "get" => {
+            let replies = session
+                .get(key)
+                .payload(payload)
+                .timeout(Duration::from_secs(3))
+                .await
+                .map_err(|e| e.to_string())?;
+            say("ready");
+            while let Ok(r) = replies.recv_async().await {
+                match r.result() {
+                    Ok(s) => say(&format!("reply ok {} {}", s.key_expr(), text(s.payload()))),
+                    Err(e) => say(&format!("reply err {}", text(e.payload()))),
+                }
+            }
+            say("done");
+        }
+        "queryable" => {
+            let q = session
+                .declare_queryable(key)
+                .await
+                .map_err(|e| e.to_string())?;
+            say("ready");
+            while let Ok(query) = q.recv_async().await {
+                say(&format!("query {}", query.key_expr()));
+                let _ = query.reply(query.key_expr().clone(), "probe").await;
+            }
+        }
+        "token" => {
+            let _token = session
+                .liveliness()
+                .declare_token(key)
+                .await
+                .map_err(|e| e.to_string())?;
+            say("ready");
+            std::future::pending::<()>().await;
+        }
+        "alive" => {
+            let sub = session
+                .liveliness()
+                .declare_subscriber(key)
+                .history(true)
+                .await
+                .map_err(|e| e.to_string())?;
+            say("ready");
+            while let Ok(s) = sub.recv_async().await {
+                let what = if s.kind() == SampleKind::Put {
+                    "alive"
+                } else {
+                    "gone"
+                };
+                say(&format!("{what} {}", s.key_expr()));
+            }
+        }
+        other => return Err(format!("unknown operation {other}")),
+    }
+    Ok(())
+}
