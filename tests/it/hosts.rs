@@ -1,7 +1,8 @@
 //! Lander and ground on separate hosts (network namespaces made by the test, joined by veth
-//! links) through two `trace router`s with mutual TLS and access control by certificate: every
-//! operation a role may not do refused, a client without the deployment's certificate kept
-//! out, and a user task answered across a link cut for an hour of mission time.
+//! links) through two `trace router`s with QUIC, mutual TLS and access control by certificate:
+//! the Europa mission flown, every operation a role may not do refused, a client without the
+//! deployment's certificate kept out, and a user task answered across a link cut for an hour
+//! of mission time.
 
 use std::time::Duration;
 
@@ -9,6 +10,105 @@ use mission_tests::hosts::Lab;
 use mission_tests::{records, repo};
 
 const REFUSAL: &str = connector_zenoh::router::REFUSAL;
+
+fn path(rel: &str) -> String {
+    repo().join(rel).to_string_lossy().into_owned()
+}
+
+#[test]
+fn europa_flies_across_two_hosts_through_routers_with_mutual_tls_and_access_control() {
+    let mut lab = Lab::new("europa", 1);
+    lab.routers();
+    let sim = lab.command(
+        &lab.lander.clone(),
+        "elap-sim",
+        &[
+            "--zenoh-config",
+            &Lab::config("lander_sim.json5"),
+            "--speed",
+            "200000",
+            "--seed",
+            "1",
+            "--profile",
+            "quiet",
+            "--start-ms",
+            "1790000000000",
+            "--store",
+            "sim",
+        ],
+    );
+    lab.start("lander_sim", sim);
+    station_with(&mut lab, 1, "station-a", &path("deploy/ground/policy.toml"));
+    let exec = lab.command(
+        &lab.lander,
+        "trace",
+        &[
+            "run",
+            &path("deploy/missions/europa-bsm1.bpmn"),
+            "--store",
+            "store",
+            "--connectors",
+            &path("deploy/connectors.toml"),
+            "--zenoh-config",
+            &Lab::config("executive.json5"),
+        ],
+    );
+    lab.spawn("executive", exec);
+    let status = lab.proc("executive").child.wait().expect("executive exits");
+    assert!(
+        status.success(),
+        "executive: {status}\n{}",
+        lab.log("executive")
+    );
+    let lines = records(&lab.dir.join("store/record.jsonl"));
+    // Communicate Until Death's terminate end, samples analysed, every task ended once, none
+    // lost to a vanished connection.
+    let end = lines
+        .iter()
+        .rev()
+        .find(|l| l["kind"] == "instance_finished")
+        .expect("the mission ended");
+    assert_eq!(end["outcome"]["type"], "terminated", "{end}");
+    let analyze: std::collections::BTreeSet<_> = lines
+        .iter()
+        .filter(|l| l["kind"] == "dispatched" && l["resource"] == "instrument.analyze")
+        .map(|l| l["task"].to_string())
+        .collect();
+    let analysed = lines
+        .iter()
+        .filter(|l| l["kind"] == "completed" && analyze.contains(&l["task"].to_string()))
+        .count();
+    // Five when every approval comes in time; at 200,000x an approval's six hours are 0.1 s
+    // of wall time, and a site whose approval times out is skipped.
+    assert!(analysed >= 1, "no sample analysed");
+    let mut ended = std::collections::BTreeMap::new();
+    for l in &lines {
+        if matches!(
+            l["kind"].as_str(),
+            Some("completed" | "failed" | "user_task_answered")
+        ) {
+            assert_ne!(l["code"], "CONNECTOR_LOST", "{l}");
+            let n = ended
+                .entry((l["task"].to_string(), l["kind"].to_string()))
+                .or_insert(0);
+            *n += 1;
+            assert_eq!(*n, 1, "ended twice: {l}");
+        }
+    }
+    // User tasks crossed the link: the station on the ground answered them.
+    assert!(
+        lines.iter().any(|l| l["kind"] == "user_task_answered"
+            && l["operator"]
+                .as_str()
+                .is_some_and(|o| o.ends_with("@station-a"))),
+        "no user task answered from the ground"
+    );
+    // The flight needed nothing the access control forbids.
+    for router in ["lander-router", "ground-router1"] {
+        let log = lab.log(router);
+        assert!(!log.contains(REFUSAL), "{router} refused something:\n{log}");
+    }
+}
 
 /// A ground station with certificate `cert` on ground host `k`, answering by `policy`.
 fn station_with(lab: &mut Lab, k: usize, cert: &str, policy: &str) {

@@ -349,7 +349,7 @@ impl Lab {
         );
         self.start("lander-router", lander);
         for (i, ground) in self.grounds.clone().iter().enumerate() {
-            let to = format!("tls/{}:7447", Lab::lander_addr(i + 1));
+            let to = format!("quic/{}:7447", Lab::lander_addr(i + 1));
             let c = self.command(
                 ground,
                 "trace",

@@ -15,8 +15,9 @@
 //!   access control refuses.
 //!
 //! Dependencies: `zenoh` 1.10.2 with `default-features = false` and only `transport_tcp` and
-//! `transport_tls` (TCP on one host, TLS with client certificates between hosts; the other
-//! transports cost most of the build); no
+//! `transport_quic` (TCP on one host; QUIC, with TLS 1.3 and client certificates, between
+//! hosts — not `transport_tls`, whose link shares one rustls stream between reader and writer
+//! unsoundly, eclipse-zenoh/zenoh#2557; the other transports cost most of the build); no
 //! `zenoh-ext`: results survive link loss through `state` reconciliation on reappearance
 //! instead of AdvancedPublisher caches, which also covers executive restarts. `sled` keeps a
 //! server's goal table across restarts; `clap` for the shared flags.

@@ -3,7 +3,7 @@
 //!
 //! Why not `zenohd`: it is a second full build of zenoh (with plugins and the admin space we do
 //! not use: about 12 minutes on these machines) whose version must be kept equal to ours by
-//! hand. The library in `router` mode routes, scouts, terminates TLS and enforces access
+//! hand. The library in `router` mode routes, scouts, terminates QUIC/TLS and enforces access
 //! control exactly as `zenohd` does; the binary adds only plugins. A site that wants
 //! `zenohd` (for its REST or storage plugins) runs `zenohd -c` on the same files.
 //!

@@ -86,7 +86,7 @@ enum Command {
         zenoh: connector_zenoh::ZenohArgs,
     },
     /// Run a Zenoh router (for deployments across hosts, deploy/zenoh/two-hosts/): the zenoh
-    /// library in router mode on a configuration file `zenohd -c` would read, with TLS and
+    /// library in router mode on a configuration file `zenohd -c` would read, with QUIC/TLS and
     /// access control as that file says; every operation access control refuses is logged as
     /// a warning. Runs until Ctrl-C or SIGTERM.
     Router {
