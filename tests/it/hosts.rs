@@ -1,8 +1,8 @@
 //! Lander and ground on separate hosts (network namespaces made by the test, joined by veth
 //! links) through two `trace router`s with QUIC, mutual TLS and access control by certificate:
-//! the Europa mission flown, every operation a role may not do refused, a client without the
-//! deployment's certificate kept out, and a user task answered across a link cut for an hour
-//! of mission time.
+//! the Europa mission flown (with one station, and with two stations on two ground hosts
+//! racing), every operation a role may not do refused, a client without the deployment's
+//! certificate kept out, and a user task answered across a link cut for an hour of mission time.
 
 use std::time::Duration;
 
@@ -15,9 +15,13 @@ fn path(rel: &str) -> String {
     repo().join(rel).to_string_lossy().into_owned()
 }
 
-#[test]
-fn europa_flies_across_two_hosts_through_routers_with_mutual_tls_and_access_control() {
-    let mut lab = Lab::new("europa", 1);
+/// Europa on the lander (simulator at 200,000x, executive) with a policy station on each of
+/// `stations` ground hosts; returns the lab once the executive has ended, and its record.
+fn fly_europa(name: &str, stations: &[&str]) -> (Lab, Vec<serde_json::Value>) {
+    // One flight at a time: two at 200,000x would bend each other's clocks.
+    static FLIGHT: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _one = FLIGHT.lock().unwrap_or_else(|p| p.into_inner());
+    let mut lab = Lab::new(name, stations.len());
     lab.routers();
     let sim = lab.command(
         &lab.lander.clone(),
@@ -38,7 +42,9 @@ fn europa_flies_across_two_hosts_through_routers_with_mutual_tls_and_access_cont
         ],
     );
     lab.start("lander_sim", sim);
-    station_with(&mut lab, 1, "station-a", &path("deploy/ground/policy.toml"));
+    for (k, station) in stations.iter().enumerate() {
+        station_with(&mut lab, k + 1, station, &path("deploy/ground/policy.toml"));
+    }
     let exec = lab.command(
         &lab.lander,
         "trace",
@@ -61,6 +67,12 @@ fn europa_flies_across_two_hosts_through_routers_with_mutual_tls_and_access_cont
         lab.log("executive")
     );
     let lines = records(&lab.dir.join("store/record.jsonl"));
+    (lab, lines)
+}
+
+#[test]
+fn europa_flies_across_two_hosts_through_routers_with_mutual_tls_and_access_control() {
+    let (lab, lines) = fly_europa("europa", &["station-a"]);
     // Communicate Until Death's terminate end, samples analysed, every task ended once, none
     // lost to a vanished connection.
     let end = lines
@@ -131,6 +143,38 @@ fn station_with(lab: &mut Lab, k: usize, cert: &str, policy: &str) {
         ],
     );
     lab.start(cert, c);
+}
+
+#[test]
+fn two_stations_on_two_ground_hosts_race_and_each_answer_is_applied_once() {
+    let (lab, lines) = fly_europa("race", &["station-a", "station-b"]);
+    let end = lines
+        .iter()
+        .rev()
+        .find(|l| l["kind"] == "instance_finished")
+        .expect("the mission ended");
+    assert_eq!(end["outcome"]["type"], "terminated", "{end}");
+    let answered = lines
+        .iter()
+        .filter(|l| l["kind"] == "user_task_answered")
+        .count();
+    assert!(answered >= 1, "no approval answered");
+    // Each approval was applied for exactly one of the two stations; the other was told.
+    let applied: usize = ["station-a", "station-b"]
+        .iter()
+        .map(|s| lab.output(s).matches("answered: applied").count())
+        .sum();
+    assert_eq!(
+        applied,
+        answered,
+        "{}\n{}",
+        lab.output("station-a"),
+        lab.output("station-b")
+    );
+    let mut tasks = std::collections::BTreeSet::new();
+    for l in lines.iter().filter(|l| l["kind"] == "user_task_answered") {
+        assert!(tasks.insert(l["task"].to_string()), "answered twice: {l}");
+    }
 }
 
 /// What one forbidden operation is: who tries it from where, and which router refuses it.
