@@ -124,24 +124,10 @@ fn europa_flies_across_two_hosts_through_routers_with_mutual_tls_and_access_cont
 
 /// A ground station with certificate `cert` on ground host `k`, answering by `policy`.
 fn station_with(lab: &mut Lab, k: usize, cert: &str, policy: &str) {
-    let cert_set = format!("transport/link/tls/connect_certificate=\"certs/{cert}.pem\"");
-    let key_set = format!("transport/link/tls/connect_private_key=\"certs/{cert}.key\"");
-    let c = lab.command(
-        &lab.grounds[k - 1].clone(),
-        "ground-station",
-        &[
-            "--zenoh-config",
-            &Lab::config("station.json5"),
-            "--zenoh-set",
-            &cert_set,
-            "--zenoh-set",
-            &key_set,
-            "--station",
-            cert,
-            "--policy",
-            policy,
-        ],
-    );
+    let mut args = Lab::client_flags("station.json5", cert);
+    args.extend(["--station", cert, "--policy", policy].map(str::to_owned));
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let c = lab.command(&lab.grounds[k - 1].clone(), "ground-station", &args);
     lab.start(cert, c);
 }
 
@@ -196,28 +182,31 @@ fn every_operation_a_role_may_not_do_is_refused_by_the_routers_and_never_deliver
     let (lander, ground) = (lab.lander.clone(), lab.grounds[0].clone());
     // The honest side: the executive hears everything and serves the answers; the lander
     // simulator serves its actions; a station serves the user tasks.
-    let c = lab.probe(&lander, "exec", &["sub", "trace/d/**"]);
-    lab.start("exec-sub", c);
-    let c = lab.probe(
+    lab.start_probe("exec-sub", &lander, "exec", &["sub", "trace/d/**"]);
+    lab.start_probe(
+        "exec-answers",
         &lander,
         "exec",
         &["queryable", "trace/d/act/ground/*/answer/*"],
     );
-    lab.start("exec-answers", c);
-    let c = lab.probe(&lander, "exec", &["alive", "trace/d/alive/**"]);
-    lab.start("exec-alive", c);
-    let c = lab.probe(
+    lab.start_probe(
+        "exec-alive",
+        &lander,
+        "exec",
+        &["alive", "trace/d/alive/**"],
+    );
+    lab.start_probe(
+        "sim-serves",
         &lander,
         "lander_sim",
         &["queryable", "trace/d/act/lander_sim/**"],
     );
-    lab.start("sim-serves", c);
-    let c = lab.probe(
+    lab.start_probe(
+        "station-serves",
         &ground,
         "station-a",
         &["queryable", "trace/d/act/ground/*/goal/*"],
     );
-    lab.start("station-serves", c);
     // The routers have propagated every declaration once an allowed query reaches its server:
     // the executive's goal to the simulator, and a station's answer to the executive.
     for (ns, cert, key, server) in [
@@ -388,16 +377,15 @@ fn every_operation_a_role_may_not_do_is_refused_by_the_routers_and_never_deliver
         (&ground, "station-a", "trace/d/act/ground/approve/result"),
     ] {
         let name = format!("allowed-{cert}-{}", key.replace('/', "_"));
-        let c = lab.probe(ns, cert, &["put", key, "allowed"]);
-        lab.start(&name, c);
+        lab.start_probe(&name, ns, cert, &["put", key, "allowed"]);
         lab.until_said("exec-sub", &["sample", key, "allowed"], WAIT);
     }
-    let c = lab.probe(
+    lab.start_probe(
+        "allowed-token",
         &ground,
         "station-a",
         &["token", "trace/d/alive/ground/station-a"],
     );
-    lab.start("allowed-token", c);
     lab.until_said(
         "exec-alive",
         &["alive trace/d/alive/ground/station-a"],
@@ -436,36 +424,26 @@ fn a_client_without_a_certificate_of_the_deployment_cannot_connect() {
         .output()
         .expect("certs.sh");
     assert!(out.status.success());
+    let other_cert = "transport/link/tls/connect_certificate=\"other/station-a.pem\"";
+    let other_key = "transport/link/tls/connect_private_key=\"other/station-a.key\"";
     for (what, sets) in [
         (
             "no certificate",
-            vec!["transport/link/tls/enable_mtls=false".to_owned()],
+            vec!["transport/link/tls/enable_mtls=false"],
         ),
         (
             "a certificate of another authority",
-            vec![
-                "transport/link/tls/connect_certificate=\"other/station-a.pem\"".to_owned(),
-                "transport/link/tls/connect_private_key=\"other/station-a.key\"".to_owned(),
-            ],
+            vec![other_cert, other_key],
         ),
     ] {
-        let mut args = vec![
-            "--zenoh-config".to_owned(),
-            Lab::config("station.json5"),
-            "--zenoh-set".to_owned(),
-            "connect/timeout_ms/client=3000".to_owned(),
-        ];
-        for s in &sets {
-            args.extend(["--zenoh-set".to_owned(), s.clone()]);
+        // A station's flags with the certificate taken away or replaced, giving up after 3 s.
+        let mut args = vec!["--zenoh-set", "connect/timeout_ms/client=3000"];
+        for set in sets {
+            args.extend(["--zenoh-set", set]);
         }
-        args.extend([
-            "put".into(),
-            "trace/d/tm/lander_sim/clock".into(),
-            "x".into(),
-        ]);
-        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        args.extend(["put", "trace/d/tm/lander_sim/clock", "x"]);
         let out = lab
-            .command(&ground, "zenoh-probe", &args)
+            .probe(&ground, "station-a", &args)
             .output()
             .expect("probe runs");
         let text = String::from_utf8_lossy(&out.stdout);

@@ -132,7 +132,7 @@ impl Lab {
     }
 
     /// The lander's address on link `k`, where ground host `k` reaches its router.
-    pub fn lander_addr(k: usize) -> String {
+    fn lander_addr(k: usize) -> String {
         format!("10.77.{k}.1")
     }
 
@@ -155,26 +155,36 @@ impl Lab {
         c
     }
 
+    /// The flags that make a shipped client file (`file`) present the certificate whose
+    /// common name is `cert` (from the lab's `certs/`).
+    pub fn client_flags(file: &str, cert: &str) -> Vec<String> {
+        vec![
+            "--zenoh-config".to_owned(),
+            Lab::config(file),
+            "--zenoh-set".to_owned(),
+            format!("transport/link/tls/connect_certificate=\"certs/{cert}.pem\""),
+            "--zenoh-set".to_owned(),
+            format!("transport/link/tls/connect_private_key=\"certs/{cert}.key\""),
+        ]
+    }
+
     /// `zenoh-probe args…` inside `ns` as a client of that host's router, holding the
     /// certificate whose common name is `cert`.
     pub fn probe(&self, ns: &str, cert: &str, args: &[&str]) -> Command {
-        let cert_set = format!("transport/link/tls/connect_certificate=\"certs/{cert}.pem\"");
-        let key_set = format!("transport/link/tls/connect_private_key=\"certs/{cert}.key\"");
-        let mut all = vec![
-            "--zenoh-config".to_owned(),
-            Lab::config("monitor.json5"),
-            "--zenoh-set".to_owned(),
-            cert_set,
-            "--zenoh-set".to_owned(),
-            key_set,
-        ];
-        all.extend(args.iter().map(|a| (*a).to_owned()));
-        let all: Vec<&str> = all.iter().map(String::as_str).collect();
+        let flags = Lab::client_flags("monitor.json5", cert);
+        let mut all: Vec<&str> = flags.iter().map(String::as_str).collect();
+        all.extend(args);
         self.command(ns, "zenoh-probe", &all)
     }
 
+    /// [`Lab::probe`] started as `name` (see [`Lab::start`]).
+    pub fn start_probe(&mut self, name: &str, ns: &str, cert: &str, args: &[&str]) -> String {
+        let c = self.probe(ns, cert, args);
+        self.start(name, c)
+    }
+
     /// Starts `command` as `name`, waits for its `ready` line on stdout, and keeps it until
-    /// the lab is dropped (or [`Lab::kill`]). Returns the ready line.
+    /// the lab is dropped. Returns the ready line.
     pub fn start(&mut self, name: &str, mut command: Command) -> String {
         let log = self.dir.join(format!("{name}.log"));
         let file = std::fs::File::create(&log).expect("log file");
@@ -246,30 +256,27 @@ impl Lab {
         within: Duration,
         done: impl Fn(&[serde_json::Value]) -> bool,
     ) -> Vec<serde_json::Value> {
-        let start = Instant::now();
-        loop {
+        let lines = || {
             // A line being written may be partial: read only complete ones.
             let text = std::fs::read_to_string(record).unwrap_or_default();
             let complete = text.rfind('\n').map_or("", |i| &text[..i]);
-            let lines: Vec<serde_json::Value> = complete
+            complete
                 .lines()
                 .filter_map(|l| serde_json::from_str(l).ok())
-                .collect();
-            if done(&lines) {
-                return lines;
-            }
-            assert!(
-                start.elapsed() < within,
-                "the record shows no {what} within {within:?} ({} lines); processes:\n{}",
-                lines.len(),
-                self.procs
-                    .iter_mut()
-                    .map(|p| format!("{}: {:?}", p.name, p.child.try_wait()))
-                    .collect::<Vec<_>>()
-                    .join("\n")
-            );
-            std::thread::sleep(Duration::from_millis(20));
+                .collect::<Vec<serde_json::Value>>()
+        };
+        if let Some(found) = poll(within, || Some(lines()).filter(|ls| done(ls))) {
+            return found;
         }
+        panic!(
+            "the record shows no {what} within {within:?} ({} lines); processes:\n{}",
+            lines().len(),
+            self.procs
+                .iter_mut()
+                .map(|p| format!("{}: {:?}", p.name, p.child.try_wait()))
+                .collect::<Vec<_>>()
+                .join("\n")
+        );
     }
 
     /// [`Lab::until_record`] for the first line `pick` accepts; returns it and the lines.
@@ -291,11 +298,6 @@ impl Lab {
             .iter_mut()
             .find(|p| p.name == name)
             .unwrap_or_else(|| panic!("no process {name}"))
-    }
-
-    /// Kills the process started as `name` (SIGKILL) and forgets it.
-    pub fn kill(&mut self, name: &str) {
-        self.procs.retain(|p| p.name != name);
     }
 
     /// The log (stderr) of the process started as `name` so far.
@@ -320,23 +322,23 @@ impl Lab {
     }
 
     fn until_in(&self, name: &str, ext: &str, needles: &[&str], within: Duration) -> String {
-        let start = Instant::now();
-        loop {
-            let log =
-                std::fs::read_to_string(self.dir.join(format!("{name}.{ext}"))).unwrap_or_default();
-            if let Some(line) = log.lines().find(|l| needles.iter().all(|n| l.contains(n))) {
-                return line.to_owned();
-            }
-            assert!(
-                start.elapsed() < within,
-                "{name}.{ext} has no line with {needles:?} within {within:?}:\n{log}"
-            );
-            std::thread::sleep(Duration::from_millis(20));
-        }
+        let text =
+            || std::fs::read_to_string(self.dir.join(format!("{name}.{ext}"))).unwrap_or_default();
+        let line = |t: &str| {
+            t.lines()
+                .find(|l| needles.iter().all(|n| l.contains(n)))
+                .map(str::to_owned)
+        };
+        poll(within, || line(&text())).unwrap_or_else(|| {
+            panic!(
+                "{name}.{ext} has no line with {needles:?} within {within:?}:\n{}",
+                text()
+            )
+        })
     }
 
-    /// Starts the lander's and the ground hosts' routers (TLS, access control on) and waits
-    /// until every ground router holds its link to the lander.
+    /// Starts the lander's and the ground hosts' routers (QUIC with mutual TLS, access control
+    /// on), each waited for until it says `ready`; the ground routers connect on their own.
     pub fn routers(&mut self) {
         let lander = self.command(
             &self.lander.clone(),
@@ -391,7 +393,18 @@ impl Drop for Lab {
     }
 }
 
-/// The path as a string argument.
-pub fn arg(p: &Path) -> &str {
-    p.to_str().expect("UTF-8 path")
+/// Reads `probe` until it finds something or `within` has passed. What is waited for is a line
+/// in a file another process writes (a record entry, a log or output line): the file is the
+/// event, and the 20 ms between two reads only spares the CPU the processes run on.
+fn poll<T>(within: Duration, mut probe: impl FnMut() -> Option<T>) -> Option<T> {
+    let start = Instant::now();
+    loop {
+        if let Some(found) = probe() {
+            return Some(found);
+        }
+        if start.elapsed() >= within {
+            return None;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
 }

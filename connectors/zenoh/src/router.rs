@@ -11,7 +11,9 @@
 //! Zenoh logs each decision at trace level, among every allowed one. [`log_router`] keeps the
 //! refusals and writes each as a warning (`refused by access control: …`, naming the peer,
 //! its certificate's common name, the operation and the key), so an operator sees a denied
-//! publisher, and the tests wait for that line.
+//! publisher, and the tests wait for that line. The price: with access control on, each message
+//! the router decides on is one trace event formatted for [`log_router`]'s filter (a string
+//! per message, not a lock or a write).
 
 use std::cell::RefCell;
 use std::fmt;

@@ -238,10 +238,7 @@ fn main() -> anyhow::Result<ExitCode> {
             zenoh,
         } => {
             logging("warn,zenoh=error", false);
-            let rt = tokio::runtime::Builder::new_multi_thread()
-                .worker_threads(1)
-                .enable_all()
-                .build()?;
+            let rt = one_worker()?;
             let mut stdout = std::io::stdout();
             rt.block_on(executive::monitor::watch(
                 &zenoh,
@@ -254,10 +251,7 @@ fn main() -> anyhow::Result<ExitCode> {
         }
         Command::Router { zenoh } => {
             connector_zenoh::router::log_router();
-            let rt = tokio::runtime::Builder::new_multi_thread()
-                .worker_threads(1)
-                .enable_all()
-                .build()?;
+            let rt = one_worker()?;
             rt.block_on(async {
                 let (session, ready) = connector_zenoh::router::open(&zenoh).await?;
                 println!("{ready}");
@@ -317,6 +311,14 @@ fn main() -> anyhow::Result<ExitCode> {
             Ok(verdict(totals))
         }
     }
+}
+
+/// A tokio runtime on one worker thread (Zenoh refuses the current-thread scheduler).
+fn one_worker() -> std::io::Result<tokio::runtime::Runtime> {
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()
 }
 
 fn verdict(totals: executive::conformance::Totals) -> ExitCode {

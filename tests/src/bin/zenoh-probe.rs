@@ -49,21 +49,14 @@ async fn main() -> std::process::ExitCode {
     }
 }
 
-async fn probe(cli: &Cli) -> Result<(), String> {
-    let session = cli
-        .zenoh
-        .open(connector_zenoh::Role::Spoke)
-        .await
-        .map_err(|e| e.to_string())?;
+async fn probe(cli: &Cli) -> Result<(), zenoh::Error> {
+    let session = cli.zenoh.open(connector_zenoh::Role::Spoke).await?;
     let key = cli.key.as_str();
     let payload = cli.payload.clone().unwrap_or_default();
     let text = |s: &zenoh::bytes::ZBytes| String::from_utf8_lossy(&s.to_bytes()).into_owned();
     match cli.op.as_str() {
         "sub" => {
-            let sub = session
-                .declare_subscriber(key)
-                .await
-                .map_err(|e| e.to_string())?;
+            let sub = session.declare_subscriber(key).await?;
             say("ready");
             while let Ok(s) = sub.recv_async().await {
                 say(&format!("sample {} {}", s.key_expr(), text(s.payload())));
@@ -73,8 +66,7 @@ async fn probe(cli: &Cli) -> Result<(), String> {
             session
                 .put(key, payload)
                 .congestion_control(CongestionControl::Block)
-                .await
-                .map_err(|e| e.to_string())?;
+                .await?;
             say("ready");
             std::future::pending::<()>().await;
         }
@@ -83,8 +75,7 @@ async fn probe(cli: &Cli) -> Result<(), String> {
                 .get(key)
                 .payload(payload)
                 .timeout(Duration::from_secs(3))
-                .await
-                .map_err(|e| e.to_string())?;
+                .await?;
             say("ready");
             while let Ok(r) = replies.recv_async().await {
                 match r.result() {
@@ -95,10 +86,7 @@ async fn probe(cli: &Cli) -> Result<(), String> {
             say("done");
         }
         "queryable" => {
-            let q = session
-                .declare_queryable(key)
-                .await
-                .map_err(|e| e.to_string())?;
+            let q = session.declare_queryable(key).await?;
             say("ready");
             while let Ok(query) = q.recv_async().await {
                 say(&format!("query {}", query.key_expr()));
@@ -106,11 +94,7 @@ async fn probe(cli: &Cli) -> Result<(), String> {
             }
         }
         "token" => {
-            let _token = session
-                .liveliness()
-                .declare_token(key)
-                .await
-                .map_err(|e| e.to_string())?;
+            let _token = session.liveliness().declare_token(key).await?;
             say("ready");
             std::future::pending::<()>().await;
         }
@@ -119,8 +103,7 @@ async fn probe(cli: &Cli) -> Result<(), String> {
                 .liveliness()
                 .declare_subscriber(key)
                 .history(true)
-                .await
-                .map_err(|e| e.to_string())?;
+                .await?;
             say("ready");
             while let Ok(s) = sub.recv_async().await {
                 let what = if s.kind() == SampleKind::Put {
@@ -131,7 +114,7 @@ async fn probe(cli: &Cli) -> Result<(), String> {
                 say(&format!("{what} {}", s.key_expr()));
             }
         }
-        other => return Err(format!("unknown operation {other}")),
+        other => return Err(format!("unknown operation {other}").into()),
     }
     Ok(())
 }
