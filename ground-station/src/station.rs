@@ -21,14 +21,22 @@ use zenoh::liveliness::LivelinessToken;
 use crate::desk::Desk;
 use crate::policy::{Decision, Policy};
 
-/// How long an answer waits for the executive's verdict.
-const VERDICT_WAIT: Duration = Duration::from_secs(10);
+/// How long an answer waits for the executive's verdict: the answer's round trip, the commit,
+/// and the cancel's round trip to every station that comes before the verdict — two round
+/// trips, seconds each on a slow link to the lander.
+const VERDICT_WAIT: Duration = Duration::from_secs(30);
 
 /// After no executive answered: the first pause before the answer is sent again; it doubles
 /// up to [`RETRY_MAX`]. The answer is sent again while its task is on the desk: an executive
 /// that restarts judges it then (an answer it already applied is confirmed, not applied twice).
 const RETRY_FIRST: Duration = Duration::from_millis(200);
 const RETRY_MAX: Duration = Duration::from_secs(5);
+
+/// Sends of an answer after its task was withdrawn while the answer was out. The withdrawal may
+/// be the answer's own success — its verdict lost on the way back (a link cut), the executive
+/// then closing the task for every station — and a repeat of the applied answer is confirmed
+/// as applied; the executive has just been heard, so a few sends settle it.
+const AFTER_WITHDRAWAL: u32 = 3;
 
 /// A running ground station.
 pub struct Station {
@@ -227,7 +235,7 @@ impl Station {
 
     /// Sends the answer until the executive judges it: while no executive answers (it is
     /// down, restarting, or the link is cut), again with backoff, saying so — as long as the
-    /// task is on the desk and not withdrawn.
+    /// task is on the desk, and [`AFTER_WITHDRAWAL`] times more once it is withdrawn.
     async fn judged(
         &self,
         number: u32,
@@ -235,6 +243,7 @@ impl Station {
         answer: &Answer,
     ) -> Result<connector_api::wire::AnswerReply, connector_zenoh::AnswerError> {
         let mut pause = RETRY_FIRST;
+        let mut after_withdrawal = 0;
         loop {
             let sent = connector_zenoh::send_answer(
                 &self.session,
@@ -249,12 +258,15 @@ impl Station {
                 Err(e @ connector_zenoh::AnswerError::NoExecutive(_)) => e,
                 judged => return judged,
             };
-            let still = self
-                .desk()
-                .get_mut(number)
-                .is_some_and(|t| t.withdrawn.is_none());
-            if !still {
-                return Err(e);
+            let withdrawn = match self.desk().get_mut(number) {
+                Some(t) => t.withdrawn.is_some(),
+                None => return Err(e),
+            };
+            if withdrawn {
+                after_withdrawal += 1;
+                if after_withdrawal > AFTER_WITHDRAWAL {
+                    return Err(e);
+                }
             }
             say(&format!(
                 "task {number} answer pending: {e}; sending it again in {:.1} s",

@@ -1583,25 +1583,42 @@ impl Connector for ZenohConnector {
             let deadline = tokio::time::Instant::now() + sh.opts.catalogue_wait;
             let mut pause = Duration::from_millis(20);
             loop {
+                // Every server of the key is asked: a server killed without a word (over QUIC,
+                // nothing tells its router before the lease ends) still looks declared, and
+                // the one that replaced it must be heard.
                 let replies = sh
                     .session
                     .get(&key)
+                    .target(QueryTarget::All)
                     .consolidation(ConsolidationMode::None)
                     .timeout(sh.opts.query_timeout)
                     .await
                     .map_err(|e| ConnectorError::Transport(e.to_string()))?;
-                if let Ok(reply) = replies.recv_async().await {
-                    let sample = reply.result().map_err(|e| ConnectorError::Protocol {
-                        system: sh.server().to_owned(),
-                        reason: String::from_utf8_lossy(&e.payload().to_bytes()).into_owned(),
-                    })?;
-                    let cat: Catalogue =
-                        wire::parse("catalogue", &key, &payload(sample)).map_err(|e| {
-                            ConnectorError::Protocol {
+                let mut answer = None;
+                while let Ok(reply) = replies.recv_async().await {
+                    match reply.result() {
+                        Ok(sample) => {
+                            answer = Some(payload(sample));
+                            break;
+                        }
+                        // Zenoh's own error when nobody replied in time: ask again.
+                        Err(e) if e.payload().to_bytes().as_ref() == b"Timeout" => {}
+                        Err(e) => {
+                            return Err(ConnectorError::Protocol {
                                 system: sh.server().to_owned(),
-                                reason: e.to_string(),
-                            }
-                        })?;
+                                reason: String::from_utf8_lossy(&e.payload().to_bytes())
+                                    .into_owned(),
+                            });
+                        }
+                    }
+                }
+                if let Some(bytes) = answer {
+                    let cat: Catalogue = wire::parse("catalogue", &key, &bytes).map_err(|e| {
+                        ConnectorError::Protocol {
+                            system: sh.server().to_owned(),
+                            reason: e.to_string(),
+                        }
+                    })?;
                     if let Ok(mut c) = sh.catalogue.lock() {
                         *c = Some(cat.clone());
                     }
