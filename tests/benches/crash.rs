@@ -1,30 +1,61 @@
-//! The crash bench: Europa flown across processes on loopback with SIGKILLs of the executive
-//! (at points chosen by record growth), the simulator mid-activity, a ground station with a
-//! task open, and the executive and simulator together, each victim resumed on its store; per
-//! kind: flights, kills, flights resumed to the uninterrupted outcome, stuck flights, goals
-//! lost, effects applied twice; and the executive's restart: to its store recovered, and to the
-//! first word from its systems. Run with `cargo bench -p mission-tests --bench crash`
-//! (`TRACE_CRASH_FLIGHTS=N` flights of executive kills, 4 kills each, default 50; a quarter as
-//! many for each other kind, 2 kills each).
+//! The crash bench: Europa flown across processes — on loopback, then on two hosts through
+//! their routers — with SIGKILLs of the executive (at points chosen by record growth), the
+//! simulator mid-activity, a ground station with a task open, the executive and simulator
+//! together, and (on two hosts) the lander's or the ground's router, each victim resumed. Per
+//! kind: flights, kills, flights resumed to the uninterrupted outcome (samples analysed
+//! included) and to its end (the same outcome type), stuck flights, goals lost, effects applied
+//! twice; and the executive's restart: to its store recovered, and to the first word from its
+//! systems. Run with `cargo bench -p mission-tests --bench crash` (`TRACE_CRASH_FLIGHTS=N`
+//! flights of executive kills on loopback, 4 kills each, default 50;
+//! `TRACE_CRASH_HOSTS_FLIGHTS=N` on two hosts, default a quarter of that; a quarter as many
+//! for each other kind, 2 kills each).
 
+use std::path::Path;
 use std::time::{Duration, Instant};
 
-use mission_tests::matrix::{self, Flight, Tally, Victim};
+use mission_tests::matrix::{self, Flight, Layout, Tally, Victim};
 
 fn main() {
     let flights: usize = std::env::var("TRACE_CRASH_FLIGHTS")
         .ok()
         .and_then(|n| n.parse().ok())
         .unwrap_or(50);
+    let hosts_flights: usize = std::env::var("TRACE_CRASH_HOSTS_FLIGHTS")
+        .ok()
+        .and_then(|n| n.parse().ok())
+        .unwrap_or(flights.div_ceil(4));
     let root = std::env::temp_dir().join(format!("trace-crash-bench-{}", std::process::id()));
     let bound = Duration::from_secs(180);
     let t0 = Instant::now();
+    for (layout, kinds, flights) in [
+        (Layout::Loopback, &Victim::ALL[..], flights),
+        (Layout::Hosts, &Victim::ACROSS_HOSTS[..], hosts_flights),
+    ] {
+        if flights > 0 {
+            println!("== {layout:?}");
+            bench(
+                &root.join(format!("{layout:?}")),
+                layout,
+                kinds,
+                flights,
+                bound,
+            );
+        }
+    }
+    println!("total {:.0} s", t0.elapsed().as_secs_f64());
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// The flights of one layout: `flights` with executive kills, a quarter as many of each other
+/// kind; prints one row per kind and the executive's restart times.
+fn bench(root: &Path, layout: Layout, kinds: &[Victim], flights: usize, bound: Duration) {
     // The uninterrupted flight of each seed is the reference its interrupted flights meet.
     let seeds = 4u64;
     let references: Vec<Flight> = (1..=seeds)
         .map(|seed| {
             let f = matrix::fly(
                 &root.join(format!("ref-{seed}")),
+                layout,
                 seed,
                 Victim::Executive,
                 0,
@@ -40,8 +71,7 @@ fn main() {
         .collect();
     let mut store_ms = Vec::new();
     let mut systems_ms = Vec::new();
-    let mut rows = Vec::new();
-    for victim in Victim::ALL {
+    for &victim in kinds {
         let (n, kills) = match victim {
             Victim::Executive => (flights, 4),
             _ => (flights.div_ceil(4), 2),
@@ -51,6 +81,7 @@ fn main() {
             let seed = 1 + (i as u64 % seeds);
             let f = matrix::fly(
                 &root.join(format!("{victim:?}-{i}")),
+                layout,
                 seed,
                 victim,
                 kills,
@@ -61,16 +92,16 @@ fn main() {
             systems_ms.extend(&f.systems_ms);
         }
         println!(
-            "{:<28} flights {:>3}  kills {:>4}  same outcome {:>3}  stuck {}  goals lost {}  effects duplicated {}",
+            "{:<28} flights {:>3}  kills {:>4}  same outcome {:>3}  same end {:>3}  stuck {}  goals lost {}  effects duplicated {}",
             victim.name(),
             tally.runs,
             tally.kills,
             tally.same,
+            tally.ended,
             tally.stuck,
             tally.lost,
             tally.duplicated
         );
-        rows.push((victim, tally));
     }
     let (s50, s99) = (
         matrix::quantile(&mut store_ms, 0.5),
@@ -86,6 +117,4 @@ fn main() {
         store_ms.len(),
         c50 / s50.max(1e-9)
     );
-    println!("total {:.0} s", t0.elapsed().as_secs_f64());
-    let _ = std::fs::remove_dir_all(&root);
 }

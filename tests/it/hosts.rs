@@ -582,3 +582,255 @@ fn an_answer_given_while_the_link_is_cut_is_applied_once_when_the_link_returns_a
         .expect("ended");
     assert_eq!(end["outcome"]["type"], "completed", "{end}");
 }
+
+/// Europa on the lander at `speed` with a policy station on the ground; returns once the
+/// executive is running (its record file path).
+fn start_europa(lab: &mut Lab, speed: &str) -> std::path::PathBuf {
+    let sim = lab.command(
+        &lab.lander.clone(),
+        "elap-sim",
+        &[
+            "--zenoh-config",
+            &Lab::config("lander_sim.json5"),
+            "--speed",
+            speed,
+            "--seed",
+            "1",
+            "--profile",
+            "quiet",
+            "--start-ms",
+            "1790000000000",
+            "--store",
+            "sim",
+        ],
+    );
+    lab.start("lander_sim", sim);
+    station_with(lab, 1, "station-a", &path("deploy/ground/policy.toml"));
+    let exec = lab.command(
+        &lab.lander,
+        "trace",
+        &[
+            "run",
+            &path("deploy/missions/europa-bsm1.bpmn"),
+            "--store",
+            "store",
+            "--connectors",
+            &path("deploy/connectors.toml"),
+            "--zenoh-config",
+            &Lab::config("executive.json5"),
+        ],
+    );
+    lab.spawn("executive", exec);
+    lab.dir.join("store/record.jsonl")
+}
+
+/// Lander tasks (not ground, not the battery reading) the record has completed.
+fn lander_done(lines: &[serde_json::Value]) -> usize {
+    let lander: std::collections::BTreeSet<_> = lines
+        .iter()
+        .filter(|l| {
+            l["kind"] == "dispatched"
+                && l["resource"]
+                    .as_str()
+                    .is_some_and(|r| !r.starts_with("ground") && r != "power.read_battery")
+        })
+        .map(|l| l["task"].to_string())
+        .collect();
+    lines
+        .iter()
+        .filter(|l| l["kind"] == "completed" && lander.contains(&l["task"].to_string()))
+        .count()
+}
+
+#[test]
+fn a_link_cut_with_goals_in_flight_goes_unnoticed_on_the_lander_and_a_late_monitor_gets_the_present()
+ {
+    let mut lab = Lab::new("cut-flight", 1);
+    lab.routers();
+    let ground = lab.grounds[0].clone();
+    // Someone on the ground hears the record stream: when it hears again, the link is back.
+    lab.start_probe(
+        "ground-ear",
+        &ground,
+        "monitor",
+        &["sub", "trace/*/exec/*/record"],
+    );
+    // 50,000x: Europa's 18 days in about half a minute, so the flight outlives the cut.
+    let record = start_europa(&mut lab, "50000");
+    lab.until_recorded(&record, "a lander activity dispatched", WAIT, |l| {
+        l["kind"] == "dispatched" && l["resource"] == "excavation.excavate"
+    });
+    lab.until_said("ground-ear", &["sample"], WAIT);
+    lab.link(1, false);
+    let before = lander_done(&records(&record));
+    // Down until three more lander activities have ended: the lander goes on alone.
+    let during = lab.until_record(&record, "lander work during the cut", WAIT, |ls| {
+        lander_done(ls) >= before + 3
+    });
+    let heard = lab.output("ground-ear").lines().count();
+    lab.link(1, true);
+    let last_seq = during
+        .iter()
+        .filter_map(|l| l["seq"].as_u64())
+        .max()
+        .expect("seq");
+    // The ground hears the stream again (a new line after the cut), then a monitor joins late.
+    mission_tests::hosts::poll(Duration::from_secs(30), || {
+        (lab.output("ground-ear").lines().count() > heard).then_some(())
+    })
+    .expect("the ground hears the record again after the link came back");
+    let mut args = ["monitor", "--jsonl", "--lines", "0"]
+        .map(str::to_owned)
+        .to_vec();
+    args.extend(Lab::client_flags("monitor.json5", "monitor"));
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let out = lab
+        .command(&ground, "trace", &args)
+        .output()
+        .expect("monitor runs");
+    let text = String::from_utf8_lossy(&out.stdout);
+    let snapshot: serde_json::Value = text
+        .lines()
+        .next()
+        .and_then(|l| serde_json::from_str(l).ok())
+        .unwrap_or_else(|| {
+            panic!(
+                "no snapshot: {text}\n{}",
+                String::from_utf8_lossy(&out.stderr)
+            )
+        });
+    assert_eq!(snapshot["kind"], "snapshot", "{snapshot}");
+    let state = &snapshot["state"];
+    // The present includes everything the lander did while the ground was cut off.
+    assert!(
+        state["seq"].as_u64().is_some_and(|s| s >= last_seq),
+        "the monitor's present ({}) is older than the cut's last step {last_seq}",
+        state["seq"]
+    );
+    // It is this flight's present: every task it has in flight was commanded in this record.
+    let lines = records(&record);
+    for t in state["in_flight"].as_array().expect("in flight") {
+        assert!(
+            lines.iter().any(|l| l["task"] == t["task"]
+                && matches!(l["kind"].as_str(), Some("dispatched" | "user_task_opened"))),
+            "{t} is not in the record"
+        );
+    }
+    // Nothing on the lander noticed: no goal lost or failed by the connection, every task
+    // ended once. The flight is then left to the lab's end.
+    let mut ended = std::collections::BTreeSet::new();
+    for l in &lines {
+        assert_ne!(l["code"], "CONNECTOR_LOST", "{l}");
+        if matches!(l["kind"].as_str(), Some("completed" | "failed")) {
+            assert!(ended.insert(l["task"].to_string()), "ended twice: {l}");
+        }
+    }
+}
+
+/// One-way delay of the relay between the ground router and the lander's (wall ms).
+const DELAY_MS: u64 = 1500;
+
+#[test]
+fn seconds_of_latency_between_the_hosts_neither_repeat_an_answer_nor_lose_the_ground() {
+    let mut lab = Lab::new("latency", 1);
+    // A space link: the routers give the handshake across a 3 s round trip 30 s.
+    let slow = [
+        "--zenoh-set",
+        "transport/unicast/open_timeout=30000",
+        "--zenoh-set",
+        "transport/unicast/accept_timeout=30000",
+    ];
+    lab.lander_router_with("lander-router", &slow);
+    let ground = lab.grounds[0].clone();
+    let relay = lab.command(
+        &ground,
+        "delay-relay",
+        &[
+            "127.0.0.1:7448",
+            &format!("{}:7447", Lab::lander_addr(1)),
+            &DELAY_MS.to_string(),
+        ],
+    );
+    lab.start("relay", relay);
+    lab.ground_router_to(1, "ground-router1", "quic/127.0.0.1:7448", &slow);
+    std::fs::write(lab.dir.join("approval.bpmn"), APPROVAL).expect("mission");
+    std::fs::write(lab.dir.join("ground.toml"), GROUND_ONLY).expect("connectors");
+    // The lander hears the station once the link across the relay is open.
+    let lander = lab.lander.clone();
+    lab.start_probe(
+        "lander-ear",
+        &lander,
+        "exec",
+        &["alive", "trace/*/alive/**"],
+    );
+    let policy = slow_policy(&lab, 0);
+    station_with(&mut lab, 1, "station-a", &policy);
+    lab.until_said(
+        "lander-ear",
+        &["alive/ground/station-a"],
+        Duration::from_secs(60),
+    );
+    // 300x: the approval's six hours are 72 s of wall time, many round trips.
+    let exec = lab.command(
+        &lab.lander,
+        "trace",
+        &[
+            "run",
+            "approval.bpmn",
+            "--store",
+            "store",
+            "--connectors",
+            "ground.toml",
+            "--speed",
+            "300",
+            "--zenoh-config",
+            &Lab::config("executive.json5"),
+        ],
+    );
+    lab.spawn("executive", exec);
+    let status = lab.proc("executive").child.wait().expect("executive exits");
+    assert!(
+        status.success(),
+        "executive: {status}\n{}",
+        lab.log("executive")
+    );
+    let lines = records(&lab.dir.join("store/record.jsonl"));
+    let opened = lines
+        .iter()
+        .find(|l| l["kind"] == "user_task_opened")
+        .expect("opened");
+    let answered: Vec<_> = lines
+        .iter()
+        .filter(|l| l["kind"] == "user_task_answered")
+        .collect();
+    assert_eq!(answered.len(), 1, "{lines:#?}");
+    // The goal went down and the answer came up through the relay: at least one round trip
+    // of mission time (300 mission ms per wall ms) between them.
+    let took = answered[0]["mission_ms"].as_i64().expect("ms")
+        - opened["mission_ms"].as_i64().expect("ms");
+    assert!(
+        took >= (2 * DELAY_MS * 300) as i64,
+        "answered {took} mission ms after opening: the relay was not in the path"
+    );
+    for l in &lines {
+        assert_ne!(l["code"], "CONNECTOR_LOST", "{l}");
+        assert_ne!(l["kind"], "timer_fired", "{l}");
+    }
+    let end = lines
+        .iter()
+        .rev()
+        .find(|l| l["kind"] == "instance_finished")
+        .expect("ended");
+    assert_eq!(end["outcome"]["type"], "completed", "{end}");
+    // The station was told its answer was applied, once.
+    lab.until_said("station-a", &["answered: applied"], WAIT);
+    assert_eq!(
+        lab.output("station-a").matches("answered: applied").count(),
+        1
+    );
+}
+
+#[test]
+fn the_crash_matrix_across_two_hosts_with_router_kills_loses_nothing_and_repeats_nothing() {
+    crate::crash::reduced_matrix(mission_tests::matrix::Layout::Hosts);
+}

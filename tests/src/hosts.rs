@@ -132,7 +132,7 @@ impl Lab {
     }
 
     /// The lander's address on link `k`, where ground host `k` reaches its router.
-    fn lander_addr(k: usize) -> String {
+    pub fn lander_addr(k: usize) -> String {
         format!("10.77.{k}.1")
     }
 
@@ -340,7 +340,20 @@ impl Lab {
     /// Starts the lander's and the ground hosts' routers (QUIC with mutual TLS, access control
     /// on), each waited for until it says `ready`; the ground routers connect on their own.
     pub fn routers(&mut self) {
-        let lander = self.command(
+        self.lander_router("lander-router");
+        for k in 1..=self.grounds.len() {
+            self.ground_router(k, &format!("ground-router{k}"));
+        }
+    }
+
+    /// Starts the lander's router as `name` (see [`Lab::start`]).
+    pub fn lander_router(&mut self, name: &str) {
+        self.lander_router_with(name, &[]);
+    }
+
+    /// [`Lab::lander_router`] with `extra` arguments.
+    pub fn lander_router_with(&mut self, name: &str, extra: &[&str]) {
+        let mut c = self.command(
             &self.lander.clone(),
             "trace",
             &[
@@ -349,22 +362,43 @@ impl Lab {
                 &Lab::config("lander-router.json5"),
             ],
         );
-        self.start("lander-router", lander);
-        for (i, ground) in self.grounds.clone().iter().enumerate() {
-            let to = format!("quic/{}:7447", Lab::lander_addr(i + 1));
-            let c = self.command(
-                ground,
-                "trace",
-                &[
-                    "router",
-                    "--zenoh-config",
-                    &Lab::config("ground-router.json5"),
-                    "-e",
-                    &to,
-                ],
-            );
-            self.start(&format!("ground-router{}", i + 1), c);
-        }
+        c.args(extra);
+        self.start(name, c);
+    }
+
+    /// Starts ground host `k`'s router as `name`, connecting to the lander's router over link
+    /// `k`.
+    pub fn ground_router(&mut self, k: usize, name: &str) {
+        let to = format!("quic/{}:7447", Lab::lander_addr(k));
+        self.ground_router_to(k, name, &to, &[]);
+    }
+
+    /// Starts ground host `k`'s router as `name`, connecting to the lander's router at
+    /// endpoint `to` (a relay, say), with `extra` arguments.
+    pub fn ground_router_to(&mut self, k: usize, name: &str, to: &str, extra: &[&str]) {
+        let mut c = self.command(
+            &self.grounds[k - 1].clone(),
+            "trace",
+            &[
+                "router",
+                "--zenoh-config",
+                &Lab::config("ground-router.json5"),
+                "-e",
+                to,
+            ],
+        );
+        c.args(extra);
+        self.start(name, c);
+    }
+
+    /// SIGKILLs the process started as `name` and forgets it (its log stays).
+    pub fn kill(&mut self, name: &str) {
+        let i = self
+            .procs
+            .iter()
+            .position(|p| p.name == name)
+            .unwrap_or_else(|| panic!("no process {name}"));
+        self.procs.remove(i);
     }
 
     /// Takes link `k` down (both ends lose carrier) or brings it up again.
@@ -396,7 +430,7 @@ impl Drop for Lab {
 /// Reads `probe` until it finds something or `within` has passed. What is waited for is a line
 /// in a file another process writes (a record entry, a log or output line): the file is the
 /// event, and the 20 ms between two reads only spares the CPU the processes run on.
-fn poll<T>(within: Duration, mut probe: impl FnMut() -> Option<T>) -> Option<T> {
+pub fn poll<T>(within: Duration, mut probe: impl FnMut() -> Option<T>) -> Option<T> {
     let start = Instant::now();
     loop {
         if let Some(found) = probe() {

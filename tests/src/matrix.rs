@@ -1,10 +1,10 @@
-//! The crash matrix: the Europa mission flown across separate processes on loopback (the
-//! executive, the lander simulator and a ground station, each with its store), with SIGKILLs
-//! of one kind of process at points chosen by the execution record's growth, each victim
-//! restarted on its store — then the flight judged from the record and the simulator's world:
-//! did it end as the uninterrupted flight did, was it stuck, was a goal lost, was an effect
-//! applied twice. Used by the crash bench (`cargo bench -p mission-tests --bench crash`) and,
-//! reduced, by the integration tests.
+//! The crash matrix: the Europa mission flown across separate processes (the executive, the
+//! lander simulator and a ground station, each with its store) — on loopback, or on two hosts
+//! through their routers ([`crate::hosts`]) — with SIGKILLs of one kind of process at points
+//! chosen by the execution record's growth, each victim restarted (on its store) — then the
+//! flight judged from the record and the simulator's world: did it end as the uninterrupted
+//! flight did, was it stuck, was a goal lost, was an effect applied twice. Used by the crash
+//! bench (`cargo bench -p mission-tests --bench crash`) and, reduced, by the integration tests.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::io::BufRead;
@@ -14,7 +14,18 @@ use std::time::{Duration, Instant};
 
 use serde_json::Value;
 
+use crate::hosts::Lab;
 use crate::{bin, repo};
+
+/// Where a flight's processes run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Layout {
+    /// One host: every process a peer of the executive's loopback endpoint.
+    Loopback,
+    /// Two hosts ([`Lab`]): the executive and the simulator on the lander, the ground station
+    /// on the ground, each a client of its host's router (QUIC, mutual TLS, access control).
+    Hosts,
+}
 
 /// Which process is killed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -27,15 +38,29 @@ pub enum Victim {
     Ground,
     /// The executive and the simulator at the same moment.
     Both,
+    /// The lander's router (two hosts only), while a lander activity runs.
+    LanderRouter,
+    /// The ground's router (two hosts only), while a user task is open.
+    GroundRouter,
 }
 
 impl Victim {
-    /// Every kind, in report order.
+    /// Every kind on loopback, in report order.
     pub const ALL: [Victim; 4] = [
         Victim::Executive,
         Victim::Simulator,
         Victim::Ground,
         Victim::Both,
+    ];
+
+    /// Every kind on two hosts, in report order.
+    pub const ACROSS_HOSTS: [Victim; 6] = [
+        Victim::Executive,
+        Victim::Simulator,
+        Victim::Ground,
+        Victim::Both,
+        Victim::LanderRouter,
+        Victim::GroundRouter,
     ];
 
     /// Its name in the report.
@@ -45,6 +70,8 @@ impl Victim {
             Victim::Simulator => "simulator mid-activity",
             Victim::Ground => "ground station, task open",
             Victim::Both => "executive + simulator",
+            Victim::LanderRouter => "lander router mid-activity",
+            Victim::GroundRouter => "ground router, task open",
         }
     }
 }
@@ -112,9 +139,8 @@ impl Drop for Proc {
 }
 
 /// Starts a system and waits for its `ready` line.
-fn system(program: &str, args: &[String]) -> Proc {
-    let mut child = Command::new(bin(program))
-        .args(args)
+fn system(program: &str, mut command: Command) -> Proc {
+    let mut child = command
         .stdout(Stdio::piped())
         .stderr(Stdio::null())
         .spawn()
@@ -130,11 +156,44 @@ fn system(program: &str, args: &[String]) -> Proc {
 
 struct Deployment {
     dir: PathBuf,
-    hub: String,
     seed: u64,
+    net: Net,
+}
+
+/// How the processes find each other.
+enum Net {
+    /// Peers of the executive's endpoint.
+    Loopback { hub: String },
+    /// Clients of their hosts' routers.
+    Hosts(Lab),
 }
 
 impl Deployment {
+    /// `program` on `host` (the lander, else the ground) with `args`, joined to the others.
+    fn command(&self, program: &str, lander: bool, args: &[String]) -> Command {
+        match &self.net {
+            Net::Loopback { hub } => {
+                let mut c = Command::new(bin(program));
+                c.args(args);
+                let flag = if program == "trace" { "-l" } else { "-e" };
+                c.args([flag, hub, "--no-multicast-scouting"]);
+                c
+            }
+            Net::Hosts(lab) => {
+                let (file, cert) = match program {
+                    "trace" => ("executive.json5", "exec"),
+                    "elap-sim" => ("lander_sim.json5", "lander_sim"),
+                    _ => ("station.json5", "station-a"),
+                };
+                let mut all = args.to_vec();
+                all.extend(Lab::client_flags(file, cert));
+                let all: Vec<&str> = all.iter().map(String::as_str).collect();
+                let ns = if lander { &lab.lander } else { &lab.grounds[0] };
+                lab.command(ns, program, &all)
+            }
+        }
+    }
+
     fn simulator(&self) -> Proc {
         let args = [
             "--speed",
@@ -145,11 +204,11 @@ impl Deployment {
             &self.seed.to_string(),
             "--store",
             &self.dir.join("sim").display().to_string(),
-            "-e",
-            &self.hub,
-            "--no-multicast-scouting",
         ];
-        system("elap-sim", &args.map(str::to_owned))
+        system(
+            "elap-sim",
+            self.command("elap-sim", true, &args.map(str::to_owned)),
+        )
     }
 
     fn ground(&self) -> Proc {
@@ -160,33 +219,59 @@ impl Deployment {
                 .display()
                 .to_string(),
             "--station",
-            "matrix",
+            "station-a",
             "--store",
             &self.dir.join("ground").display().to_string(),
-            "-e",
-            &self.hub,
-            "--no-multicast-scouting",
         ];
-        system("ground-station", &args.map(str::to_owned))
+        system(
+            "ground-station",
+            self.command("ground-station", false, &args.map(str::to_owned)),
+        )
     }
 
     fn executive(&self, verb: &str) -> Proc {
-        let mut c = Command::new(bin("trace"));
-        c.arg(verb);
+        let mut args = vec![verb.to_owned()];
         if verb == "run" {
-            c.arg(repo().join("deploy/missions/europa-bsm1.bpmn"));
+            args.push(
+                repo()
+                    .join("deploy/missions/europa-bsm1.bpmn")
+                    .display()
+                    .to_string(),
+            );
         }
-        let child = c
-            .arg("--store")
-            .arg(self.dir.join("store"))
-            .arg("--connectors")
-            .arg(repo().join("deploy/connectors.toml"))
-            .args(["-l", &self.hub, "--no-multicast-scouting"])
+        args.extend([
+            "--store".to_owned(),
+            self.dir.join("store").display().to_string(),
+            "--connectors".to_owned(),
+            repo().join("deploy/connectors.toml").display().to_string(),
+        ]);
+        // Every run's log, one after the other, for a flight that went wrong.
+        let log = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(self.dir.join("executive.log"))
+            .expect("executive log");
+        let child = self
+            .command("trace", true, &args)
             .stdout(Stdio::null())
-            .stderr(Stdio::null())
+            .stderr(log)
             .spawn()
             .expect("trace starts");
         Proc(Some(child))
+    }
+
+    /// Kills the router named by `victim` and starts it again (waiting for its `ready`).
+    fn restart_router(&mut self, victim: Victim, n: usize) {
+        let Net::Hosts(lab) = &mut self.net else {
+            panic!("{} on loopback: there is no router", victim.name())
+        };
+        if victim == Victim::LanderRouter {
+            lab.kill(&lab_router_name(victim, n));
+            lab.lander_router(&lab_router_name(victim, n + 1));
+        } else {
+            lab.kill(&lab_router_name(victim, n));
+            lab.ground_router(1, &lab_router_name(victim, n + 1));
+        }
     }
 
     fn record(&self) -> PathBuf {
@@ -253,20 +338,55 @@ fn until(
     }
 }
 
-/// Flies Europa once with `kills` kills of `victim` (0: the uninterrupted reference), in a
-/// fresh directory under `dir`, giving up after `bound` of wall time.
-pub fn fly(dir: &Path, seed: u64, victim: Victim, kills: usize, bound: Duration) -> Flight {
+/// The name a router has in the lab after `n` restarts.
+fn lab_router_name(victim: Victim, n: usize) -> String {
+    let base = if victim == Victim::LanderRouter {
+        "lander-router"
+    } else {
+        "ground-router1"
+    };
+    if n == 0 {
+        base.to_owned()
+    } else {
+        format!("{base}-{n}")
+    }
+}
+
+/// Flies Europa once, laid out as `layout`, with `kills` kills of `victim` (0: the
+/// uninterrupted reference), in a fresh directory under `dir`, giving up after `bound` of wall
+/// time.
+pub fn fly(
+    dir: &Path,
+    layout: Layout,
+    seed: u64,
+    victim: Victim,
+    kills: usize,
+    bound: Duration,
+) -> Flight {
     let _ = std::fs::remove_dir_all(dir);
     std::fs::create_dir_all(dir).expect("flight dir");
-    let port = std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .expect("a free port");
-    let d = Deployment {
-        dir: dir.to_owned(),
-        hub: format!("tcp/127.0.0.1:{port}"),
-        seed,
+    let net = match layout {
+        Layout::Loopback => {
+            let port = std::net::TcpListener::bind("127.0.0.1:0")
+                .and_then(|l| l.local_addr())
+                .map(|a| a.port())
+                .expect("a free port");
+            Net::Loopback {
+                hub: format!("tcp/127.0.0.1:{port}"),
+            }
+        }
+        Layout::Hosts => {
+            let mut lab = Lab::new("crash", 1);
+            lab.routers();
+            Net::Hosts(lab)
+        }
     };
+    let mut d = Deployment {
+        dir: dir.to_owned(),
+        seed,
+        net,
+    };
+    let mut restarts = 0;
     let record = d.record();
     let deadline = Instant::now() + bound;
     let mut rng = Rng(seed.wrapping_mul(31).wrapping_add(victim as u64));
@@ -282,10 +402,12 @@ pub fn fly(dir: &Path, seed: u64, victim: Victim, kills: usize, bound: Duration)
         let wanted = |l: &[Value], n: usize| {
             n >= target
                 && match victim {
-                    Victim::Simulator | Victim::Both => open_tasks(l)
+                    Victim::Simulator | Victim::Both | Victim::LanderRouter => open_tasks(l)
                         .values()
                         .any(|r| !r.starts_with("ground") && r != "power.read_battery"),
-                    Victim::Ground => open_tasks(l).values().any(|r| r.starts_with("ground")),
+                    Victim::Ground | Victim::GroundRouter => {
+                        open_tasks(l).values().any(|r| r.starts_with("ground"))
+                    }
                     Victim::Executive => true,
                 }
         };
@@ -336,6 +458,10 @@ pub fn fly(dir: &Path, seed: u64, victim: Victim, kills: usize, bound: Duration)
             Victim::Ground => {
                 ground.kill();
                 ground = d.ground();
+            }
+            Victim::LanderRouter | Victim::GroundRouter => {
+                d.restart_router(victim, restarts);
+                restarts += 1;
             }
         }
     }
@@ -423,6 +549,11 @@ pub struct Tally {
     pub kills: usize,
     /// Flights that ended as the uninterrupted flight did (outcome and samples analysed).
     pub same: usize,
+    /// Flights that ended with the uninterrupted flight's outcome, maybe with fewer samples
+    /// analysed: while a router is down, the ground's approvals cannot arrive, and at
+    /// 100,000x its second of restart is over a mission day — the approvals' six-hour timers
+    /// fire and their sites are skipped, as in flight.
+    pub ended: usize,
     /// Flights that never ended.
     pub stuck: usize,
     /// Goals lost, over all flights.
@@ -438,8 +569,11 @@ impl Tally {
         self.kills += f.kills;
         if f.outcome.is_none() {
             self.stuck += 1;
-        } else if f.outcome == reference.outcome && f.analysed == reference.analysed {
-            self.same += 1;
+        } else if f.outcome == reference.outcome {
+            self.ended += 1;
+            if f.analysed == reference.analysed {
+                self.same += 1;
+            }
         }
         self.lost += f.lost;
         self.duplicated += f.duplicated;
