@@ -42,8 +42,11 @@ fn main() {
             );
         }
     }
-    println!("total {:.0} s", t0.elapsed().as_secs_f64());
-    let _ = std::fs::remove_dir_all(&root);
+    println!(
+        "total {:.0} s; flights under {}",
+        t0.elapsed().as_secs_f64(),
+        root.display()
+    );
 }
 
 /// The flights of one layout: `flights` with executive kills, a quarter as many of each other
@@ -71,7 +74,15 @@ fn bench(root: &Path, layout: Layout, kinds: &[Victim], flights: usize, bound: D
         .collect();
     let mut store_ms = Vec::new();
     let mut systems_ms = Vec::new();
+    // `TRACE_CRASH_KINDS=Simulator,LanderRouter`: only those kinds (names as in the enum).
+    let only = std::env::var("TRACE_CRASH_KINDS").ok();
     for &victim in kinds {
+        if only
+            .as_deref()
+            .is_some_and(|o| !o.split(',').any(|k| k == format!("{victim:?}")))
+        {
+            continue;
+        }
         let (n, kills) = match victim {
             Victim::Executive => (flights, 4),
             _ => (flights.div_ceil(4), 2),
@@ -88,6 +99,13 @@ fn bench(root: &Path, layout: Layout, kinds: &[Victim], flights: usize, bound: D
                 bound,
             );
             tally.add(&f, &references[(seed - 1) as usize]);
+            // A flight that went wrong keeps its directory (record, stores, logs) for a look.
+            let dir = root.join(format!("{victim:?}-{i}"));
+            if f.outcome.is_none() || f.lost > 0 || f.duplicated > 0 {
+                println!("  kept {} for a look: {f:?}", dir.display());
+            } else {
+                let _ = std::fs::remove_dir_all(&dir);
+            }
             store_ms.extend(&f.store_ms);
             systems_ms.extend(&f.systems_ms);
         }

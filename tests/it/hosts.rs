@@ -2,7 +2,9 @@
 //! links) through two `trace router`s with QUIC, mutual TLS and access control by certificate:
 //! the Europa mission flown (with one station, and with two stations on two ground hosts
 //! racing), every operation a role may not do refused, a client without the deployment's
-//! certificate kept out, and a user task answered across a link cut for an hour of mission time.
+//! certificate kept out, a user task answered across a link cut for an hour of mission time,
+//! a cut with goals in flight unnoticed on the lander and a late monitor given the present,
+//! seconds of latency on a narrow link, and the crash matrix with router kills on either side.
 
 use std::time::Duration;
 
@@ -730,6 +732,8 @@ fn a_link_cut_with_goals_in_flight_goes_unnoticed_on_the_lander_and_a_late_monit
 /// One-way delay of the relay between the ground router and the lander's (wall ms).
 const DELAY_MS: u64 = 1500;
 
+/// The link is shaped to 256 kbit/s (`tc … tbf`) and every datagram between the routers is held
+/// 1.5 s each way by a relay on the ground host.
 #[test]
 fn seconds_of_latency_between_the_hosts_neither_repeat_an_answer_nor_lose_the_ground() {
     let mut lab = Lab::new("latency", 1);
@@ -741,6 +745,8 @@ fn seconds_of_latency_between_the_hosts_neither_repeat_an_answer_nor_lose_the_gr
         "transport/unicast/accept_timeout=30000",
     ];
     lab.lander_router_with("lander-router", &slow);
+    // A narrow link as well as a long one.
+    lab.shape(1, "256kbit");
     let ground = lab.grounds[0].clone();
     let relay = lab.command(
         &ground,

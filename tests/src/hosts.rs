@@ -414,6 +414,28 @@ impl Lab {
     }
 }
 
+impl Lab {
+    /// Shapes link `k` at both ends to `rate` (a `tc` rate such as `256kbit`) with a token
+    /// bucket filter: a narrow link to the lander.
+    pub fn shape(&self, k: usize, rate: &str) {
+        for ns in [&self.lander, &self.grounds[k - 1]] {
+            let out = Command::new("ip")
+                .args(["netns", "exec", ns, "tc", "qdisc", "replace", "dev"])
+                .arg(format!("link{k}"))
+                .args([
+                    "root", "tbf", "rate", rate, "burst", "32kb", "latency", "2s",
+                ])
+                .output()
+                .expect("tc runs");
+            assert!(
+                out.status.success(),
+                "tc on link{k} in {ns}: {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+        }
+    }
+}
+
 impl Drop for Lab {
     fn drop(&mut self) {
         self.procs.clear();

@@ -89,7 +89,8 @@ pub struct Flight {
     /// `PROTOCOL_ERROR`): the system or the executive lost track of a goal.
     pub lost: usize,
     /// Effects applied twice: a task that ended twice, or more samples in the simulator's world
-    /// than sample collections completed in the record.
+    /// than sample collections completed (or cancelled, which may come after the end) in the
+    /// record.
     pub duplicated: usize,
     /// Per executive restart: wall ms from `trace resume` starting to its `reboot` line (the
     /// store recovered and the process up).
@@ -500,6 +501,7 @@ fn judge(flight: &mut Flight, d: &Deployment, ended: bool) {
     let mut resource = BTreeMap::new();
     let mut ends: BTreeMap<String, usize> = BTreeMap::new();
     let mut collected = 0;
+    let mut cancelled = 0;
     for v in &lines {
         let task = v["task"].as_str().unwrap_or_default().to_owned();
         match v["kind"].as_str() {
@@ -520,15 +522,23 @@ fn judge(flight: &mut Flight, d: &Deployment, ended: bool) {
                     flight.lost += 1;
                 }
             }
+            // An interrupting event may cancel a collection the simulator has just finished
+            // (its result on the way, or held up by a router down): its sample is real.
+            Some("cancelled")
+                if resource.get(&task).map(String::as_str) == Some("sampling.collect_sample") =>
+            {
+                cancelled += 1;
+            }
             _ => {}
         }
     }
     flight.duplicated = ends.values().filter(|n| **n > 1).count();
-    // The simulator's world: every sample in it came from one completed collection.
+    // The simulator's world: every sample in it came from one collection goal, completed or
+    // cancelled after its end.
     if let Some(samples) = world_samples(&d.dir.join("sim"))
-        && samples > collected
+        && samples > collected + cancelled
     {
-        flight.duplicated += samples - collected;
+        flight.duplicated += samples - collected - cancelled;
     }
 }
 
