@@ -20,6 +20,7 @@ mod protocol;
 mod python;
 mod realworld;
 mod run;
+mod studio;
 mod tidy;
 mod timeline;
 mod verify;

@@ -41,6 +41,10 @@ struct Cli {
     /// Landing time, ms since the epoch (default: now).
     #[arg(long)]
     start_ms: Option<i64>,
+    /// Print the catalogue the simulator serves (JSON, `docs/protocol.md` §3) and exit: what
+    /// `deploy/catalogues/lander_sim.json` holds for tools that work without a running system.
+    #[arg(long)]
+    print_catalogue: bool,
     #[command(flatten)]
     zenoh: ZenohArgs,
 }
@@ -160,6 +164,10 @@ fn saved<T: serde::de::DeserializeOwned>(
 async fn main() -> anyhow::Result<()> {
     connector_zenoh::log_to_stderr();
     let cli = Cli::parse();
+    if cli.print_catalogue {
+        println!("{}", serde_json::to_string_pretty(&catalogue())?);
+        return Ok(());
+    }
     anyhow::ensure!(
         cli.speed.is_finite() && cli.speed > 0.0,
         "--speed must be positive"

@@ -93,6 +93,10 @@ enum Command {
         #[command(flatten)]
         zenoh: connector_zenoh::ZenohArgs,
     },
+    /// Serve TRACE Studio, the mission composer, in the browser: open, draw, check and save the
+    /// BPMN missions of DIR (default deploy/missions), with actions and typed inputs from the
+    /// systems' catalogues. Listens on loopback only unless --public.
+    Studio(StudioArgs),
     /// Verify a mission model with Spin before it flies: no deadlock, safeness, no dead
     /// activities, every run ends, no lost signal (exit 0 all hold, 1 violated, 2 incomplete
     /// or not verifiable).
@@ -217,8 +221,12 @@ fn main() -> anyhow::Result<ExitCode> {
             strict,
         } => {
             let stdout = std::io::stdout();
-            let verdict = executive::validate::run(&files, json, strict, &mut stdout.lock())?;
-            Ok(ExitCode::from(verdict.exit_code() as u8))
+            match executive::validate::run(&files, json, strict, &mut stdout.lock()) {
+                Ok(verdict) => Ok(ExitCode::from(verdict.exit_code() as u8)),
+                // The reader stopped reading (`trace validate … | head`): nothing left to say.
+                Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(ExitCode::SUCCESS),
+                Err(e) => Err(e.into()),
+            }
         }
         Command::Run {
             mission,
@@ -267,6 +275,7 @@ fn main() -> anyhow::Result<ExitCode> {
             })?;
             Ok(ExitCode::SUCCESS)
         }
+        Command::Studio(args) => studio(args),
         Command::Verify(opts) => {
             let report = match executive::verify::verify(&opts) {
                 Ok(r) => r,
@@ -314,6 +323,67 @@ fn main() -> anyhow::Result<ExitCode> {
 }
 
 /// A tokio runtime on one worker thread (Zenoh refuses the current-thread scheduler).
+/// `trace studio`'s arguments.
+#[derive(clap::Args)]
+struct StudioArgs {
+    /// The directory of mission files.
+    #[arg(default_value = "deploy/missions")]
+    dir: PathBuf,
+    /// The address to listen on.
+    #[arg(long, default_value = "127.0.0.1")]
+    address: std::net::IpAddr,
+    /// The port (0: any free one).
+    #[arg(long, default_value_t = 7780)]
+    port: u16,
+    /// Listen on an address that is not loopback (the studio has no authentication).
+    #[arg(long)]
+    public: bool,
+    /// Catalogue files, or directories of them (repeatable). Default: DIR/../catalogues and
+    /// DIR/../ground/forms.json, as laid out in deploy/.
+    #[arg(long = "catalogue", value_name = "PATH")]
+    catalogues: Vec<PathBuf>,
+}
+
+fn studio(args: StudioArgs) -> anyhow::Result<ExitCode> {
+    let mut paths = args.catalogues.clone();
+    if paths.is_empty() {
+        let up = args.dir.join("..");
+        paths.extend(
+            [up.join("catalogues"), up.join("ground/forms.json")]
+                .into_iter()
+                .filter(|p| p.exists()),
+        );
+    }
+    let catalogues = executive_studio::read_catalogues(&paths)?;
+    if !executive_studio::has_page() {
+        eprintln!(
+            "warning: this trace was built without the studio's page (Node.js and npm were \
+             missing): install them (Debian: apt-get install nodejs npm) and build again"
+        );
+    }
+    let studio = executive_studio::Studio {
+        dir: args.dir.clone(),
+        catalogues,
+    };
+    let rt = one_worker()?;
+    rt.block_on(async {
+        let addr = std::net::SocketAddr::new(args.address, args.port);
+        let bound = executive_studio::bind(studio, addr, args.public).await?;
+        let at = bound.addr()?;
+        println!(
+            "ready http://{at}/ — missions in {}, {} catalogue(s); Ctrl-C stops",
+            args.dir.display(),
+            paths.len()
+        );
+        tokio::select! {
+            r = bound.serve() => r?,
+            _ = tokio::signal::ctrl_c() => {}
+        }
+        anyhow::Ok(())
+    })?;
+    Ok(ExitCode::SUCCESS)
+}
+
 fn one_worker() -> std::io::Result<tokio::runtime::Runtime> {
     tokio::runtime::Builder::new_multi_thread()
         .worker_threads(1)

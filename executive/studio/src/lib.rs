@@ -1,0 +1,149 @@
+//! TRACE Studio: the mission composer, served on loopback by `trace studio [DIR]`.
+//!
+//! A planner opens, draws, checks and saves the BPMN mission files of one directory in the
+//! browser: bpmn-js's modeler and properties panel, a TRACE panel that writes the `trace:task`
+//! binding from the systems' catalogues, and every diagnostic of `trace validate` on the
+//! element it concerns, checked again as the model changes.
+//!
+//! - [`files`]: the mission directory — names are plain `*.bpmn` file names, never paths, and
+//!   a save is atomic (a temporary file renamed over the old one).
+//! - [`api`]: the HTTP routes (axum on the executive's tokio) — the page, `GET/PUT
+//!   /api/missions/{name}`, `POST /api/validate`, `GET /api/catalogues`.
+//! - The page itself is built from pinned npm packages by `build.rs` (`web/`, see there) and
+//!   embedded in the binary; nothing third-party is committed.
+//!
+//! axum is the HTTP server because it is the well-kept router on tokio (already the
+//! executive's runtime), with only its `http1`, `tokio` and `json` features.
+
+pub mod api;
+mod assets;
+pub mod files;
+#[cfg(test)]
+mod tests;
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+
+use connector_api::Catalogue;
+
+/// What one studio serves.
+#[derive(Clone, Debug)]
+pub struct Studio {
+    /// The directory of mission files.
+    pub dir: PathBuf,
+    /// The catalogues the TRACE panel offers actions from.
+    pub catalogues: Vec<Catalogue>,
+}
+
+/// Why the studio could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum StartError {
+    /// The mission directory is not one.
+    #[error("{0}: not a directory of missions")]
+    NoDirectory(PathBuf),
+    /// The address is not on this machine's loopback and other interfaces were not allowed.
+    #[error(
+        "{0} is not a loopback address: the studio has no authentication (pass --public to serve {0} anyway)"
+    )]
+    NotLoopback(SocketAddr),
+    /// The socket could not be bound.
+    #[error("cannot listen on {addr}: {source}")]
+    Bind {
+        /// The address asked for.
+        addr: SocketAddr,
+        /// Why.
+        source: std::io::Error,
+    },
+}
+
+/// A bound studio, ready to serve.
+pub struct Bound {
+    listener: tokio::net::TcpListener,
+    studio: Studio,
+}
+
+impl Bound {
+    /// Where it listens (the port chosen when 0 was asked for).
+    pub fn addr(&self) -> std::io::Result<SocketAddr> {
+        self.listener.local_addr()
+    }
+
+    /// Serves until the task is dropped or the listener fails.
+    pub async fn serve(self) -> std::io::Result<()> {
+        axum::serve(self.listener, api::router(self.studio)).await
+    }
+}
+
+/// Binds `addr` for `studio`; an address that is not loopback is refused unless `public`.
+pub async fn bind(studio: Studio, addr: SocketAddr, public: bool) -> Result<Bound, StartError> {
+    if !studio.dir.is_dir() {
+        return Err(StartError::NoDirectory(studio.dir));
+    }
+    if !public && !addr.ip().is_loopback() {
+        return Err(StartError::NotLoopback(addr));
+    }
+    let listener = tokio::net::TcpListener::bind(addr)
+        .await
+        .map_err(|source| StartError::Bind { addr, source })?;
+    Ok(Bound { listener, studio })
+}
+
+/// Why a catalogue file could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum CatalogueError {
+    /// The file or directory could not be read.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The file is not a catalogue (`docs/protocol.md` §3).
+    #[error("{path}: not a catalogue: {source}")]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: serde_json::Error,
+    },
+}
+
+/// The catalogues in `paths`: each a catalogue JSON file, or a directory whose `*.json` files
+/// are catalogues.
+pub fn read_catalogues(paths: &[PathBuf]) -> Result<Vec<Catalogue>, CatalogueError> {
+    let io = |path: &std::path::Path| {
+        let path = path.to_owned();
+        move |source| CatalogueError::Io { path, source }
+    };
+    let mut files = Vec::new();
+    for p in paths {
+        if p.is_dir() {
+            let mut inner: Vec<PathBuf> = std::fs::read_dir(p)
+                .map_err(io(p))?
+                .filter_map(Result::ok)
+                .map(|e| e.path())
+                .filter(|f| f.extension().is_some_and(|x| x == "json"))
+                .collect();
+            inner.sort();
+            files.extend(inner);
+        } else {
+            files.push(p.clone());
+        }
+    }
+    files
+        .iter()
+        .map(|f| {
+            let text = std::fs::read_to_string(f).map_err(io(f))?;
+            serde_json::from_str(&text).map_err(|source| CatalogueError::Parse {
+                path: f.clone(),
+                source,
+            })
+        })
+        .collect()
+}
+
+/// Whether the page was built from the npm packages (false: the fallback page saying how).
+pub fn has_page() -> bool {
+    assets::get("app.js").is_some()
+}

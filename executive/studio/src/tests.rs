@@ -1,0 +1,215 @@
+//! The studio's HTTP routes over a real socket: the page, listing, reading and saving missions
+//! (atomic, refusing what is not BPMN), validation, the catalogues, and every refusal — names
+//! that leave the directory, unknown files, bodies over the loader's limit, other interfaces.
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+
+use crate::{StartError, Studio, bind};
+
+const EUROPA: &str = include_str!("../../../deploy/missions/europa-bsm1.bpmn");
+
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("trace-studio-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("dir");
+    std::fs::write(d.join("europa.bpmn"), EUROPA).expect("europa");
+    d
+}
+
+async fn serve(dir: PathBuf) -> SocketAddr {
+    let catalogues = crate::read_catalogues(&[PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../deploy/catalogues"
+    ))])
+    .expect("catalogues");
+    let bound = bind(
+        Studio { dir, catalogues },
+        "127.0.0.1:0".parse().unwrap(),
+        false,
+    )
+    .await
+    .expect("bound");
+    let addr = bound.addr().expect("addr");
+    tokio::spawn(bound.serve());
+    addr
+}
+
+/// One HTTP/1.1 request; returns the status and the body.
+async fn http(addr: SocketAddr, method: &str, path: &str, body: &[u8]) -> (u16, String) {
+    let mut s = tokio::net::TcpStream::connect(addr).await.expect("connect");
+    let head = format!(
+        "{method} {path} HTTP/1.1\r\nHost: studio\r\nConnection: close\r\nContent-Length: {}\r\n\r\n",
+        body.len()
+    );
+    s.write_all(head.as_bytes()).await.expect("write");
+    s.write_all(body).await.expect("write");
+    let mut out = Vec::new();
+    s.read_to_end(&mut out).await.expect("read");
+    let text = String::from_utf8_lossy(&out).into_owned();
+    let status = text[9..12].parse().expect("status");
+    let body = text
+        .split_once("\r\n\r\n")
+        .map_or("", |(_, b)| b)
+        .to_owned();
+    (status, body)
+}
+
+fn json(body: &str) -> serde_json::Value {
+    // Bodies are small and not chunked here, except large ones we do not parse.
+    serde_json::from_str(body).unwrap_or_else(|e| panic!("{e}: {body}"))
+}
+
+#[tokio::test]
+async fn the_page_and_the_missions_are_served() {
+    let addr = serve(dir("serve")).await;
+    let (status, page) = http(addr, "GET", "/", b"").await;
+    assert_eq!(status, 200);
+    assert!(page.contains("TRACE Studio"), "{page}");
+    let (status, list) = http(addr, "GET", "/api/missions", b"").await;
+    assert_eq!(status, 200);
+    assert_eq!(json(&list)[0]["name"], "europa.bpmn");
+    let (status, _) = http(addr, "GET", "/api/missions/europa.bpmn", b"").await;
+    assert_eq!(status, 200);
+    let (status, cats) = http(addr, "GET", "/api/catalogues", b"").await;
+    assert_eq!(status, 200);
+    assert_eq!(json(&cats)[0]["server"], "lander_sim");
+    let (status, v) = http(addr, "POST", "/api/validate", EUROPA.as_bytes()).await;
+    assert_eq!(status, 200);
+    assert_eq!(json(&v)["verdict"], "valid", "{v}");
+    let (status, _) = http(addr, "GET", "/no-such-file.js", b"").await;
+    assert_eq!(status, 404);
+}
+
+#[tokio::test]
+async fn validation_reports_what_trace_validate_reports() {
+    let addr = serve(dir("validate")).await;
+    let broken = EUROPA.replace(
+        r#"targetRef="SelectInitialSites""#,
+        r#"targetRef="Nowhere""#,
+    );
+    let (_, v) = http(addr, "POST", "/api/validate", broken.as_bytes()).await;
+    let v = json(&v);
+    assert_eq!(v["verdict"], "invalid", "{v}");
+    assert!(
+        v["diagnostics"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|d| d["severity"] == "error" && d["line"].as_u64().is_some()),
+        "{v}"
+    );
+    let (_, v) = http(addr, "POST", "/api/validate", b"<not xml").await;
+    assert_eq!(json(&v)["verdict"], "unreadable");
+    let (status, _) = http(addr, "POST", "/api/validate/..%2Fx.bpmn", EUROPA.as_bytes()).await;
+    assert_eq!(status, 400);
+}
+
+#[tokio::test]
+async fn a_save_is_atomic_and_refuses_what_is_not_bpmn() {
+    let d = dir("save");
+    let addr = serve(d.clone()).await;
+    let edited = EUROPA.replace(r#"source="40""#, r#"source="80""#);
+    let (status, body) = http(addr, "PUT", "/api/missions/europa.bpmn", edited.as_bytes()).await;
+    assert_eq!(status, 200, "{body}");
+    assert_eq!(
+        std::fs::read_to_string(d.join("europa.bpmn")).unwrap(),
+        edited
+    );
+    // A new file, with errors (a drawing in progress), is saved too.
+    let (status, body) = http(addr, "PUT", "/api/missions/new.bpmn", b"<definitions xmlns=\"http://www.omg.org/spec/BPMN/20100524/MODEL\"><process id=\"P\" isExecutable=\"true\"><task id=\"T\"/></process></definitions>").await;
+    assert_eq!(status, 200, "{body}");
+    // Not BPMN: refused with the diagnostics, the file untouched, no temporary file left.
+    for garbage in [
+        &b"garbage"[..],
+        b"<html><body/></html>",
+        b"<?xml version=\"1.0\"?><!DOCTYPE a [<!ENTITY x \"y\">]><a>&x;</a>",
+    ] {
+        let (status, body) = http(addr, "PUT", "/api/missions/europa.bpmn", garbage).await;
+        assert_eq!(status, 422, "{body}");
+        assert!(
+            json(&body)["error"]
+                .as_str()
+                .unwrap()
+                .contains("not a BPMN model")
+        );
+    }
+    assert_eq!(
+        std::fs::read_to_string(d.join("europa.bpmn")).unwrap(),
+        edited
+    );
+    let names: Vec<_> = std::fs::read_dir(&d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(names.iter().all(|n| !n.starts_with('.')), "{names:?}");
+}
+
+#[tokio::test]
+async fn names_outside_the_directory_and_unknown_files_are_refused() {
+    let d = dir("names");
+    std::fs::write(d.join("secret.txt"), "no").unwrap();
+    let addr = serve(d.clone()).await;
+    for name in [
+        "..%2Fetc%2Fpasswd",
+        "secret.txt",
+        ".hidden.bpmn",
+        "a%2Fb.bpmn",
+        "..bpmn",
+        "%2Fetc%2Fx.bpmn",
+    ] {
+        let (status, body) = http(addr, "GET", &format!("/api/missions/{name}"), b"").await;
+        assert_eq!(status, 400, "{name}: {body}");
+        assert!(
+            json(&body)["error"]
+                .as_str()
+                .unwrap()
+                .contains("not a mission file name")
+        );
+        let (status, _) = http(
+            addr,
+            "PUT",
+            &format!("/api/missions/{name}"),
+            EUROPA.as_bytes(),
+        )
+        .await;
+        assert_eq!(status, 400, "{name}");
+    }
+    let (status, body) = http(addr, "GET", "/api/missions/absent.bpmn", b"").await;
+    assert_eq!(status, 404, "{body}");
+    // Over the loader's limit: refused before it is read.
+    let huge = vec![b' '; executive_model::Options::default().limits.max_bytes + 10];
+    let (status, _) = http(addr, "PUT", "/api/missions/huge.bpmn", &huge).await;
+    assert_eq!(status, 413);
+    assert!(!d.join("huge.bpmn").exists());
+}
+
+#[tokio::test]
+async fn only_loopback_unless_asked_and_only_a_directory() {
+    let studio = Studio {
+        dir: dir("bind"),
+        catalogues: Vec::new(),
+    };
+    let e = bind(studio.clone(), "0.0.0.0:0".parse().unwrap(), false).await;
+    assert!(matches!(e, Err(StartError::NotLoopback(_))));
+    let e = bind(
+        Studio {
+            dir: studio.dir.join("europa.bpmn"),
+            catalogues: Vec::new(),
+        },
+        "127.0.0.1:0".parse().unwrap(),
+        false,
+    )
+    .await;
+    assert!(matches!(e, Err(StartError::NoDirectory(_))));
+}
+
+#[test]
+fn a_catalogue_that_is_not_one_is_named() {
+    let d = dir("catalogue");
+    std::fs::write(d.join("bad.json"), "{\"server\": 3}").unwrap();
+    let e = crate::read_catalogues(&[d.join("bad.json")]).unwrap_err();
+    assert!(e.to_string().contains("bad.json: not a catalogue"), "{e}");
+}

@@ -1,0 +1,209 @@
+// TRACE Studio's page: bpmn-js Modeler with the properties panel and TRACE's own panel
+// (provider.jsx), the mission files of the studio's directory, and the executive's diagnostics
+// (the same as `trace validate`) on the elements and in a list, checked as the model changes.
+import BpmnModeler from 'bpmn-js/lib/Modeler';
+import { BpmnPropertiesPanelModule, BpmnPropertiesProviderModule } from 'bpmn-js-properties-panel';
+import zeebeModdle from 'zeebe-bpmn-moddle/resources/zeebe.json';
+import 'bpmn-js/dist/assets/diagram-js.css';
+import 'bpmn-js/dist/assets/bpmn-js.css';
+import 'bpmn-js/dist/assets/bpmn-font/css/bpmn.css';
+import '@bpmn-io/properties-panel/dist/assets/properties-panel.css';
+import './style.css';
+import traceModdle from './trace-moddle.json';
+import TracePanelModule from './provider.jsx';
+
+// Every error the page meets, for the operator's console and for tests to read.
+const errors = [];
+window.addEventListener('error', e => errors.push(String(e.message)));
+window.addEventListener('unhandledrejection', e => errors.push(String(e.reason)));
+
+/** The actions of every catalogue the studio knows, filled before the first import. */
+const catalogue = {
+  actions: [],
+  action(name) { return this.actions.find(a => a.name === name); },
+};
+
+const modeler = new BpmnModeler({
+  container: '#canvas',
+  propertiesPanel: { parent: '#panel' },
+  additionalModules: [
+    BpmnPropertiesPanelModule,
+    BpmnPropertiesProviderModule,
+    TracePanelModule,
+    { traceCatalogue: ['value', catalogue] },
+  ],
+  moddleExtensions: { trace: traceModdle, zeebe: zeebeModdle },
+});
+
+const $ = id => document.getElementById(id);
+let current = null;   // the open file's name
+let dirty = false;
+let checking = null;  // the pending check's timer
+
+function say(text, kind = '') {
+  $('status').textContent = text;
+  $('status').className = kind;
+}
+
+async function api(path, options = {}) {
+  const res = await fetch(path, options);
+  const body = await res.text();
+  if (!res.ok) {
+    let why = body;
+    try { why = JSON.parse(body).error || body; } catch (_) { /* plain text */ }
+    throw new Error(`${res.status}: ${why}`);
+  }
+  return body;
+}
+
+async function listMissions(select) {
+  const files = JSON.parse(await api('/api/missions'));
+  const box = $('missions');
+  box.replaceChildren(...files.map(f => new Option(f.name, f.name)));
+  if (select) box.value = select;
+  return files;
+}
+
+async function open(name) {
+  const xml = await api(`/api/missions/${encodeURIComponent(name)}`);
+  await show(name, xml);
+}
+
+async function show(name, xml) {
+  const { warnings } = await modeler.importXML(xml);
+  current = name;
+  dirty = false;
+  $('missions').value = name;
+  const canvas = modeler.get('canvas');
+  canvas.zoom('fit-viewport');
+  // The palette covers the canvas's left edge: leave it room.
+  const box = canvas.viewbox();
+  canvas.viewbox({ x: box.x - 80, y: box.y, width: box.width + 80, height: box.height });
+  say(warnings.length ? `${name}: opened with ${warnings.length} import warnings` : `${name}: opened`);
+  await check();
+}
+
+const EMPTY = `<?xml version="1.0" encoding="UTF-8"?>
+<bpmn:definitions xmlns:bpmn="http://www.omg.org/spec/BPMN/20100524/MODEL" xmlns:bpmndi="http://www.omg.org/spec/BPMN/20100524/DI" xmlns:dc="http://www.omg.org/spec/DD/20100524/DC" xmlns:trace="urn:trace:bpmn:1.0" id="Definitions" targetNamespace="urn:trace:missions">
+  <bpmn:process id="Mission" isExecutable="true">
+    <bpmn:startEvent id="Start" name="Start"/>
+  </bpmn:process>
+  <bpmndi:BPMNDiagram id="Diagram">
+    <bpmndi:BPMNPlane id="Plane" bpmnElement="Mission">
+      <bpmndi:BPMNShape id="Start_di" bpmnElement="Start"><dc:Bounds x="180" y="160" width="36" height="36"/></bpmndi:BPMNShape>
+    </bpmndi:BPMNPlane>
+  </bpmndi:BPMNDiagram>
+</bpmn:definitions>`;
+
+async function create() {
+  const taken = new Set([...$('missions').options].map(o => o.value));
+  let n = 1;
+  while (taken.has(`mission-${n}.bpmn`)) n += 1;
+  const name = `mission-${n}.bpmn`;
+  $('missions').append(new Option(name, name));
+  await show(name, EMPTY);
+  dirty = true;
+}
+
+async function save() {
+  if (!current) return;
+  const { xml } = await modeler.saveXML({ format: true });
+  try {
+    await api(`/api/missions/${encodeURIComponent(current)}`, {
+      method: 'PUT', headers: { 'Content-Type': 'application/xml' }, body: xml,
+    });
+    dirty = false;
+    say(`${current}: saved`, 'ok');
+    document.body.dataset.saved = current;
+  } catch (e) {
+    say(`${current}: not saved — ${e.message}`, 'bad');
+  }
+}
+
+/** Validates the model as it is now and shows every diagnostic. */
+async function check() {
+  const { xml } = await modeler.saveXML();
+  let report;
+  try {
+    report = JSON.parse(await api('/api/validate', {
+      method: 'POST', headers: { 'Content-Type': 'application/xml' }, body: xml,
+    }));
+  } catch (e) {
+    say(`cannot check: ${e.message}`, 'bad');
+    return;
+  }
+  const registry = modeler.get('elementRegistry');
+  const canvas = modeler.get('canvas');
+  const overlays = modeler.get('overlays');
+  overlays.remove({ type: 'trace-diagnostic' });
+  for (const el of registry.getAll()) {
+    canvas.removeMarker(el, 'trace-error');
+    canvas.removeMarker(el, 'trace-warning');
+  }
+  const items = [];
+  for (const d of report.diagnostics) {
+    const el = d.element && registry.get(d.element);
+    const kind = d.severity === 'error' ? 'error' : 'warning';
+    if (el) {
+      canvas.addMarker(el, `trace-${kind}`);
+      const badge = document.createElement('div');
+      badge.className = `trace-badge trace-badge-${kind}`;
+      badge.title = `${d.code}: ${d.message}`;
+      badge.textContent = kind === 'error' ? '!' : '?';
+      overlays.add(el, 'trace-diagnostic', { position: { top: -10, right: 10 }, html: badge });
+    }
+    const li = document.createElement('li');
+    li.className = `problem ${kind}`;
+    li.dataset.element = d.element || '';
+    li.dataset.code = d.code;
+    li.textContent = `${kind} ${d.code}${d.element ? ` at ${d.element}` : ''} (line ${d.line}): ${d.message}`;
+    if (el) li.addEventListener('click', () => {
+      modeler.get('selection').select(el);
+      canvas.scrollToElement(el);
+    });
+    items.push(li);
+  }
+  $('problems').replaceChildren(...items);
+  $('verdict').textContent = `— ${report.verdict}, ${report.diagnostics.length} diagnostics`;
+  document.body.dataset.verdict = report.verdict;
+  document.body.dataset.checks = String(Number(document.body.dataset.checks || 0) + 1);
+}
+
+modeler.on('commandStack.changed', () => {
+  dirty = true;
+  clearTimeout(checking);
+  checking = setTimeout(check, 400);
+});
+
+$('missions').addEventListener('change', e => {
+  if (dirty && !confirm(`Leave ${current} without saving?`)) {
+    e.target.value = current;
+    return;
+  }
+  open(e.target.value).catch(err => say(err.message, 'bad'));
+});
+$('new').addEventListener('click', () => create().catch(err => say(err.message, 'bad')));
+$('save').addEventListener('click', () => save());
+window.addEventListener('keydown', e => {
+  if ((e.ctrlKey || e.metaKey) && e.key === 's') {
+    e.preventDefault();
+    save();
+  }
+});
+window.addEventListener('beforeunload', e => { if (dirty) e.preventDefault(); });
+
+// For tests and tools: the modeler, to read the model the page holds.
+window.studio = { modeler, catalogue, errors };
+
+(async () => {
+  try {
+    catalogue.actions = JSON.parse(await api('/api/catalogues')).flatMap(c => c.actions);
+    const wanted = new URLSearchParams(location.search).get('file');
+    const files = await listMissions();
+    const first = wanted || (files[0] && files[0].name);
+    if (first) await open(first); else await create();
+  } catch (e) {
+    say(e.message, 'bad');
+  }
+  document.body.dataset.ready = 'true';
+})();

@@ -1,0 +1,347 @@
+//! TRACE Studio in a real browser: `trace studio` serves a directory holding the Europa mission,
+//! Debian's chromium (through chromedriver, WebDriver) opens it, the TRACE panel shows the
+//! task's action and goal inputs from the catalogues, a path that is not a goal field is
+//! refused under the field, a new task gets its action and a typed input through the panel,
+//! the executive's diagnostics land on the element they concern, and the saved file passes
+//! `trace validate` with the edit in it; a screenshot is kept for the README.
+
+use std::io::{BufRead, BufReader};
+use std::process::{Child, Command, Stdio};
+use std::time::Duration;
+
+use fantoccini::{Client, ClientBuilder, Locator};
+use mission_tests::{bin, repo};
+use serde_json::{Value, json};
+
+use crate::protocol::tempdir;
+
+/// A child process killed when dropped.
+struct Kill(Child);
+
+impl Drop for Kill {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// Starts `command` and returns it with the first stdout line that contains `needle`.
+fn start(mut command: Command, needle: &str) -> (Kill, String) {
+    let mut child = command
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .unwrap_or_else(|e| panic!("{command:?}: {e}"));
+    let out = child.stdout.take().expect("stdout");
+    let mut lines = BufReader::new(out).lines();
+    let line = loop {
+        match lines.next() {
+            Some(Ok(l)) if l.contains(needle) => break l,
+            Some(Ok(_)) => continue,
+            _ => panic!("{command:?} ended without saying {needle:?}"),
+        }
+    };
+    // Keep reading so the process never blocks on a full pipe.
+    std::thread::spawn(move || for _ in lines {});
+    (Kill(child), line)
+}
+
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .expect("a free port")
+}
+
+const WAIT: Duration = Duration::from_secs(30);
+
+#[test]
+fn the_studio_opens_checks_edits_and_saves_a_mission_in_headless_chromium() {
+    let dir = tempdir("studio");
+    let missions = dir.join("missions");
+    std::fs::create_dir_all(&missions).expect("missions dir");
+    let original =
+        std::fs::read_to_string(repo().join("deploy/missions/europa-bsm1.bpmn")).expect("europa");
+    std::fs::write(missions.join("europa-bsm1.bpmn"), &original).expect("copy");
+    let mut studio = Command::new(bin("trace"));
+    studio
+        .arg("studio")
+        .arg(&missions)
+        .args(["--port", "0", "--catalogue"])
+        .arg(repo().join("deploy/catalogues"))
+        .arg("--catalogue")
+        .arg(repo().join("deploy/ground/forms.json"));
+    let (_studio, ready) = start(studio, "ready http://");
+    let url = ready
+        .split_whitespace()
+        .nth(1)
+        .expect("the studio's address")
+        .to_owned();
+    let port = free_port();
+    let mut driver = Command::new("chromedriver");
+    driver.arg(format!("--port={port}"));
+    let (_driver, _) = start(driver, "started successfully");
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .expect("runtime");
+    rt.block_on(async move {
+        let mut caps = serde_json::Map::new();
+        caps.insert(
+            "goog:chromeOptions".into(),
+            json!({ "binary": "/usr/bin/chromium", "args": [
+                "--headless", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
+                "--disable-quic", "--no-first-run", "--disable-background-networking",
+                "--disable-component-update", "--disable-sync", "--window-size=1600,900"] }),
+        );
+        let c = ClientBuilder::new(hyper_util::client::legacy::connect::HttpConnector::new())
+            .capabilities(caps)
+            .connect(&format!("http://127.0.0.1:{port}"))
+            .await
+            .expect("a WebDriver session");
+        // A failing scenario still ends the session, or Chromium outlives the test.
+        let outcome = tokio::spawn(scenario(c.clone(), url, dir.clone())).await;
+        let _ = c.close().await;
+        if let Err(e) = outcome {
+            std::panic::resume_unwind(e.into_panic());
+        }
+    });
+    let saved = std::fs::read_to_string(missions.join("europa-bsm1.bpmn")).expect("saved");
+    assert!(
+        saved.contains(r#"target="exposure_ms" source="80""#),
+        "the edit is not in the saved file"
+    );
+    let out = Command::new(bin("trace"))
+        .arg("validate")
+        .arg(missions.join("europa-bsm1.bpmn"))
+        .output()
+        .expect("trace validate");
+    assert!(
+        out.status.success(),
+        "the saved file does not validate:\n{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+}
+
+/// Runs `script` in the page (its `arguments` are `args`) and returns its value.
+async fn js(c: &Client, script: &str, args: Vec<Value>) -> Value {
+    c.execute(script, args)
+        .await
+        .unwrap_or_else(|e| panic!("script failed: {e}\n{script}"))
+}
+
+/// Waits until `script` returns a truthy value; fails naming `what`.
+async fn until(c: &Client, what: &str, script: &str) -> Value {
+    let start = std::time::Instant::now();
+    loop {
+        let v = js(c, script, vec![]).await;
+        if !(v.is_null() || v == json!(false) || v == json!("") || v == json!(0)) {
+            return v;
+        }
+        if start.elapsed() > WAIT {
+            let errors = js(c, "return studio.errors", vec![]).await;
+            panic!("the page never showed {what}; its errors: {errors}");
+        }
+        // What is waited for is the page's state; this pause only spares the CPU.
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+}
+
+async fn click(c: &Client, css: &str) {
+    c.wait()
+        .at_most(WAIT)
+        .for_element(Locator::Css(css))
+        .await
+        .unwrap_or_else(|e| panic!("{css}: {e}"))
+        .click()
+        .await
+        .unwrap_or_else(|e| panic!("click {css}: {e}"));
+}
+
+/// Opens panel group `id` unless it is open (the panel keeps a group open across elements).
+async fn open_group(c: &Client, id: &str) {
+    let open = js(
+        c,
+        &format!(r#"return !!document.querySelector('[data-group-id="group-{id}"] .bio-properties-panel-group-entries.open')"#),
+        vec![],
+    )
+    .await;
+    if open != json!(true) {
+        click(
+            c,
+            &format!(r#"[data-group-id="group-{id}"] .bio-properties-panel-group-header"#),
+        )
+        .await;
+    }
+}
+
+/// Replaces the text of input `css` with `text`.
+async fn type_into(c: &Client, css: &str, text: &str) {
+    let field = c
+        .wait()
+        .at_most(WAIT)
+        .for_element(Locator::Css(css))
+        .await
+        .unwrap_or_else(|e| panic!("{css}: {e}"));
+    // Ctrl+A, release, then the text: one keystroke sequence (clearing first re-renders the
+    // field, and the element found would be stale).
+    field
+        .send_keys(&format!("\u{E009}a\u{E000}{text}"))
+        .await
+        .expect("type");
+}
+
+async fn scenario(c: Client, url: String, dir: std::path::PathBuf) {
+    c.goto(&url).await.expect("the studio's page");
+    until(
+        &c,
+        "the mission loaded",
+        "return document.body.dataset.ready === 'true' && document.body.dataset.checks",
+    )
+    .await;
+    let verdict = js(&c, "return document.body.dataset.verdict", vec![]).await;
+    assert_eq!(verdict, "valid", "Europa as the studio checks it");
+    let shapes = js(
+        &c,
+        "return studio.modeler.get('elementRegistry').getAll().length",
+        vec![],
+    )
+    .await;
+    assert!(
+        shapes.as_u64().is_some_and(|n| n > 100),
+        "{shapes} elements drawn"
+    );
+
+    // The panel shows the task's action and its goal inputs, from the catalogue.
+    click(&c, r#"g.djs-element[data-element-id="CapturePanorama"]"#).await;
+    open_group(&c, "trace-task").await;
+    let action = c
+        .find(Locator::Css("#bio-properties-panel-trace-resource"))
+        .await
+        .expect("the action field")
+        .prop("value")
+        .await
+        .expect("its value");
+    assert_eq!(action.as_deref(), Some("camera.take_panorama"));
+    open_group(&c, "trace-inputs").await;
+    let row = "CapturePanorama-trace-inputs-1";
+    click(
+        &c,
+        &format!(r#"[data-entry-id="{row}"] .bio-properties-panel-collapsible-entry-header"#),
+    )
+    .await;
+    // A path that is not a goal field is refused under the field, and not written.
+    type_into(&c, &format!("#bio-properties-panel-{row}-path"), "exposure").await;
+    let error = until(
+        &c,
+        "the path refused",
+        &format!(r#"const e = document.querySelector('[data-entry-id="{row}-path"] .bio-properties-panel-error'); return e && e.textContent"#),
+    )
+    .await;
+    assert!(
+        error
+            .as_str()
+            .is_some_and(|e| e.contains("not a goal field of camera.take_panorama")),
+        "{error}"
+    );
+    type_into(
+        &c,
+        &format!("#bio-properties-panel-{row}-path"),
+        "exposure_ms",
+    )
+    .await;
+    type_into(&c, &format!("#bio-properties-panel-{row}-expr"), "80").await;
+    let model = r#"const t = studio.modeler.get('elementRegistry').get('CapturePanorama').businessObject
+        .extensionElements.values.find(v => v.$type === 'trace:Task');
+        const i = t.inputs.find(i => i.target === 'exposure_ms'); return i && i.source"#;
+    until(
+        &c,
+        "the new exposure in the model",
+        &format!("{model} === '80'"),
+    )
+    .await;
+
+    // A new service task: the executive's diagnostics land on it; its action and a typed input
+    // come from the panel.
+    js(
+        &c,
+        "const m = studio.modeler; const root = m.get('canvas').getRootElement();
+         const bo = m.get('bpmnFactory').create('bpmn:ServiceTask', { id: 'Seismic', name: 'Record Seismic' });
+         m.get('modeling').createShape({ type: 'bpmn:ServiceTask', businessObject: bo }, { x: 400, y: 620 }, root);
+         m.get('selection').select(m.get('elementRegistry').get('Seismic'));",
+        vec![],
+    )
+    .await;
+    until(
+        &c,
+        "a problem on the new task",
+        r#"return document.querySelector('#problems li[data-element="Seismic"]')
+            && document.querySelector('g.djs-element[data-element-id="Seismic"]').classList.contains('trace-error')"#,
+    )
+    .await;
+    open_group(&c, "trace-task").await;
+    c.wait()
+        .at_most(WAIT)
+        .for_element(Locator::Css("#bio-properties-panel-trace-resource"))
+        .await
+        .expect("the action field");
+    // Picked as a browser does: the option chosen, then its input and change events.
+    js(
+        &c,
+        "const s = document.querySelector('#bio-properties-panel-trace-resource');
+         s.value = 'camera.take_panorama';
+         for (const e of ['input', 'change']) s.dispatchEvent(new Event(e, { bubbles: true }));",
+        vec![],
+    )
+    .await;
+    until(
+        &c,
+        "the action picked",
+        "const t = studio.modeler.get('elementRegistry').get('Seismic').businessObject.extensionElements;
+         return t && t.values.some(v => v.resource === 'camera.take_panorama')",
+    )
+    .await;
+    click(&c, r#"[data-group-id="group-trace-inputs"] .bio-properties-panel-group-header .bio-properties-panel-add-entry"#).await;
+    let binding = until(
+        &c,
+        "the new task's binding",
+        r#"const t = studio.modeler.get('elementRegistry').get('Seismic').businessObject.extensionElements;
+           const b = t && t.values.find(v => v.$type === 'trace:Task');
+           return b && b.inputs.length === 1 && { resource: b.resource, target: b.inputs[0].target, type: b.inputs[0].type }"#,
+    )
+    .await;
+    assert_eq!(
+        binding,
+        json!({ "resource": "camera.take_panorama", "target": "camera", "type": "string" })
+    );
+    // Clicking a problem selects its element.
+    js(&c, "studio.modeler.get('selection').select(null)", vec![]).await;
+    click(&c, r#"#problems li[data-element="Seismic"]"#).await;
+    let selected = js(
+        &c,
+        "return studio.modeler.get('selection').get().map(e => e.id)",
+        vec![],
+    )
+    .await;
+    assert_eq!(selected, json!(["Seismic"]));
+    // The problems as the binding now stands (checked again after the edit), then the picture.
+    until(
+        &c,
+        "the problem list checked again",
+        r#"return document.querySelector('#problems li[data-element="Seismic"]')
+            && !document.querySelector('#problems li[data-code="missing-resource"]')"#,
+    )
+    .await;
+    let shot = c.screenshot().await.expect("screenshot");
+    std::fs::write(dir.join("studio.png"), shot).expect("screenshot file");
+    // Removed again, the model is valid; saved, it is on disk.
+    js(
+        &c,
+        "const m = studio.modeler; m.get('modeling').removeElements([m.get('elementRegistry').get('Seismic')]);",
+        vec![],
+    )
+    .await;
+    until(&c, "the model valid again", "return document.body.dataset.verdict === 'valid' && !document.querySelector('#problems li.error')").await;
+    click(&c, "#save").await;
+    until(&c, "the file saved", "return document.body.dataset.saved").await;
+}
