@@ -38,7 +38,7 @@ const MAX_CONDITION_ROUNDS: usize = 1000;
 
 /// Token arrivals in one step at most. A model that loops without ever waiting would otherwise
 /// never return; its tokens become incidents instead.
-const MAX_MOVES: usize = 100_000;
+const MAX_MOVES: usize = 1_000_000;
 
 impl Run<'_> {
     pub(crate) fn mint(&mut self) -> u64 {

@@ -453,7 +453,7 @@ fn a_cycle_run_for_many_rounds_keeps_the_state_bounded() {
 }
 
 /// Documented bound (docs/engine-semantics.md): a cycle without any wait state would never let
-/// a step end; after 100,000 token moves in one step the looping token becomes an incident
+/// a step end; after 1,000,000 token moves in one step the looping token becomes an incident
 /// (the instance keeps running and does not end). Tokens of other branches are not affected:
 /// work dispatched before keeps its course, and the next input is processed normally.
 #[test]
@@ -469,14 +469,14 @@ fn a_cycle_without_a_wait_state_stops_at_the_move_bound_with_an_incident() {
         xor("N"),
     ]);
     let mut d = Driver::new(&body);
-    // Without move records: 100,000 moves would otherwise record as many entries.
+    // Without move records: a million moves would otherwise record a million entries.
     d.e = engine(&body).with_move_records(false);
     let out = d.start(&[]);
     assert_eq!(
         out,
         [
             "dispatch Z",
-            "incident the step exceeded 100000 token moves: the model loops without waiting"
+            "incident the step exceeded 1000000 token moves: the model loops without waiting"
         ]
     );
     let s = d.e.state();
