@@ -50,6 +50,8 @@ pub struct Station {
     policy: Option<Arc<Policy>>,
     /// Tasks kept in the store from before a restart, reopened when serving starts.
     resumed: Mutex<Vec<connector_zenoh::GoalHandle>>,
+    /// Told when a task whose answer is out is withdrawn: that answer's wait looks at why.
+    withdrawals: tokio::sync::Notify,
     _server: ActionServer,
     _alive: LivelinessToken,
 }
@@ -100,6 +102,7 @@ impl Station {
             desk: Mutex::new(Desk::default()),
             policy,
             resumed,
+            withdrawals: tokio::sync::Notify::new(),
             _server: server,
             _alive: alive,
         });
@@ -133,6 +136,7 @@ impl Station {
                             // Our own answer's verdict decides (it may be the winner).
                             Some(t) if t.answering => {
                                 t.withdrawn = Some(why.clone());
+                                self.withdrawals.notify_waiters();
                                 None
                             }
                             Some(_) => desk.close(&h.goal_id),
@@ -244,16 +248,42 @@ impl Station {
     ) -> Result<connector_api::wire::AnswerReply, connector_zenoh::AnswerError> {
         let mut pause = RETRY_FIRST;
         let mut after_withdrawal = 0;
+        let mine = format!("answered by {}@{}", answer.operator, self.id);
+        let applied = || connector_api::wire::AnswerReply {
+            goal_id: answer.goal_id.clone(),
+            applied: true,
+            reason: None,
+        };
+        let withdrawn_as_mine = || {
+            self.desk()
+                .get_mut(number)
+                .is_some_and(|t| t.withdrawn.as_deref() == Some(mine.as_str()))
+        };
         loop {
-            let sent = connector_zenoh::send_answer(
+            let send = connector_zenoh::send_answer(
                 &self.session,
                 &self.keys,
                 &self.forms.server,
                 action,
                 answer,
                 VERDICT_WAIT,
-            )
-            .await;
+            );
+            // The executive closes a task for every station with who answered it
+            // (`docs/protocol.md` §8a): our own name there is our verdict, even when the reply
+            // itself is lost (the last answer of a mission ends it, and the executive leaves).
+            let mine_withdrawn = async {
+                loop {
+                    let told = self.withdrawals.notified();
+                    if withdrawn_as_mine() {
+                        return;
+                    }
+                    told.await;
+                }
+            };
+            let sent = tokio::select! {
+                sent = send => sent,
+                () = mine_withdrawn => return Ok(applied()),
+            };
             let e = match sent {
                 Err(e @ connector_zenoh::AnswerError::NoExecutive(_)) => e,
                 judged => return judged,
