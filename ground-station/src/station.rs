@@ -32,12 +32,6 @@ const VERDICT_WAIT: Duration = Duration::from_secs(30);
 const RETRY_FIRST: Duration = Duration::from_millis(200);
 const RETRY_MAX: Duration = Duration::from_secs(5);
 
-/// Sends of an answer after its task was withdrawn while the answer was out. The withdrawal may
-/// be the answer's own success — its verdict lost on the way back (a link cut), the executive
-/// then closing the task for every station — and a repeat of the applied answer is confirmed
-/// as applied; the executive has just been heard, so a few sends settle it.
-const AFTER_WITHDRAWAL: u32 = 3;
-
 /// A running ground station.
 pub struct Station {
     session: Session,
@@ -239,7 +233,7 @@ impl Station {
 
     /// Sends the answer until the executive judges it: while no executive answers (it is
     /// down, restarting, or the link is cut), again with backoff, saying so — as long as the
-    /// task is on the desk, and [`AFTER_WITHDRAWAL`] times more once it is withdrawn.
+    /// task is on the desk and not withdrawn; a withdrawal that names this answer is its verdict.
     async fn judged(
         &self,
         number: u32,
@@ -247,7 +241,6 @@ impl Station {
         answer: &Answer,
     ) -> Result<connector_api::wire::AnswerReply, connector_zenoh::AnswerError> {
         let mut pause = RETRY_FIRST;
-        let mut after_withdrawal = 0;
         let mine = format!("answered by {}@{}", answer.operator, self.id);
         let applied = || connector_api::wire::AnswerReply {
             goal_id: answer.goal_id.clone(),
@@ -288,15 +281,13 @@ impl Station {
                 Err(e @ connector_zenoh::AnswerError::NoExecutive(_)) => e,
                 judged => return judged,
             };
-            let withdrawn = match self.desk().get_mut(number) {
-                Some(t) => t.withdrawn.is_some(),
-                None => return Err(e),
-            };
-            if withdrawn {
-                after_withdrawal += 1;
-                if after_withdrawal > AFTER_WITHDRAWAL {
-                    return Err(e);
-                }
+            // Withdrawn for anyone else's answer, or by the mission: ours was not applied.
+            let still = self
+                .desk()
+                .get_mut(number)
+                .is_some_and(|t| t.withdrawn.is_none());
+            if !still {
+                return Err(e);
             }
             say(&format!(
                 "task {number} answer pending: {e}; sending it again in {:.1} s",

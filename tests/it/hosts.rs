@@ -25,43 +25,7 @@ fn fly_europa(name: &str, stations: &[&str]) -> (Lab, Vec<serde_json::Value>) {
     let _one = FLIGHT.lock().unwrap_or_else(|p| p.into_inner());
     let mut lab = Lab::new(name, stations.len());
     lab.routers();
-    let sim = lab.command(
-        &lab.lander.clone(),
-        "elap-sim",
-        &[
-            "--zenoh-config",
-            &Lab::config("lander_sim.json5"),
-            "--speed",
-            "200000",
-            "--seed",
-            "1",
-            "--profile",
-            "quiet",
-            "--start-ms",
-            "1790000000000",
-            "--store",
-            "sim",
-        ],
-    );
-    lab.start("lander_sim", sim);
-    for (k, station) in stations.iter().enumerate() {
-        station_with(&mut lab, k + 1, station, &path("deploy/ground/policy.toml"));
-    }
-    let exec = lab.command(
-        &lab.lander,
-        "trace",
-        &[
-            "run",
-            &path("deploy/missions/europa-bsm1.bpmn"),
-            "--store",
-            "store",
-            "--connectors",
-            &path("deploy/connectors.toml"),
-            "--zenoh-config",
-            &Lab::config("executive.json5"),
-        ],
-    );
-    lab.spawn("executive", exec);
+    start_europa(&mut lab, "200000", stations);
     let status = lab.proc("executive").child.wait().expect("executive exits");
     assert!(
         status.success(),
@@ -509,16 +473,11 @@ answers = true
 grace_ms = 600000
 "#;
 
-#[test]
-fn an_answer_given_while_the_link_is_cut_is_applied_once_when_the_link_returns_an_hour_later() {
-    let mut lab = Lab::new("cut-answer", 1);
-    lab.routers();
+/// Starts the executive on the lander with [`APPROVAL`] and [`GROUND_ONLY`] at 300x (an hour
+/// of mission time is 12 s of wall time; the approval's six hours 72 s).
+fn run_approval(lab: &mut Lab) {
     std::fs::write(lab.dir.join("approval.bpmn"), APPROVAL).expect("mission");
     std::fs::write(lab.dir.join("ground.toml"), GROUND_ONLY).expect("connectors");
-    let policy = slow_policy(&lab, 1500);
-    station_with(&mut lab, 1, "station-a", &policy);
-    // 300x: an hour of mission time is 12 s, longer than Zenoh's 10 s lease, so the routers'
-    // link is declared dead and opened again; the approval's timer (PT6H) is 72 s away.
     let exec = lab.command(
         &lab.lander,
         "trace",
@@ -536,6 +495,17 @@ fn an_answer_given_while_the_link_is_cut_is_applied_once_when_the_link_returns_a
         ],
     );
     lab.spawn("executive", exec);
+}
+
+#[test]
+fn an_answer_given_while_the_link_is_cut_is_applied_once_when_the_link_returns_an_hour_later() {
+    let mut lab = Lab::new("cut-answer", 1);
+    lab.routers();
+    let policy = slow_policy(&lab, 1500);
+    station_with(&mut lab, 1, "station-a", &policy);
+    // 300x: an hour of mission time is 12 s, longer than Zenoh's 10 s lease, so the routers'
+    // link is declared dead and opened again; the approval's timer (PT6H) is 72 s away.
+    run_approval(&mut lab);
     let record = lab.dir.join("store/record.jsonl");
     let (open, _) = lab.until_recorded(&record, "the approval opened", WAIT, |l| {
         l["kind"] == "user_task_opened"
@@ -585,9 +555,10 @@ fn an_answer_given_while_the_link_is_cut_is_applied_once_when_the_link_returns_a
     assert_eq!(end["outcome"]["type"], "completed", "{end}");
 }
 
-/// Europa on the lander at `speed` with a policy station on the ground; returns once the
-/// executive is running (its record file path).
-fn start_europa(lab: &mut Lab, speed: &str) -> std::path::PathBuf {
+/// Europa on the lander at `speed` (the simulator's, on its store `sim`) with a policy
+/// station on each of `stations` ground hosts; returns once the executive is running (its
+/// record file path).
+fn start_europa(lab: &mut Lab, speed: &str, stations: &[&str]) -> std::path::PathBuf {
     let sim = lab.command(
         &lab.lander.clone(),
         "elap-sim",
@@ -607,7 +578,9 @@ fn start_europa(lab: &mut Lab, speed: &str) -> std::path::PathBuf {
         ],
     );
     lab.start("lander_sim", sim);
-    station_with(lab, 1, "station-a", &path("deploy/ground/policy.toml"));
+    for (k, station) in stations.iter().enumerate() {
+        station_with(lab, k + 1, station, &path("deploy/ground/policy.toml"));
+    }
     let exec = lab.command(
         &lab.lander,
         "trace",
@@ -658,7 +631,7 @@ fn a_link_cut_with_goals_in_flight_goes_unnoticed_on_the_lander_and_a_late_monit
         &["sub", "trace/*/exec/*/record"],
     );
     // 50,000x: Europa's 18 days in about half a minute, so the flight outlives the cut.
-    let record = start_europa(&mut lab, "50000");
+    let record = start_europa(&mut lab, "50000", &["station-a"]);
     lab.until_recorded(&record, "a lander activity dispatched", WAIT, |l| {
         l["kind"] == "dispatched" && l["resource"] == "excavation.excavate"
     });
@@ -759,8 +732,6 @@ fn seconds_of_latency_between_the_hosts_neither_repeat_an_answer_nor_lose_the_gr
     );
     lab.start("relay", relay);
     lab.ground_router_to(1, "ground-router1", "quic/127.0.0.1:7448", &slow);
-    std::fs::write(lab.dir.join("approval.bpmn"), APPROVAL).expect("mission");
-    std::fs::write(lab.dir.join("ground.toml"), GROUND_ONLY).expect("connectors");
     // The lander hears the station once the link across the relay is open.
     let lander = lab.lander.clone();
     lab.start_probe(
@@ -777,23 +748,7 @@ fn seconds_of_latency_between_the_hosts_neither_repeat_an_answer_nor_lose_the_gr
         Duration::from_secs(60),
     );
     // 300x: the approval's six hours are 72 s of wall time, many round trips.
-    let exec = lab.command(
-        &lab.lander,
-        "trace",
-        &[
-            "run",
-            "approval.bpmn",
-            "--store",
-            "store",
-            "--connectors",
-            "ground.toml",
-            "--speed",
-            "300",
-            "--zenoh-config",
-            &Lab::config("executive.json5"),
-        ],
-    );
-    lab.spawn("executive", exec);
+    run_approval(&mut lab);
     let status = lab.proc("executive").child.wait().expect("executive exits");
     assert!(
         status.success(),

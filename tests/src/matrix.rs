@@ -266,12 +266,12 @@ impl Deployment {
         let Net::Hosts(lab) = &mut self.net else {
             panic!("{} on loopback: there is no router", victim.name())
         };
+        lab.kill(&lab_router_name(victim, n));
+        let next = lab_router_name(victim, n + 1);
         if victim == Victim::LanderRouter {
-            lab.kill(&lab_router_name(victim, n));
-            lab.lander_router(&lab_router_name(victim, n + 1));
+            lab.lander_router(&next);
         } else {
-            lab.kill(&lab_router_name(victim, n));
-            lab.ground_router(1, &lab_router_name(victim, n + 1));
+            lab.ground_router(1, &next);
         }
     }
 

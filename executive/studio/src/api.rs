@@ -141,17 +141,13 @@ fn load(dir: &std::path::Path, bytes: &[u8]) -> Loaded {
     let options = Options::default();
     let max = options.limits.max_bytes;
     let mut resolve = |location: &str| -> Result<Vec<u8>, String> {
-        let p: PathBuf = files::path(dir, location)
-            .or_else(|_| {
-                // Imports may be any file of the directory, not only missions.
-                let plain = !location.contains(['/', '\\']) && !location.starts_with('.');
-                plain
-                    .then(|| dir.join(location))
-                    .ok_or_else(|| FileError::BadName(location.to_owned()))
-            })
-            .map_err(|e| {
-                format!("{e}: the studio reads imports from the mission directory only")
-            })?;
+        // Imports may be any file of the directory (not only missions), nothing outside it.
+        if location.contains(['/', '\\']) || location.starts_with('.') {
+            return Err(format!(
+                "`{location}`: the studio reads imports from the mission directory only"
+            ));
+        }
+        let p: PathBuf = dir.join(location);
         let bytes = std::fs::read(&p).map_err(|e| format!("{}: {e}", p.display()))?;
         if bytes.len() > max {
             return Err(format!(
