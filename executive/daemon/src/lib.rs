@@ -1,13 +1,14 @@
-//! executive: the TRACE executive process and the `trace` command.
+//! executive: the TRACE executive runtime behind the `trace` command.
 //!
-//! The binary is a thin `main` (argument parsing, logging, exit codes); everything it does is
-//! a library function here so tests can call it in-process.
+//! The `trace` binary (crate `executive/cli`) is a thin `main` (argument parsing, logging, exit
+//! codes); everything it does is a library function here, so tests and TRACE Studio call it
+//! in-process.
 //!
 //! Dependencies, chosen deliberately:
 //! - `clap` (derive) for the command line: subcommands, help and validation for free.
 //! - `codespan-reporting` for diagnostics: rustc-style source excerpts with carets, without
 //!   hand-formatting, and small (no proc-macros, unlike `miette`).
-//! - `anyhow` only in `main`; this library returns typed errors.
+//! - typed errors (`thiserror`); `anyhow` only in the command line's `main`.
 //! - `tracing` + `tracing-subscriber` for logs with an env filter.
 //! - `tokio` (current-thread runtime, timers, channels, signals) for the driver loop: one
 //!   thread is enough, since the engine step is microseconds and everything else waits.

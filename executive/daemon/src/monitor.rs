@@ -215,12 +215,33 @@ pub fn board(snapshot: &Value) -> String {
     out
 }
 
+/// Why [`watch`] stopped early.
+#[derive(Debug, thiserror::Error)]
+pub enum WatchError {
+    /// The Zenoh session or its configuration.
+    #[error(transparent)]
+    Session(#[from] connector_zenoh::SessionError),
+    /// A Zenoh operation failed.
+    #[error("zenoh: {0}")]
+    Zenoh(String),
+    /// The output could not be written.
+    #[error(transparent)]
+    Output(#[from] std::io::Error),
+    /// The liveliness subscription ended before a mission was found.
+    #[error("the monitor stopped before it found an executive")]
+    Stopped,
+}
+
+fn zenoh_error(e: impl std::fmt::Display) -> WatchError {
+    WatchError::Zenoh(e.to_string())
+}
+
 /// How often the readable view shows the board again (when something happened).
 const BOARD_EVERY: std::time::Duration = std::time::Duration::from_secs(2);
 
 /// Asks the executive for its present state.
-async fn state(session: &zenoh::Session, key: &str) -> anyhow::Result<Value> {
-    let replies = session.get(key).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+async fn state(session: &zenoh::Session, key: &str) -> Result<Value, WatchError> {
+    let replies = session.get(key).await.map_err(zenoh_error)?;
     Ok(match replies.recv_async().await {
         Ok(r) => r
             .result()
@@ -252,18 +273,15 @@ pub async fn watch(
     jsonl: bool,
     lines: Option<usize>,
     out: &mut (dyn std::io::Write + Send),
-) -> anyhow::Result<()> {
-    let session = zenoh
-        .open(Role::Spoke)
-        .await
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
+) -> Result<(), WatchError> {
+    let session = zenoh.open(Role::Spoke).await.map_err(zenoh_error)?;
     let keys = zenoh.keys()?;
     // Monitors announce themselves like every other process (`docs/protocol.md` §6).
     let _me = session
         .liveliness()
         .declare_token(keys.alive("monitor", &format!("monitor-{}", std::process::id())))
         .await
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
+        .map_err(zenoh_error)?;
     // Which mission: the one named, else the first executive alive.
     let (alive_tx, mut alive_rx) = mpsc::unbounded_channel::<(String, bool)>();
     let prefix = format!("{}/alive/exec/", keys.root());
@@ -276,12 +294,12 @@ pub async fn watch(
             let _ = alive_tx.send((id, s.kind() == zenoh::sample::SampleKind::Put));
         })
         .await
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
+        .map_err(zenoh_error)?;
     let mission = loop {
         match alive_rx.recv().await {
             Some((id, true)) if mission.as_ref().is_none_or(|m| *m == id) => break id,
             Some(_) => {}
-            None => anyhow::bail!("monitor stopped"),
+            None => return Err(WatchError::Stopped),
         }
     };
     // Subscribe first, then take the snapshot, so nothing falls between them.
@@ -292,7 +310,7 @@ pub async fn watch(
             let _ = tx.send(String::from_utf8_lossy(&s.payload().to_bytes()).into_owned());
         })
         .await
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
+        .map_err(zenoh_error)?;
     let snapshot = state(&session, &keys.exec_state(&mission)).await?;
     let seq0 = snapshot["seq"].as_u64().unwrap_or(0);
     if jsonl {
@@ -346,7 +364,7 @@ pub async fn watch(
         printed += 1;
         fresh = false;
     }
-    session.close().await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    session.close().await.map_err(zenoh_error)?;
     Ok(())
 }
 
