@@ -2,7 +2,8 @@
 //! Debian's chromium (through chromedriver, WebDriver) opens it, the TRACE panel shows the
 //! task's action and goal inputs from the catalogues, a path that is not a goal field is
 //! refused under the field, a new task gets its action and a typed input through the panel,
-//! the executive's diagnostics land on the element they concern, and the saved file passes
+//! the executive's diagnostics and `trace run`'s check against the catalogues land on the
+//! element they concern, and the saved file passes
 //! `trace validate` with the edit in it; a screenshot is kept for the README.
 
 use std::io::{BufRead, BufReader};
@@ -70,7 +71,9 @@ fn the_studio_opens_checks_edits_and_saves_a_mission_in_headless_chromium() {
         .args(["--port", "0", "--catalogue"])
         .arg(repo().join("deploy/catalogues"))
         .arg("--catalogue")
-        .arg(repo().join("deploy/ground/forms.json"));
+        .arg(repo().join("deploy/ground/forms.json"))
+        .arg("--connectors")
+        .arg(repo().join("deploy/connectors.toml"));
     let (_studio, ready) = start(studio, "ready http://");
     let url = ready
         .split_whitespace()
@@ -342,6 +345,31 @@ async fn scenario(c: Client, url: String, dir: std::path::PathBuf) {
     )
     .await;
     until(&c, "the model valid again", "return document.body.dataset.verdict === 'valid' && !document.querySelector('#problems li.error')").await;
+    // A binding as another tool might write it, naming an action no system serves: valid BPMN,
+    // but `trace run` would refuse it, and the studio says so on the task.
+    js(
+        &c,
+        "const m = studio.modeler; const el = m.get('elementRegistry').get('CapturePanorama');
+         const t = el.businessObject.extensionElements.values.find(v => v.$type === 'trace:Task');
+         m.get('modeling').updateModdleProperties(el, t, { resource: 'camera.take_pano' });",
+        vec![],
+    )
+    .await;
+    let line = until(
+        &c,
+        "the catalogue mismatch on the task",
+        r#"const li = document.querySelector('#problems li[data-code="catalogue-mismatch"][data-element="CapturePanorama"]');
+           return li && document.querySelector('g.djs-element[data-element-id="CapturePanorama"]').classList.contains('trace-error')
+             && document.body.dataset.mismatches === '1' && li.textContent"#,
+    )
+    .await;
+    assert!(
+        line.as_str()
+            .is_some_and(|l| l.contains("`camera.take_pano`") && l.contains("lander_sim")),
+        "{line}"
+    );
+    js(&c, "studio.modeler.get('commandStack').undo()", vec![]).await;
+    until(&c, "the mismatch gone with the undo", "return document.body.dataset.verdict === 'valid' && document.body.dataset.mismatches === '0' && !document.querySelector('#problems li.error')").await;
     click(&c, "#save").await;
     until(&c, "the file saved", "return document.body.dataset.saved").await;
 }

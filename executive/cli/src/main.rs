@@ -342,6 +342,10 @@ struct StudioArgs {
     /// DIR/../ground/forms.json, as laid out in deploy/.
     #[arg(long = "catalogue", value_name = "PATH")]
     catalogues: Vec<PathBuf>,
+    /// The connectors `trace run` would load: with them, tasks are also checked against the
+    /// catalogues as `trace run` checks them. Default: DIR/../connectors.toml if it exists.
+    #[arg(long, value_name = "FILE")]
+    connectors: Option<PathBuf>,
 }
 
 fn studio(args: StudioArgs) -> anyhow::Result<ExitCode> {
@@ -361,9 +365,18 @@ fn studio(args: StudioArgs) -> anyhow::Result<ExitCode> {
              missing): install them (Debian: apt-get install nodejs npm) and build again"
         );
     }
+    let connectors = match args
+        .connectors
+        .clone()
+        .or_else(|| Some(args.dir.join("../connectors.toml")).filter(|p| p.exists()))
+    {
+        Some(p) => Some(executive_studio::read_connectors(&p)?),
+        None => None,
+    };
     let studio = executive_studio::Studio {
         dir: args.dir.clone(),
         catalogues,
+        connectors,
     };
     let rt = one_worker()?;
     rt.block_on(async {

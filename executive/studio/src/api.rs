@@ -1,7 +1,6 @@
 //! The studio's HTTP routes: the page, the mission files, validation and the catalogues.
 //! Every refusal is JSON `{"error": "..."}` with a status that says whose fault it is.
 
-use std::path::PathBuf;
 use std::sync::Arc;
 
 use axum::Router;
@@ -10,11 +9,11 @@ use axum::extract::{DefaultBodyLimit, Path, State};
 use axum::http::{StatusCode, header};
 use axum::response::{IntoResponse, Json, Response};
 use axum::routing::{get, post};
-use executive_model::{Loaded, Options, Severity, load_bundle};
+use executive_model::Options;
 use serde_json::json;
 
 use crate::files::{self, FileError};
-use crate::{Studio, assets};
+use crate::{Studio, assets, checks};
 
 /// The routes of `studio`.
 pub fn router(studio: Studio) -> Router {
@@ -80,26 +79,44 @@ async fn write(State(s): Shared, Path(name): Path<String>, body: Bytes) -> Respo
     if let Err(e) = files::path(&s.dir, &name) {
         return file_error(e);
     }
-    let (verdict, diagnostics) = check(&s, body.clone()).await;
-    if verdict == "unreadable" {
+    let report = match run_check(&s, body.clone()).await {
+        Ok(r) => r,
+        Err(e) => return e,
+    };
+    if report.verdict == "unreadable" {
         return (
             StatusCode::UNPROCESSABLE_ENTITY,
             Json(json!({
                 "error": format!("{name} was not saved: it is not a BPMN model"),
-                "diagnostics": diagnostics,
+                "diagnostics": report.diagnostics,
             })),
         )
             .into_response();
     }
     match files::write(&s.dir, &name, &body).await {
-        Ok(()) => Json(json!({ "saved": name, "verdict": verdict })).into_response(),
+        Ok(()) => Json(json!({ "saved": name, "verdict": report.verdict })).into_response(),
         Err(e) => file_error(e),
     }
 }
 
+/// The checks of [`checks::check`] off the async threads (a large model takes a while).
+async fn run_check(studio: &Arc<Studio>, body: Bytes) -> Result<checks::Report, Response> {
+    let studio = Arc::clone(studio);
+    tokio::task::spawn_blocking(move || checks::check(&studio, &body))
+        .await
+        .map_err(|e| {
+            refuse(
+                StatusCode::INTERNAL_SERVER_ERROR,
+                format!("the check failed: {e}"),
+            )
+        })
+}
+
 async fn validate_text(State(s): Shared, body: Bytes) -> Response {
-    let (verdict, diagnostics) = check(&s, body).await;
-    Json(json!({ "verdict": verdict, "diagnostics": diagnostics })).into_response()
+    match run_check(&s, body).await {
+        Ok(report) => Json(report).into_response(),
+        Err(e) => e,
+    }
 }
 
 /// As `/api/validate`, for the model of file `name` (which need not exist yet).
@@ -112,51 +129,4 @@ async fn validate_named(State(s): Shared, Path(name): Path<String>, body: Bytes)
 
 async fn catalogues(State(s): Shared) -> Response {
     Json(&s.catalogues).into_response()
-}
-
-/// `trace validate` on `bytes` — the same verdict and diagnostics — with imports read from
-/// the mission directory (plain file names only).
-async fn check(studio: &Studio, bytes: Bytes) -> (&'static str, serde_json::Value) {
-    let dir = studio.dir.clone();
-    let loaded = tokio::task::spawn_blocking(move || load(&dir, &bytes)).await;
-    let Ok(loaded) = loaded else {
-        return ("unreadable", json!([]));
-    };
-    let verdict = if loaded.unreadable() {
-        "unreadable"
-    } else if loaded.graph.is_some()
-        && !loaded
-            .diagnostics
-            .iter()
-            .any(|d| d.severity == Severity::Error)
-    {
-        "valid"
-    } else {
-        "invalid"
-    };
-    (verdict, json!(loaded.diagnostics))
-}
-
-fn load(dir: &std::path::Path, bytes: &[u8]) -> Loaded {
-    let options = Options::default();
-    let max = options.limits.max_bytes;
-    let mut resolve = |location: &str| -> Result<Vec<u8>, String> {
-        // Imports may be any file of the directory (not only missions), nothing outside it.
-        if location.contains(['/', '\\']) || location.starts_with('.') {
-            return Err(format!(
-                "`{location}`: the studio reads imports from the mission directory only"
-            ));
-        }
-        let p: PathBuf = dir.join(location);
-        let bytes = std::fs::read(&p).map_err(|e| format!("{}: {e}", p.display()))?;
-        if bytes.len() > max {
-            return Err(format!(
-                "{} is {} bytes; the limit is {max}",
-                p.display(),
-                bytes.len()
-            ));
-        }
-        Ok(bytes)
-    };
-    load_bundle(bytes, &options, &mut resolve)
 }

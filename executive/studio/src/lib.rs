@@ -9,6 +9,8 @@
 //!   a save is atomic (a temporary file renamed over the old one).
 //! - [`api`]: the HTTP routes (axum on the executive's tokio) — the page, `GET/PUT
 //!   /api/missions/{name}`, `POST /api/validate`, `GET /api/catalogues`.
+//! - [`checks`]: what a check reports — `trace validate`'s diagnostics and, given the
+//!   connectors, `trace run`'s check against the catalogues, through the executive's library.
 //! - The page itself is built from pinned npm packages by `build.rs` (`web/`, see there) and
 //!   embedded in the binary; nothing third-party is committed.
 //!
@@ -17,6 +19,7 @@
 
 pub mod api;
 mod assets;
+pub mod checks;
 pub mod files;
 #[cfg(test)]
 mod tests;
@@ -24,15 +27,25 @@ mod tests;
 use std::net::SocketAddr;
 use std::path::PathBuf;
 
-use connector_api::Catalogue;
+use connector_api::{Catalogue, ConnectorsConfig};
 
 /// What one studio serves.
 #[derive(Clone, Debug)]
 pub struct Studio {
     /// The directory of mission files.
     pub dir: PathBuf,
-    /// The catalogues the TRACE panel offers actions from.
+    /// The catalogues read from files, which the TRACE panel offers actions from.
     pub catalogues: Vec<Catalogue>,
+    /// The connectors `trace run` would load (`deploy/connectors.toml`): with them, every check
+    /// also runs `trace run`'s check of the tasks against the catalogues.
+    pub connectors: Option<ConnectorsConfig>,
+}
+
+impl Studio {
+    /// The catalogues known now.
+    pub fn catalogues(&self) -> Vec<Catalogue> {
+        self.catalogues.clone()
+    }
 }
 
 /// Why the studio could not start.
@@ -88,7 +101,7 @@ pub async fn bind(studio: Studio, addr: SocketAddr, public: bool) -> Result<Boun
     Ok(Bound { listener, studio })
 }
 
-/// Why a catalogue file could not be read.
+/// Why a catalogue or connectors file could not be read.
 #[derive(Debug, thiserror::Error)]
 pub enum CatalogueError {
     /// The file or directory could not be read.
@@ -106,6 +119,14 @@ pub enum CatalogueError {
         path: PathBuf,
         /// Why.
         source: serde_json::Error,
+    },
+    /// The connectors configuration is not one (`deploy/connectors.toml`).
+    #[error("{path}: not a connectors configuration: {reason}")]
+    Connectors {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        reason: String,
     },
 }
 
@@ -141,6 +162,18 @@ pub fn read_catalogues(paths: &[PathBuf]) -> Result<Vec<Catalogue>, CatalogueErr
             })
         })
         .collect()
+}
+
+/// Reads a connectors configuration (`deploy/connectors.toml`) as `trace run` does.
+pub fn read_connectors(path: &std::path::Path) -> Result<ConnectorsConfig, CatalogueError> {
+    let text = std::fs::read_to_string(path).map_err(|source| CatalogueError::Io {
+        path: path.to_owned(),
+        source,
+    })?;
+    executive::connectors::parse_config(&text).map_err(|reason| CatalogueError::Connectors {
+        path: path.to_owned(),
+        reason,
+    })
 }
 
 /// Whether the page was built from the npm packages (false: the fallback page saying how).

@@ -20,13 +20,22 @@ fn dir(name: &str) -> PathBuf {
 }
 
 async fn serve(dir: PathBuf) -> SocketAddr {
-    let catalogues = crate::read_catalogues(&[PathBuf::from(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../deploy/catalogues"
-    ))])
-    .expect("catalogues");
+    let deploy = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../deploy"));
+    let catalogues =
+        crate::read_catalogues(&[deploy.join("catalogues"), deploy.join("ground/forms.json")])
+            .expect("catalogues");
     let bound = bind(
-        Studio { dir, catalogues },
+        Studio {
+            dir,
+            catalogues,
+            connectors: Some(
+                crate::read_connectors(std::path::Path::new(concat!(
+                    env!("CARGO_MANIFEST_DIR"),
+                    "/../../deploy/connectors.toml"
+                )))
+                .expect("connectors"),
+            ),
+        },
         "127.0.0.1:0".parse().unwrap(),
         false,
     )
@@ -105,6 +114,72 @@ async fn validation_reports_what_trace_validate_reports() {
     assert_eq!(json(&v)["verdict"], "unreadable");
     let (status, _) = http(addr, "POST", "/api/validate/..%2Fx.bpmn", EUROPA.as_bytes()).await;
     assert_eq!(status, 400);
+}
+
+#[tokio::test]
+async fn tasks_are_checked_against_the_catalogues_as_trace_run_would() {
+    let addr = serve(dir("catalogue")).await;
+    let (_, v) = http(addr, "POST", "/api/validate", EUROPA.as_bytes()).await;
+    let v = json(&v);
+    assert_eq!(v["catalogue"]["checked"], true, "{v}");
+    assert_eq!(v["catalogue"]["mismatches"], 0, "{v}");
+    assert_eq!(
+        v["catalogue"]["servers"],
+        serde_json::json!(["lander_sim", "ground"]),
+        "{v}"
+    );
+    assert_eq!(v["catalogue"]["missing"], serde_json::json!([]), "{v}");
+    // An action no system serves, and an input the action does not take (so its required
+    // field is not written): each named, on its task, while the model stays valid BPMN.
+    let broken = EUROPA
+        .replace(
+            r#"resource="world_model.build_terrain_map""#,
+            r#"resource="world_model.build_terrain""#,
+        )
+        .replace(r#"target="exposure_ms""#, r#"target="exposure_s""#);
+    let (_, v) = http(addr, "POST", "/api/validate", broken.as_bytes()).await;
+    let v = json(&v);
+    assert_eq!(v["verdict"], "valid", "{v}");
+    assert_eq!(v["catalogue"]["mismatches"], 3, "{v}");
+    let mismatches: Vec<_> = v["diagnostics"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|d| d["code"] == crate::checks::CATALOGUE_CODE)
+        .collect();
+    assert!(
+        mismatches.iter().any(|d| d["message"]
+            .as_str()
+            .unwrap()
+            .contains("`world_model.build_terrain`")),
+        "{v}"
+    );
+    assert!(
+        mismatches.iter().any(|d| d["message"]
+            .as_str()
+            .unwrap()
+            .contains("input `exposure_s`")),
+        "{v}"
+    );
+    assert!(
+        mismatches.iter().any(|d| d["message"]
+            .as_str()
+            .unwrap()
+            .contains("required goal field `exposure_ms`")),
+        "{v}"
+    );
+    for d in &mismatches {
+        let id = d["element"].as_str().unwrap();
+        let line = d["line"].as_u64().unwrap() as usize;
+        assert!(
+            broken
+                .lines()
+                .nth(line - 1)
+                .unwrap()
+                .contains(&format!("id=\"{id}\"")),
+            "line {line} is not {id}'s: {d}"
+        );
+    }
 }
 
 #[tokio::test]
@@ -191,6 +266,7 @@ async fn only_loopback_unless_asked_and_only_a_directory() {
     let studio = Studio {
         dir: dir("bind"),
         catalogues: Vec::new(),
+        connectors: None,
     };
     let e = bind(studio.clone(), "0.0.0.0:0".parse().unwrap(), false).await;
     assert!(matches!(e, Err(StartError::NotLoopback(_))));
@@ -198,6 +274,7 @@ async fn only_loopback_unless_asked_and_only_a_directory() {
         Studio {
             dir: studio.dir.join("europa.bpmn"),
             catalogues: Vec::new(),
+            connectors: None,
         },
         "127.0.0.1:0".parse().unwrap(),
         false,

@@ -120,6 +120,14 @@ async function save() {
   }
 }
 
+/** What the check against the systems' catalogues covered, for the verdict line. */
+function fit(c) {
+  if (!c || !c.checked) return '';
+  const missing = c.missing.length ? `; no catalogue for ${c.missing.join(', ')}` : '';
+  if (c.mismatches) return `; ${c.mismatches} catalogue mismatches (trace run would refuse)${missing}`;
+  return `; fits the catalogues of ${c.servers.join(', ') || 'no system'}${missing}`;
+}
+
 /** Validates the model as it is now and shows every diagnostic. */
 async function check() {
   const { xml } = await modeler.saveXML();
@@ -164,8 +172,9 @@ async function check() {
     items.push(li);
   }
   $('problems').replaceChildren(...items);
-  $('verdict').textContent = `— ${report.verdict}, ${report.diagnostics.length} diagnostics`;
+  $('verdict').textContent = `— ${report.verdict}, ${report.diagnostics.length} diagnostics${fit(report.catalogue)}`;
   document.body.dataset.verdict = report.verdict;
+  document.body.dataset.mismatches = String(report.catalogue ? report.catalogue.mismatches : 0);
   document.body.dataset.checks = String(Number(document.body.dataset.checks || 0) + 1);
 }
 

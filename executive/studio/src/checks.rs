@@ -1,0 +1,146 @@
+//! The checks the studio runs as the model changes: every diagnostic of `trace validate`, and
+//! the load-time check of `trace run` against the systems' catalogues (every resource served,
+//! input paths and types, outputs, caught error codes), each on the element it concerns.
+
+use std::path::{Path, PathBuf};
+
+use connector_api::{Catalogue, ConnectorsConfig};
+use executive_model::{Category, Diagnostic, Loaded, Options, Severity, load_bundle};
+use serde::Serialize;
+
+use crate::Studio;
+
+/// The code of a diagnostic from the catalogue check.
+pub const CATALOGUE_CODE: &str = "catalogue-mismatch";
+
+/// What `POST /api/validate` answers.
+#[derive(Debug, Serialize)]
+pub struct Report {
+    /// `trace validate`'s verdict: `valid`, `invalid` or `unreadable`.
+    pub verdict: &'static str,
+    /// Its diagnostics, then the catalogue check's (code [`CATALOGUE_CODE`], errors: `trace
+    /// run` would refuse to start), in that order.
+    pub diagnostics: Vec<Diagnostic>,
+    /// What the catalogue check covered.
+    pub catalogue: Coverage,
+}
+
+/// What the catalogue check covered.
+#[derive(Debug, Default, Serialize)]
+pub struct Coverage {
+    /// Whether it ran: a connectors configuration is known and the model is valid.
+    pub checked: bool,
+    /// The servers whose catalogues the tasks were checked against.
+    pub servers: Vec<String>,
+    /// Servers the configuration routes to but no catalogue was found for: their tasks'
+    /// fields are not checked (`trace run` would ask the running system).
+    pub missing: Vec<String>,
+    /// How many catalogue mismatches were found.
+    pub mismatches: usize,
+}
+
+/// `trace validate` on `bytes` (imports read from the mission directory, plain file names
+/// only), then, when the model is valid and the studio knows the connectors, the catalogue
+/// check of `trace run`.
+pub fn check(studio: &Studio, bytes: &[u8]) -> Report {
+    let loaded = load(&studio.dir, bytes);
+    let verdict = if loaded.unreadable() {
+        "unreadable"
+    } else if loaded.graph.is_some() && loaded.errors().next().is_none() {
+        "valid"
+    } else {
+        "invalid"
+    };
+    let mut diagnostics = loaded.diagnostics;
+    let mut catalogue = Coverage::default();
+    if let (Some(graph), Some(config)) = (&loaded.graph, &studio.connectors) {
+        let catalogues = served(config, &studio.catalogues());
+        catalogue.checked = true;
+        for (c, cat) in config.connectors.iter().zip(&catalogues) {
+            let list = if cat.is_some() {
+                &mut catalogue.servers
+            } else {
+                &mut catalogue.missing
+            };
+            if c.kind == connector_api::Kind::Zenoh && !list.iter().any(|s| s == c.server()) {
+                list.push(c.server().to_owned());
+            }
+        }
+        let uses = executive::connectors::task_uses(graph);
+        for m in connector_api::check(&uses, config, &catalogues) {
+            diagnostics.push(at_element(&loaded.text, &m.task, m.problem));
+            catalogue.mismatches += 1;
+        }
+    }
+    Report {
+        verdict,
+        diagnostics,
+        catalogue,
+    }
+}
+
+/// Each configured connector's catalogue, by its server id (`None`: none known, or a scripted
+/// connector, which serves anything).
+fn served(config: &ConnectorsConfig, catalogues: &[Catalogue]) -> Vec<Option<Catalogue>> {
+    config
+        .connectors
+        .iter()
+        .map(|c| match c.kind {
+            connector_api::Kind::Script => None,
+            connector_api::Kind::Zenoh => {
+                catalogues.iter().find(|k| k.server == c.server()).cloned()
+            }
+        })
+        .collect()
+}
+
+/// An error on element `id`, placed where `id="…"` is written in `text`.
+fn at_element(text: &str, id: &str, message: String) -> Diagnostic {
+    let offset = [format!("id=\"{id}\""), format!("id='{id}'")]
+        .iter()
+        .filter_map(|needle| text.find(needle.as_str()))
+        .min()
+        .map_or(0, |at| text[..at].rfind('<').unwrap_or(at));
+    let before = &text[..offset];
+    let line = before.matches('\n').count() + 1;
+    let column = before[before.rfind('\n').map_or(0, |n| n + 1)..]
+        .chars()
+        .count()
+        + 1;
+    Diagnostic {
+        severity: Severity::Error,
+        code: CATALOGUE_CODE,
+        category: Category::Execution,
+        constraint: None,
+        message,
+        file: None,
+        element: Some(id.to_owned()),
+        offset,
+        line,
+        column,
+    }
+}
+
+fn load(dir: &Path, bytes: &[u8]) -> Loaded {
+    let options = Options::default();
+    let max = options.limits.max_bytes;
+    let mut resolve = |location: &str| -> Result<Vec<u8>, String> {
+        // Imports may be any file of the directory (not only missions), nothing outside it.
+        if location.contains(['/', '\\']) || location.starts_with('.') {
+            return Err(format!(
+                "`{location}`: the studio reads imports from the mission directory only"
+            ));
+        }
+        let p: PathBuf = dir.join(location);
+        let bytes = std::fs::read(&p).map_err(|e| format!("{}: {e}", p.display()))?;
+        if bytes.len() > max {
+            return Err(format!(
+                "{} is {} bytes; the limit is {max}",
+                p.display(),
+                bytes.len()
+            ));
+        }
+        Ok(bytes)
+    };
+    load_bundle(bytes, &options, &mut resolve)
+}
