@@ -24,6 +24,11 @@ fn main() {
         std::fs::write(dist.join("index.html"), fallback(&why)).expect("fallback page");
     }
     write_assets(&dist, &out.join("assets.rs"));
+    // The installed packages, for tests that run Camunda's template validator on them.
+    println!(
+        "cargo:rustc-env=TRACE_STUDIO_NODE_MODULES={}",
+        out.join("web/node_modules").display()
+    );
 }
 
 /// `npm ci` (when the lockfile differs from the one installed) and the esbuild script.

@@ -97,6 +97,11 @@ enum Command {
     /// BPMN missions of DIR (default deploy/missions), with actions and typed inputs from the
     /// systems' catalogues. Listens on loopback only unless --public.
     Studio(StudioArgs),
+    /// Write Camunda element templates from the systems' catalogues, for planners who draw in
+    /// Camunda Modeler: one per action, for Camunda 7 and Camunda 8, with one typed field per
+    /// goal and result field. Camunda Modeler reads them from `.camunda/element-templates/`
+    /// beside a diagram or above it; what they write loads in `trace validate` and `trace run`.
+    Templates(TemplatesArgs),
     /// Verify a mission model with Spin before it flies: no deadlock, safeness, no dead
     /// activities, every run ends, no lost signal (exit 0 all hold, 1 violated, 2 incomplete
     /// or not verifiable).
@@ -276,6 +281,7 @@ fn main() -> anyhow::Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
         Command::Studio(args) => studio(args),
+        Command::Templates(args) => templates(args),
         Command::Verify(opts) => {
             let report = match executive::verify::verify(&opts) {
                 Ok(r) => r,
@@ -348,16 +354,69 @@ struct StudioArgs {
     connectors: Option<PathBuf>,
 }
 
-fn studio(args: StudioArgs) -> anyhow::Result<ExitCode> {
-    let mut paths = args.catalogues.clone();
-    if paths.is_empty() {
-        let up = args.dir.join("..");
-        paths.extend(
-            [up.join("catalogues"), up.join("ground/forms.json")]
-                .into_iter()
-                .filter(|p| p.exists()),
-        );
+/// `trace templates`' arguments.
+#[derive(clap::Args)]
+struct TemplatesArgs {
+    /// The directory of mission files the templates are for.
+    #[arg(default_value = "deploy/missions")]
+    dir: PathBuf,
+    /// Where to write them. Default: DIR/.camunda/element-templates.
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Catalogue files, or directories of them (repeatable). Default: DIR/../catalogues.
+    #[arg(long = "catalogue", value_name = "PATH")]
+    catalogues: Vec<PathBuf>,
+    /// The connectors, for resource names that differ from action names and for which
+    /// servers are ground stations (no templates). Default: DIR/../connectors.toml if it exists.
+    #[arg(long, value_name = "FILE")]
+    connectors: Option<PathBuf>,
+}
+
+/// The catalogues asked for, else those laid out beside `dir` as in deploy/.
+fn catalogue_paths(dir: &std::path::Path, asked: &[PathBuf]) -> Vec<PathBuf> {
+    if !asked.is_empty() {
+        return asked.to_vec();
     }
+    let up = dir.join("..");
+    [up.join("catalogues"), up.join("ground/forms.json")]
+        .into_iter()
+        .filter(|p| p.exists())
+        .collect()
+}
+
+/// The connectors asked for, else DIR/../connectors.toml if it exists.
+fn connectors_of(
+    dir: &std::path::Path,
+    asked: Option<PathBuf>,
+) -> anyhow::Result<Option<connector_api::ConnectorsConfig>> {
+    let path = asked.or_else(|| Some(dir.join("../connectors.toml")).filter(|p| p.exists()));
+    Ok(match path {
+        Some(p) => Some(executive_studio::read_connectors(&p)?),
+        None => None,
+    })
+}
+
+fn templates(args: TemplatesArgs) -> anyhow::Result<ExitCode> {
+    let paths = catalogue_paths(&args.dir, &args.catalogues);
+    anyhow::ensure!(
+        !paths.is_empty(),
+        "no catalogue: pass --catalogue PATH (a system's catalogue: elap-sim --print-catalogue)"
+    );
+    let catalogues = executive_studio::read_catalogues(&paths)?;
+    let connectors = connectors_of(&args.dir, args.connectors)?;
+    let out = args
+        .out
+        .unwrap_or_else(|| args.dir.join(".camunda/element-templates"));
+    let written = executive_studio::templates::write(&catalogues, connectors.as_ref(), &out)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", out.display()))?;
+    for f in &written {
+        println!("{}", f.display());
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn studio(args: StudioArgs) -> anyhow::Result<ExitCode> {
+    let paths = catalogue_paths(&args.dir, &args.catalogues);
     let catalogues = executive_studio::read_catalogues(&paths)?;
     if !executive_studio::has_page() {
         eprintln!(

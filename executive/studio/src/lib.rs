@@ -11,6 +11,7 @@
 //!   /api/missions/{name}`, `POST /api/validate`, `GET /api/catalogues`.
 //! - [`checks`]: what a check reports — `trace validate`'s diagnostics and, given the
 //!   connectors, `trace run`'s check against the catalogues, through the executive's library.
+//! - [`templates`]: Camunda element templates from the same catalogues (`trace templates`).
 //! - The page itself is built from pinned npm packages by `build.rs` (`web/`, see there) and
 //!   embedded in the binary; nothing third-party is committed.
 //!
@@ -21,6 +22,9 @@ pub mod api;
 mod assets;
 pub mod checks;
 pub mod files;
+pub mod templates;
+#[cfg(test)]
+mod templates_tests;
 #[cfg(test)]
 mod tests;
 
