@@ -4,7 +4,9 @@
 //! refused under the field, a new task gets its action and a typed input through the panel,
 //! the executive's diagnostics and `trace run`'s check against the catalogues land on the
 //! element they concern, and the saved file passes
-//! `trace validate` with the edit in it; a screenshot is kept for the README.
+//! `trace validate` with the edit in it; a screenshot is kept for the README. And the
+//! catalogues live: a studio on a router's network offers what a running simulator serves, and
+//! stops offering it when the simulator is gone.
 
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};
@@ -73,7 +75,9 @@ fn the_studio_opens_checks_edits_and_saves_a_mission_in_headless_chromium() {
         .arg("--catalogue")
         .arg(repo().join("deploy/ground/forms.json"))
         .arg("--connectors")
-        .arg(repo().join("deploy/connectors.toml"));
+        .arg(repo().join("deploy/connectors.toml"))
+        // The files only: another test's systems on this host stay out of it.
+        .arg("--offline");
     let (_studio, ready) = start(studio, "ready http://");
     let url = ready
         .split_whitespace()
@@ -204,6 +208,8 @@ async fn scenario(c: Client, url: String, dir: std::path::PathBuf) {
     .await;
     let verdict = js(&c, "return document.body.dataset.verdict", vec![]).await;
     assert_eq!(verdict, "valid", "Europa as the studio checks it");
+    let systems = js(&c, "return document.body.dataset.systems", vec![]).await;
+    assert_eq!(systems, "lander_sim (file) · ground (file)");
     let shapes = js(
         &c,
         "return studio.modeler.get('elementRegistry').getAll().length",
@@ -372,4 +378,99 @@ async fn scenario(c: Client, url: String, dir: std::path::PathBuf) {
     until(&c, "the mismatch gone with the undo", "return document.body.dataset.verdict === 'valid' && document.body.dataset.mismatches === '0' && !document.querySelector('#problems li.error')").await;
     click(&c, "#save").await;
     until(&c, "the file saved", "return document.body.dataset.saved").await;
+}
+
+/// One HTTP/1.1 request to the studio; the status and the body.
+fn http(addr: &str, method: &str, path: &str, body: &[u8]) -> (u16, String) {
+    use std::io::{Read, Write};
+    let mut s = std::net::TcpStream::connect(addr).expect("the studio accepts");
+    s.set_read_timeout(Some(WAIT)).expect("timeout");
+    write!(
+        s,
+        "{method} {path} HTTP/1.1\r\nHost: studio\r\nConnection: close\r\nContent-Length: {}\r\n\r\n",
+        body.len()
+    )
+    .expect("request");
+    s.write_all(body).expect("body");
+    let mut out = String::new();
+    s.read_to_string(&mut out).expect("response");
+    let status = out[9..12].parse().expect("a status");
+    let body = out.split_once("\r\n\r\n").map_or("", |(_, b)| b).to_owned();
+    (status, body)
+}
+
+/// The servers `GET /api/catalogues` offers, with their source.
+fn offered(addr: &str) -> Vec<(String, String)> {
+    let (status, body) = http(addr, "GET", "/api/catalogues", b"");
+    assert_eq!(status, 200, "{body}");
+    let list: Vec<Value> = serde_json::from_str(&body).expect("JSON");
+    list.iter()
+        .map(|c| {
+            (
+                c["server"].as_str().unwrap_or("?").to_owned(),
+                c["source"].as_str().unwrap_or("?").to_owned(),
+            )
+        })
+        .collect()
+}
+
+/// Asks until `done` holds for what is offered (each ask is a round of Zenoh queries).
+fn until_offered(addr: &str, what: &str, done: impl Fn(&[(String, String)]) -> bool) {
+    let start = std::time::Instant::now();
+    loop {
+        let now = offered(addr);
+        if done(&now) {
+            return;
+        }
+        assert!(start.elapsed() < WAIT, "{what}: still offered {now:?}");
+    }
+}
+
+#[test]
+fn the_studio_offers_what_the_running_systems_serve() {
+    let dir = tempdir("studio-live");
+    let missions = dir.join("missions");
+    std::fs::create_dir_all(&missions).expect("missions dir");
+    let hub = format!("tcp/127.0.0.1:{}", free_port());
+    let mut router = Command::new(bin("trace"));
+    router.args(["router", "--no-multicast-scouting", "-l", &hub]);
+    let (_router, _) = start(router, "ready router");
+    let client = ["--mode", "client", "--no-multicast-scouting", "-e", &hub];
+    // No catalogue file: whatever the studio offers comes from the network.
+    let mut studio = Command::new(bin("trace"));
+    studio
+        .arg("studio")
+        .arg(&missions)
+        .args(["--port", "0", "--connectors"])
+        .arg(repo().join("deploy/connectors.toml"))
+        .args(client);
+    let (_studio, ready) = start(studio, "ready http://");
+    assert!(ready.contains("0 system(s) serving now"), "{ready}");
+    let addr = ready
+        .split_whitespace()
+        .nth(1)
+        .and_then(|u| u.strip_prefix("http://"))
+        .map(|u| u.trim_end_matches('/').to_owned())
+        .expect("the studio's address");
+    assert_eq!(offered(&addr), []);
+
+    let mut sim = Command::new(bin("elap-sim"));
+    sim.args(["--speed", "1000", "--profile", "quiet", "--seed", "1"])
+        .args(client);
+    let (sim, _) = start(sim, "ready");
+    until_offered(&addr, "the simulator's catalogue, live", |o| {
+        o == [("lander_sim".to_owned(), "live".to_owned())]
+    });
+    // The check uses it as `trace run` would: the lander's tasks are checked, the ground's
+    // forms are not known here.
+    let europa = std::fs::read(repo().join("deploy/missions/europa-bsm1.bpmn")).expect("europa");
+    let (_, report) = http(&addr, "POST", "/api/validate", &europa);
+    let report: Value = serde_json::from_str(&report).expect("JSON");
+    assert_eq!(
+        report["catalogue"],
+        json!({ "checked": true, "servers": ["lander_sim"], "missing": ["ground"], "mismatches": 0 }),
+        "{report}"
+    );
+    drop(sim);
+    until_offered(&addr, "the simulator gone", |o| o.is_empty());
 }

@@ -95,7 +95,9 @@ enum Command {
     },
     /// Serve TRACE Studio, the mission composer, in the browser: open, draw, check and save the
     /// BPMN missions of DIR (default deploy/missions), with actions and typed inputs from the
-    /// systems' catalogues. Listens on loopback only unless --public.
+    /// systems' catalogues — served live by the running systems over Zenoh, else read from
+    /// files — and every task checked against them as `trace run` would. Listens on loopback
+    /// only unless --public.
     Studio(StudioArgs),
     /// Write Camunda element templates from the systems' catalogues, for planners who draw in
     /// Camunda Modeler: one per action, for Camunda 7 and Camunda 8, with one typed field per
@@ -216,6 +218,7 @@ fn main() -> anyhow::Result<ExitCode> {
             | Command::Fly { .. }
             | Command::Monitor { .. }
             | Command::Router { .. }
+            | Command::Studio(_)
     ) {
         logging("warn", false);
     }
@@ -352,6 +355,13 @@ struct StudioArgs {
     /// catalogues as `trace run` checks them. Default: DIR/../connectors.toml if it exists.
     #[arg(long, value_name = "FILE")]
     connectors: Option<PathBuf>,
+    /// Do not join Zenoh: offer only the catalogue files.
+    #[arg(long)]
+    offline: bool,
+    /// How to reach the running systems, whose catalogues win over the files (as the
+    /// deployment's other processes are configured: a router's client, or a peer).
+    #[command(flatten)]
+    zenoh: connector_zenoh::ZenohArgs,
 }
 
 /// `trace templates`' arguments.
@@ -416,6 +426,7 @@ fn templates(args: TemplatesArgs) -> anyhow::Result<ExitCode> {
 }
 
 fn studio(args: StudioArgs) -> anyhow::Result<ExitCode> {
+    logging("warn,zenoh=error", false);
     let paths = catalogue_paths(&args.dir, &args.catalogues);
     let catalogues = executive_studio::read_catalogues(&paths)?;
     if !executive_studio::has_page() {
@@ -432,20 +443,32 @@ fn studio(args: StudioArgs) -> anyhow::Result<ExitCode> {
         Some(p) => Some(executive_studio::read_connectors(&p)?),
         None => None,
     };
-    let studio = executive_studio::Studio {
-        dir: args.dir.clone(),
-        catalogues,
-        connectors,
-    };
     let rt = one_worker()?;
     rt.block_on(async {
+        let live = if args.offline {
+            None
+        } else {
+            Some(executive_studio::live::Live::join(&args.zenoh).await?)
+        };
+        let heard = live.as_ref().map_or(0, |l| l.heard().len());
+        let studio = executive_studio::Studio {
+            dir: args.dir.clone(),
+            catalogues,
+            connectors,
+            live,
+        };
         let addr = std::net::SocketAddr::new(args.address, args.port);
         let bound = executive_studio::bind(studio, addr, args.public).await?;
         let at = bound.addr()?;
         println!(
-            "ready http://{at}/ — missions in {}, {} catalogue(s); Ctrl-C stops",
+            "ready http://{at}/ — missions in {}, {} catalogue file(s), {}; Ctrl-C stops",
             args.dir.display(),
-            paths.len()
+            paths.len(),
+            if args.offline {
+                "offline".to_owned()
+            } else {
+                format!("{heard} system(s) serving now")
+            }
         );
         tokio::select! {
             r = bound.serve() => r?,

@@ -127,6 +127,20 @@ async fn validate_named(State(s): Shared, Path(name): Path<String>, body: Bytes)
     validate_text(State(s), body).await
 }
 
+/// Every catalogue known, each with `"source": "live" | "file"`; the running systems are
+/// asked again first.
 async fn catalogues(State(s): Shared) -> Response {
-    Json(&s.catalogues).into_response()
+    if let Some(live) = &s.live {
+        live.ask().await;
+    }
+    let list: Vec<serde_json::Value> = s
+        .sourced()
+        .into_iter()
+        .map(|(c, source)| {
+            let mut v = json!(c);
+            v["source"] = json!(source);
+            v
+        })
+        .collect();
+    Json(list).into_response()
 }

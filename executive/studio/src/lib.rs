@@ -11,6 +11,7 @@
 //!   /api/missions/{name}`, `POST /api/validate`, `GET /api/catalogues`.
 //! - [`checks`]: what a check reports — `trace validate`'s diagnostics and, given the
 //!   connectors, `trace run`'s check against the catalogues, through the executive's library.
+//! - [`live`]: the catalogues the running systems serve, over Zenoh.
 //! - [`templates`]: Camunda element templates from the same catalogues (`trace templates`).
 //! - The page itself is built from pinned npm packages by `build.rs` (`web/`, see there) and
 //!   embedded in the binary; nothing third-party is committed.
@@ -22,6 +23,7 @@ pub mod api;
 mod assets;
 pub mod checks;
 pub mod files;
+pub mod live;
 pub mod templates;
 #[cfg(test)]
 mod templates_tests;
@@ -43,12 +45,42 @@ pub struct Studio {
     /// The connectors `trace run` would load (`deploy/connectors.toml`): with them, every check
     /// also runs `trace run`'s check of the tasks against the catalogues.
     pub connectors: Option<ConnectorsConfig>,
+    /// The studio's place on the Zenoh network, when it joined one: the catalogues the
+    /// running systems serve.
+    pub live: Option<std::sync::Arc<live::Live>>,
+}
+
+/// Where a catalogue the studio offers came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Source {
+    /// Served now by a running system.
+    Live,
+    /// Read from a file.
+    File,
 }
 
 impl Studio {
-    /// The catalogues known now.
+    /// The catalogues known now, with where each came from: every live one, then the files
+    /// of servers not heard live.
+    pub fn sourced(&self) -> Vec<(Catalogue, Source)> {
+        let mut out: Vec<(Catalogue, Source)> = self
+            .live
+            .iter()
+            .flat_map(|l| l.heard())
+            .map(|c| (c, Source::Live))
+            .collect();
+        for c in &self.catalogues {
+            if !out.iter().any(|(k, _)| k.server == c.server) {
+                out.push((c.clone(), Source::File));
+            }
+        }
+        out
+    }
+
+    /// The catalogues known now (see [`Studio::sourced`]).
     pub fn catalogues(&self) -> Vec<Catalogue> {
-        self.catalogues.clone()
+        self.sourced().into_iter().map(|(c, _)| c).collect()
     }
 }
 

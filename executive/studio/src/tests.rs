@@ -35,6 +35,7 @@ async fn serve(dir: PathBuf) -> SocketAddr {
                 )))
                 .expect("connectors"),
             ),
+            live: None,
         },
         "127.0.0.1:0".parse().unwrap(),
         false,
@@ -267,6 +268,7 @@ async fn only_loopback_unless_asked_and_only_a_directory() {
         dir: dir("bind"),
         catalogues: Vec::new(),
         connectors: None,
+        live: None,
     };
     let e = bind(studio.clone(), "0.0.0.0:0".parse().unwrap(), false).await;
     assert!(matches!(e, Err(StartError::NotLoopback(_))));
@@ -275,6 +277,7 @@ async fn only_loopback_unless_asked_and_only_a_directory() {
             dir: studio.dir.join("europa.bpmn"),
             catalogues: Vec::new(),
             connectors: None,
+            live: None,
         },
         "127.0.0.1:0".parse().unwrap(),
         false,

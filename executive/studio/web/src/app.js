@@ -204,9 +204,26 @@ window.addEventListener('beforeunload', e => { if (dirty) e.preventDefault(); })
 // For tests and tools: the modeler, to read the model the page holds.
 window.studio = { modeler, catalogue, errors };
 
+/**
+ * Fetches the catalogues (the server asks the running systems first) and shows where each
+ * came from; the model is checked again when that changed.
+ */
+async function catalogues() {
+  const list = JSON.parse(await api('/api/catalogues'));
+  catalogue.actions = list.flatMap(c => c.actions);
+  const systems = list.map(c => `${c.server} (${c.source})`).join(' · ') || 'none';
+  const changed = $('systems').textContent !== `catalogues: ${systems}`;
+  $('systems').textContent = `catalogues: ${systems}`;
+  document.body.dataset.systems = systems;
+  if (changed && current) check();
+}
+
+// Systems come and go while a planner draws.
+setInterval(() => catalogues().catch(e => say(`catalogues: ${e.message}`, 'bad')), 10000);
+
 (async () => {
   try {
-    catalogue.actions = JSON.parse(await api('/api/catalogues')).flatMap(c => c.actions);
+    await catalogues();
     const wanted = new URLSearchParams(location.search).get('file');
     const files = await listMissions();
     const first = wanted || (files[0] && files[0].name);
