@@ -66,6 +66,25 @@ fn the_studio_opens_checks_edits_and_saves_a_mission_in_headless_chromium() {
     let original =
         std::fs::read_to_string(repo().join("deploy/missions/europa-bsm1.bpmn")).expect("europa");
     std::fs::write(missions.join("europa-bsm1.bpmn"), &original).expect("copy");
+    // A copy with a seeded flaw: the merge before Communicate Until Death made a parallel
+    // join, which waits for all three of its incoming paths where only one ever comes.
+    let flawed = original
+        .replace(
+            r#"<bpmn:exclusiveGateway id="ToCommunicate""#,
+            r#"<bpmn:parallelGateway id="ToCommunicate""#,
+        )
+        .replacen(
+            "</bpmn:exclusiveGateway>\n  <bpmn:subProcess id=\"CommunicateUntilDeath\"",
+            "</bpmn:parallelGateway>\n  <bpmn:subProcess id=\"CommunicateUntilDeath\"",
+            1,
+        );
+    assert_ne!(flawed, original);
+    std::fs::write(missions.join("europa-flawed.bpmn"), &flawed).expect("flawed copy");
+    std::fs::copy(
+        repo().join("deploy/missions/europa-bsm1.req.toml"),
+        missions.join("europa-flawed.req.toml"),
+    )
+    .expect("requirements");
     let mut studio = Command::new(bin("trace"));
     studio
         .arg("studio")
@@ -378,6 +397,73 @@ async fn scenario(c: Client, url: String, dir: std::path::PathBuf) {
     until(&c, "the mismatch gone with the undo", "return document.body.dataset.verdict === 'valid' && document.body.dataset.mismatches === '0' && !document.querySelector('#problems li.error')").await;
     click(&c, "#save").await;
     until(&c, "the file saved", "return document.body.dataset.saved").await;
+
+    // Verification on the diagram: the flawed copy, its requirements beside it.
+    js(
+        &c,
+        "const s = document.getElementById('missions'); s.value = 'europa-flawed.bpmn';
+         s.dispatchEvent(new Event('change', { bubbles: true }));",
+        vec![],
+    )
+    .await;
+    until(
+        &c,
+        "the flawed copy and its requirements",
+        "return document.getElementById('requirements').value.includes('ends_through_communication')
+           && studio.modeler.get('elementRegistry').get('ToCommunicate').type === 'bpmn:ParallelGateway'",
+    )
+    .await;
+    click(&c, "#verify").await;
+    until(&c, "the verdicts", "return document.body.dataset.verified").await;
+    let verified = js(&c, "return document.body.dataset.verified", vec![]).await;
+    assert_eq!(verified, "violated");
+    let deadlock = js(
+        &c,
+        r#"const li = document.querySelector('#properties li[data-name="no_deadlock"]'); return li && li.className"#,
+        vec![],
+    )
+    .await;
+    assert_eq!(deadlock, "property violated");
+    // The counterexample, stepped forward: each step's element is the current one, every
+    // earlier one stays marked as visited, in the counterexample's order.
+    let steps = js(&c, "return studio.verification.replay().steps", vec![]).await;
+    let steps = steps.as_array().expect("steps").clone();
+    assert!(steps.len() > 5, "{steps:?}");
+    let shown: Vec<String> = steps
+        .iter()
+        .map(|s| {
+            let step = &s["step"];
+            let path = step["path"].as_str().unwrap_or("");
+            match path.split('/').next().filter(|p| !p.is_empty()) {
+                Some(call) => call.to_owned(),
+                None => step["element"].as_str().unwrap_or("").to_owned(),
+            }
+        })
+        .collect();
+    for (i, id) in shown.iter().enumerate() {
+        let now = js(&c, "return document.body.dataset.replay", vec![]).await;
+        assert_eq!(now, format!("{}/{}:{id}", i + 1, steps.len()), "step {i}");
+        if !id.is_empty() {
+            let marked = js(
+                &c,
+                "const m = studio.modeler.get('canvas'); return arguments[0].filter(Boolean).map(id => [id, m.hasMarker(id, 'trace-current'), m.hasMarker(id, 'trace-visited')])",
+                vec![json!(shown[..=i])],
+            )
+            .await;
+            for m in marked.as_array().expect("markers") {
+                let (el, current) = (m[0].as_str().unwrap(), m[1] == json!(true));
+                assert!(
+                    current == (el == id) && (current || m[2] == json!(true)),
+                    "step {i}: {el} marked {m}"
+                );
+            }
+        }
+        click(&c, "#replay-forward").await;
+    }
+    let shot = c.screenshot().await.expect("screenshot");
+    std::fs::write(dir.join("studio-verify.png"), shot).expect("screenshot file");
+    let errors = js(&c, "return studio.errors", vec![]).await;
+    assert_eq!(errors, json!([]), "errors in the page");
 }
 
 /// One HTTP/1.1 request to the studio; the status and the body.

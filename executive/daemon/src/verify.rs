@@ -111,48 +111,94 @@ pub fn verify(opts: &VerifyOptions) -> Result<Report, VerifyError> {
     let path = &opts.mission;
     let loaded = crate::validate::load_file(path, &executive_model::Options::default())
         .map_err(|e| VerifyError::Read(format!("{}: {e}", path.display())))?;
-    let Some(graph) = loaded.graph else {
-        let first = loaded
+    let req_file = opts.requirements.clone().or_else(|| {
+        let beside = path.with_extension("req.toml");
+        beside.exists().then_some(beside)
+    });
+    let requirements = match req_file {
+        Some(f) => {
+            let text =
+                std::fs::read_to_string(&f).map_err(|e| executive_verify::RequirementsError {
+                    path: f.display().to_string(),
+                    reason: e.to_string(),
+                })?;
+            Some((f, text))
+        }
+        None => None,
+    };
+    verify_loaded(Job {
+        mission: path.display().to_string(),
+        loaded,
+        requirements,
+        dir: opts.dir.clone().unwrap_or_else(|| default_work_dir(path)),
+        loops: opts.loops,
+        depth: opts.depth,
+        native: opts.native,
+    })
+}
+
+/// One verification of a model already read (`trace verify`, and the studio's, which holds
+/// the model and its requirements as text).
+pub struct Job {
+    /// The model's name in the report (its path).
+    pub mission: String,
+    /// The model as loaded.
+    pub loaded: executive_model::Loaded,
+    /// The requirements file's path (for messages and the report) and its text.
+    pub requirements: Option<(PathBuf, String)>,
+    /// Where the work files go.
+    pub dir: PathBuf,
+    /// As [`VerifyOptions::loops`].
+    pub loops: u8,
+    /// As [`VerifyOptions::depth`].
+    pub depth: u64,
+    /// As [`VerifyOptions::native`].
+    pub native: bool,
+}
+
+/// Verifies a loaded model against its requirements.
+pub fn verify_loaded(job: Job) -> Result<Report, VerifyError> {
+    let Some(graph) = job.loaded.graph else {
+        let first = job
+            .loaded
             .diagnostics
             .iter()
             .find(|d| d.severity == executive_model::Severity::Error)
             .map(|d| d.message.clone())
             .unwrap_or_default();
         return Err(VerifyError::Invalid {
-            path: path.display().to_string(),
+            path: job.mission,
             first,
         });
     };
-    let req_file = opts.requirements.clone().or_else(|| {
-        let beside = path.with_extension("req.toml");
-        beside.exists().then_some(beside)
-    });
-    let loaded = match &req_file {
-        Some(f) => executive_verify::requirements::load(f, &graph)?,
+    let loaded = match &job.requirements {
+        Some((f, text)) => {
+            executive_verify::requirements::parse(text, &f.display().to_string(), &graph)?
+        }
         None => Default::default(),
     };
     let reqs = loaded.requirements;
     let (atoms, formulas) = executive_verify::requirements::shared_atoms(&reqs);
     let t = executive_verify::translate(
         &graph,
-        Bounds { loops: opts.loops },
+        Bounds { loops: job.loops },
         &atoms,
         &loaded.variables,
     )
     .map_err(|refusals| VerifyError::Refused {
-        path: path.display().to_string(),
+        path: job.mission.clone(),
         refusals,
     })?;
     let ltls = executive_verify::requirements::claims(&reqs, &formulas, &t);
-    let dir = opts.dir.clone().unwrap_or_else(|| default_work_dir(path));
+    let dir = job.dir;
     let limits = Limits {
-        depth: opts.depth,
+        depth: job.depth,
         ..Limits::default()
     };
     let checked = executive_verify::check(&t, &ltls, &dir, limits)?;
     let properties = checked.properties;
     let graph = std::sync::Arc::new(graph);
-    let native = opts
+    let native = job
         .native
         .then(|| executive_verify::explore(std::sync::Arc::clone(&graph), 2_000_000));
     for o in &properties {
@@ -164,8 +210,8 @@ pub fn verify(opts: &VerifyOptions) -> Result<Report, VerifyError> {
         }
     }
     Ok(Report {
-        mission: path.display().to_string(),
-        requirements: req_file,
+        mission: job.mission,
+        requirements: job.requirements.map(|(f, _)| f),
         properties,
         dir,
         ends: checked.ends,

@@ -121,7 +121,8 @@ fn at_element(text: &str, id: &str, message: String) -> Diagnostic {
     }
 }
 
-fn load(dir: &Path, bytes: &[u8]) -> Loaded {
+/// Loads a model as `trace validate` does, imports read from `dir` (plain file names only).
+pub fn load(dir: &Path, bytes: &[u8]) -> Loaded {
     let options = Options::default();
     let max = options.limits.max_bytes;
     let mut resolve = |location: &str| -> Result<Vec<u8>, String> {

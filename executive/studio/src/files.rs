@@ -1,4 +1,5 @@
-//! The mission directory: listing, reading and atomically writing `*.bpmn` files by name.
+//! The mission directory: listing, reading and atomically writing `*.bpmn` files by name, and
+//! each mission's requirements file beside it (`<stem>.req.toml`).
 
 use std::path::{Path, PathBuf};
 
@@ -76,30 +77,55 @@ pub async fn list(dir: &Path) -> Result<Vec<Entry>, FileError> {
     Ok(out)
 }
 
+/// The requirements file of mission `name`: `<stem>.req.toml` beside it, as `trace verify`
+/// reads by default.
+pub fn requirements(dir: &Path, name: &str) -> Result<PathBuf, FileError> {
+    Ok(path(dir, name)?.with_extension("req.toml"))
+}
+
 /// The bytes of mission `name`.
 pub async fn read(dir: &Path, name: &str) -> Result<Vec<u8>, FileError> {
-    let p = path(dir, name)?;
-    match tokio::fs::read(&p).await {
+    read_at(&path(dir, name)?, name).await
+}
+
+/// The bytes of mission `name`'s requirements file.
+pub async fn read_requirements(dir: &Path, name: &str) -> Result<Vec<u8>, FileError> {
+    read_at(&requirements(dir, name)?, name).await
+}
+
+async fn read_at(p: &Path, name: &str) -> Result<Vec<u8>, FileError> {
+    match tokio::fs::read(p).await {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
             Err(FileError::Missing(name.to_owned()))
         }
-        r => r.map_err(io(&p)),
+        r => r.map_err(io(p)),
     }
 }
 
 /// Writes mission `name` atomically: a temporary file in `dir`, flushed, renamed over it.
 pub async fn write(dir: &Path, name: &str, bytes: &[u8]) -> Result<(), FileError> {
-    let p = path(dir, name)?;
-    let tmp = dir.join(format!(".{name}.saving"));
+    write_at(&path(dir, name)?, bytes).await
+}
+
+/// Writes mission `name`'s requirements file atomically.
+pub async fn write_requirements(dir: &Path, name: &str, bytes: &[u8]) -> Result<(), FileError> {
+    write_at(&requirements(dir, name)?, bytes).await
+}
+
+async fn write_at(p: &Path, bytes: &[u8]) -> Result<(), FileError> {
+    let file_name = p
+        .file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    let tmp = p.with_file_name(format!(".{file_name}.saving"));
     let file = async {
         tokio::fs::write(&tmp, bytes).await?;
         tokio::fs::File::open(&tmp).await?.sync_all().await?;
-        tokio::fs::rename(&tmp, &p).await
+        tokio::fs::rename(&tmp, p).await
     };
     if let Err(e) = file.await {
         let _ = tokio::fs::remove_file(&tmp).await;
-        return Err(io(&p)(e));
+        return Err(io(p)(e));
     }
-    tracing::info!(file = %p.display(), bytes = bytes.len(), "mission saved");
+    tracing::info!(file = %p.display(), bytes = bytes.len(), "saved");
     Ok(())
 }

@@ -184,6 +184,77 @@ async fn tasks_are_checked_against_the_catalogues_as_trace_run_would() {
 }
 
 #[tokio::test]
+async fn requirements_are_kept_beside_the_mission_and_verify_refuses_what_it_cannot_check() {
+    let d = dir("verify");
+    let addr = serve(d.clone()).await;
+    let (status, _) = http(addr, "GET", "/api/requirements/europa.bpmn", b"").await;
+    assert_eq!(status, 404);
+    let text = "[[requirement]]\nname = \"ends\"\ncheck = 'eventually ended'\n";
+    let (status, _) = http(
+        addr,
+        "PUT",
+        "/api/requirements/europa.bpmn",
+        text.as_bytes(),
+    )
+    .await;
+    assert_eq!(status, 200);
+    assert_eq!(
+        std::fs::read_to_string(d.join("europa.req.toml")).unwrap(),
+        text
+    );
+    let (status, back) = http(addr, "GET", "/api/requirements/europa.bpmn", b"").await;
+    assert_eq!((status, back.as_str()), (200, text));
+    let (status, _) = http(addr, "PUT", "/api/requirements/..%2Fx.bpmn", b"x").await;
+    assert_eq!(status, 400);
+    let (status, _) = http(addr, "PUT", "/api/requirements/europa.bpmn", b"\xff\xfe").await;
+    assert_eq!(status, 422);
+    // What verify refuses before Spin runs: not a request, a bound out of range, a model
+    // that is not valid, a requirement that does not compile against the model.
+    let (status, v) = http(addr, "POST", "/api/verify/europa.bpmn", b"<xml/>").await;
+    assert_eq!(status, 400, "{v}");
+    let body = |model: &str, req: &str, loops: u8| {
+        serde_json::json!({ "model": model, "requirements": req, "loops": loops }).to_string()
+    };
+    let (status, v) = http(
+        addr,
+        "POST",
+        "/api/verify/europa.bpmn",
+        body(EUROPA, "", 9).as_bytes(),
+    )
+    .await;
+    assert_eq!(status, 400, "{v}");
+    let broken = EUROPA.replace(
+        r#"targetRef="SelectInitialSites""#,
+        r#"targetRef="Nowhere""#,
+    );
+    let (status, v) = http(
+        addr,
+        "POST",
+        "/api/verify/europa.bpmn",
+        body(&broken, "", 1).as_bytes(),
+    )
+    .await;
+    assert_eq!(status, 422, "{v}");
+    assert!(
+        json(&v)["error"].as_str().unwrap().contains("invalid"),
+        "{v}"
+    );
+    let bad = "[[requirement]]\nname = \"x\"\ncheck = 'eventually done \"No Such Task\"'\n";
+    let (status, v) = http(
+        addr,
+        "POST",
+        "/api/verify/europa.bpmn",
+        body(EUROPA, bad, 1).as_bytes(),
+    )
+    .await;
+    assert_eq!(status, 422, "{v}");
+    assert!(
+        json(&v)["error"].as_str().unwrap().contains("No Such Task"),
+        "{v}"
+    );
+}
+
+#[tokio::test]
 async fn a_save_is_atomic_and_refuses_what_is_not_bpmn() {
     let d = dir("save");
     let addr = serve(d.clone()).await;

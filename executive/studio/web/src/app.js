@@ -11,6 +11,7 @@ import '@bpmn-io/properties-panel/dist/assets/properties-panel.css';
 import './style.css';
 import traceModdle from './trace-moddle.json';
 import TracePanelModule from './provider.jsx';
+import { setupVerify } from './verify.js';
 
 // Every error the page meets, for the operator's console and for tests to read.
 const errors = [];
@@ -37,6 +38,7 @@ const modeler = new BpmnModeler({
 
 const $ = id => document.getElementById(id);
 let current = null;   // the open file's name
+const verification = setupVerify({ modeler, api, say, current: () => current });
 let dirty = false;
 let checking = null;  // the pending check's timer
 
@@ -80,6 +82,7 @@ async function show(name, xml) {
   const box = canvas.viewbox();
   canvas.viewbox({ x: box.x - 80, y: box.y, width: box.width + 80, height: box.height });
   say(warnings.length ? `${name}: opened with ${warnings.length} import warnings` : `${name}: opened`);
+  await verification.loadRequirements(name);
   await check();
 }
 
@@ -202,7 +205,7 @@ window.addEventListener('keydown', e => {
 window.addEventListener('beforeunload', e => { if (dirty) e.preventDefault(); });
 
 // For tests and tools: the modeler, to read the model the page holds.
-window.studio = { modeler, catalogue, errors };
+window.studio = { modeler, catalogue, errors, verification };
 
 /**
  * Fetches the catalogues (the server asks the running systems first) and shows where each
