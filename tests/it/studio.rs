@@ -1,7 +1,8 @@
 //! TRACE Studio in a real browser: `trace studio` serves a directory holding the Europa mission,
 //! Debian's chromium (through chromedriver, WebDriver) opens it, the TRACE panel shows the
 //! task's action and goal inputs from the catalogues, a path that is not a goal field is
-//! refused under the field, a new task gets its action and a typed input through the panel,
+//! refused under the field, a wrongly typed input is marked, a new task gets its action and a
+//! typed input through the panel, an error boundary offers the action's error codes,
 //! the executive's diagnostics and `trace run`'s check against the catalogues land on the
 //! element they concern, and the saved file passes
 //! `trace validate` with the edit in it; a screenshot is kept for the README. And the
@@ -225,6 +226,15 @@ async fn scenario(c: Client, url: String, dir: std::path::PathBuf) {
         "return document.body.dataset.ready === 'true' && document.body.dataset.checks",
     )
     .await;
+    // The model as the modeler writes it before any edit: the saved file must differ from it
+    // only where edited.
+    js(
+        &c,
+        "studio.modeler.saveXML({ format: true }).then(r => { window.baseline = r.xml; })",
+        vec![],
+    )
+    .await;
+    let baseline = until(&c, "the baseline export", "return window.baseline").await;
     let verdict = js(&c, "return document.body.dataset.verdict", vec![]).await;
     assert_eq!(verdict, "valid", "Europa as the studio checks it");
     let systems = js(&c, "return document.body.dataset.systems", vec![]).await;
@@ -286,6 +296,36 @@ async fn scenario(c: Client, url: String, dir: std::path::PathBuf) {
         &c,
         "the new exposure in the model",
         &format!("{model} === '80'"),
+    )
+    .await;
+    // A wrongly typed input: the marker of `trace run`'s check on the task, until it is set
+    // back.
+    let set_type = |t: &str| {
+        format!(
+            "const s = document.querySelector('#bio-properties-panel-{row}-type');
+             s.value = '{t}';
+             for (const e of ['input', 'change']) s.dispatchEvent(new Event(e, {{ bubbles: true }}));"
+        )
+    };
+    js(&c, &set_type("string"), vec![]).await;
+    let mismatch = until(
+        &c,
+        "the wrong type marked",
+        r#"const li = document.querySelector('#problems li[data-code="catalogue-mismatch"][data-element="CapturePanorama"]');
+           return li && document.querySelector('g.djs-element[data-element-id="CapturePanorama"]').classList.contains('trace-error') && li.textContent"#,
+    )
+    .await;
+    assert!(
+        mismatch.as_str().is_some_and(
+            |m| m.contains("`exposure_ms` is declared string") && m.contains("expects int")
+        ),
+        "{mismatch}"
+    );
+    js(&c, &set_type("int"), vec![]).await;
+    until(
+        &c,
+        "the type right again",
+        r#"return document.body.dataset.mismatches === '0' && !document.querySelector('#problems li[data-element="CapturePanorama"]')"#,
     )
     .await;
 
@@ -394,9 +434,70 @@ async fn scenario(c: Client, url: String, dir: std::path::PathBuf) {
         "{line}"
     );
     js(&c, "studio.modeler.get('commandStack').undo()", vec![]).await;
+    // An error boundary offers the codes the task's action declares, then the protocol's.
+    click(&c, r#"g.djs-element[data-element-id="CollectFailed"]"#).await;
+    open_group(&c, "trace-error").await;
+    let options = until(
+        &c,
+        "the error codes offered",
+        "const s = document.querySelector('#bio-properties-panel-trace-error-code');
+         return s && [...s.options].map(o => o.value)",
+    )
+    .await;
+    assert_eq!(
+        options,
+        json!([
+            "",
+            "INSUFFICIENT_VOLUME",
+            "SAMPLE_CONTAMINATED",
+            "CONNECTOR_LOST",
+            "REJECTED",
+            "TYPE_MISMATCH",
+            "NO_CONNECTOR",
+            "NOT_ACCEPTED",
+            "PROTOCOL_ERROR",
+            "ABORTED"
+        ])
+    );
+    js(
+        &c,
+        "const s = document.querySelector('#bio-properties-panel-trace-error-code');
+         s.value = 'SAMPLE_CONTAMINATED';
+         for (const e of ['input', 'change']) s.dispatchEvent(new Event(e, { bubbles: true }));",
+        vec![],
+    )
+    .await;
+    until(
+        &c,
+        "the boundary catching the chosen code",
+        "const d = studio.modeler.get('elementRegistry').get('CollectFailed').businessObject.eventDefinitions[0];
+         return d.errorRef && d.errorRef.errorCode === 'SAMPLE_CONTAMINATED' && d.errorRef.$parent.rootElements.includes(d.errorRef)",
+    )
+    .await;
+    js(&c, "studio.modeler.get('commandStack').undo()", vec![]).await;
+    until(
+        &c,
+        "the catch-all again",
+        "return !studio.modeler.get('elementRegistry').get('CollectFailed').businessObject.eventDefinitions[0].errorRef",
+    )
+    .await;
     until(&c, "the mismatch gone with the undo", "return document.body.dataset.verdict === 'valid' && document.body.dataset.mismatches === '0' && !document.querySelector('#problems li.error')").await;
     click(&c, "#save").await;
     until(&c, "the file saved", "return document.body.dataset.saved").await;
+    let saved = std::fs::read_to_string(dir.join("missions/europa-bsm1.bpmn")).expect("saved");
+    let baseline = baseline.as_str().expect("the baseline");
+    let changed: Vec<(&str, &str)> = baseline
+        .lines()
+        .zip(saved.lines())
+        .filter(|(a, b)| a != b)
+        .collect();
+    assert_eq!(baseline.lines().count(), saved.lines().count());
+    assert_eq!(changed.len(), 1, "{changed:#?}");
+    assert!(
+        changed[0].0.contains(r#"target="exposure_ms" source="40""#)
+            && changed[0].1.contains(r#"target="exposure_ms" source="80""#),
+        "{changed:#?}"
+    );
 
     // Verification on the diagram: the flawed copy, its requirements beside it.
     js(

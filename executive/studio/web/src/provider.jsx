@@ -1,6 +1,7 @@
 // The TRACE groups of the properties panel: a task's action chosen from the catalogues, and its
 // goal inputs and result outputs as `trace:input` / `trace:output` rows whose paths are checked
-// against the action's goal and result fields as they are typed. What it writes is the
+// against the action's goal and result fields as they are typed; on an error boundary, the
+// codes the task's action declares. What it writes is the
 // `trace:task` binding the executive reads (docs/bpmn-extensions in the README).
 import { is, getBusinessObject } from 'bpmn-js/lib/util/ModelUtil';
 import {
@@ -235,8 +236,76 @@ function mappingGroup(element, injector, which) {
   };
 }
 
+/** Error codes the protocol raises for any action (docs/protocol.md §9): catchable undeclared. */
+const PROTOCOL_CODES = ['CONNECTOR_LOST', 'REJECTED', 'TYPE_MISMATCH', 'NO_CONNECTOR',
+  'NOT_ACCEPTED', 'PROTOCOL_ERROR', 'ABORTED'];
+
+/** The error event definition of an error boundary event, or undefined. */
+function errorDefinition(element) {
+  if (!is(element, 'bpmn:BoundaryEvent')) return undefined;
+  return (getBusinessObject(element).get('eventDefinitions') || [])
+    .find(d => is(d, 'bpmn:ErrorEventDefinition'));
+}
+
+/**
+ * The code an error boundary catches, chosen from what the action of the task it is attached
+ * to declares (and the protocol's own codes): the definition's errorRef is set to the
+ * `bpmn:Error` of that code, created among the definitions' root elements if there is none.
+ */
+function ErrorCodeEntry({ element, id }) {
+  const bpmnFactory = useService('bpmnFactory');
+  const commandStack = useService('commandStack');
+  const canvas = useService('canvas');
+  const catalogue = useService('traceCatalogue');
+  const definition = errorDefinition(element);
+  const host = element.host;
+  const action = host && catalogue.action(traceTask(host)?.get('resource') || '');
+  const declared = Object.entries((action && action.errors) || {});
+  const current = definition?.get('errorRef')?.get('errorCode') || '';
+  return SelectEntry({
+    element, id, label: 'Error code',
+    description: action ? `What ${action.name} declares, then the protocol's own codes`
+      : 'The task this boundary is on has no action from the catalogues',
+    getValue: () => current,
+    setValue: code => {
+      const cmds = [];
+      let error;
+      if (code) {
+        const definitions = canvas.getRootElement().businessObject.$parent;
+        const roots = definitions.get('rootElements');
+        error = roots.find(r => is(r, 'bpmn:Error') && r.get('errorCode') === code);
+        if (!error) {
+          error = bpmnFactory.create('bpmn:Error', {
+            errorCode: code, name: (action && action.errors[code]) || code });
+          error.$parent = definitions;
+          cmds.push({ cmd: 'element.updateModdleProperties',
+            context: { element, moddleElement: definitions, properties: { rootElements: [...roots, error] } } });
+        }
+      }
+      cmds.push({ cmd: 'element.updateModdleProperties',
+        context: { element, moddleElement: definition, properties: { errorRef: error } } });
+      run(commandStack, cmds);
+    },
+    getOptions: () => {
+      const codes = [...declared.map(([c, why]) => ({ value: c, label: `${c} — ${why}` })),
+        ...PROTOCOL_CODES.filter(c => !declared.some(([d]) => d === c))
+          .map(c => ({ value: c, label: `${c} (protocol)` }))];
+      if (current && !codes.some(c => c.value === current)) {
+        codes.unshift({ value: current, label: `${current} (not declared by the action)` });
+      }
+      return [{ value: '', label: '(any error)' }, ...codes];
+    },
+  });
+}
+
 function TracePropertiesProvider(propertiesPanel, injector) {
   this.getGroups = element => groups => {
+    if (errorDefinition(element)) {
+      groups.splice(1, 0, { id: 'trace-error', label: 'TRACE error', entries: [
+        { id: 'trace-error-code', element, component: ErrorCodeEntry, isEdited: isSelectEntryEdited },
+      ] });
+      return groups;
+    }
     if (!TASKS.some(t => is(element, t))) return groups;
     groups.splice(1, 0,
       { id: 'trace-task', label: 'TRACE activity', entries: [
