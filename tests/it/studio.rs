@@ -563,6 +563,79 @@ async fn scenario(c: Client, url: String, dir: std::path::PathBuf) {
     }
     let shot = c.screenshot().await.expect("screenshot");
     std::fs::write(dir.join("studio-verify.png"), shot).expect("screenshot file");
+
+    // The token game: Europa played on the engine from the page's buttons — the planner's
+    // choice at each decision, otherwise the first waiting task completed, else the first
+    // wait fired — to its terminate end.
+    js(
+        &c,
+        "const s = document.getElementById('missions'); s.value = 'europa-bsm1.bpmn';
+         s.dispatchEvent(new Event('change', { bubbles: true }));",
+        vec![],
+    )
+    .await;
+    until(
+        &c,
+        "Europa open again",
+        "return studio.modeler.get('elementRegistry').get('ToCommunicate').type === 'bpmn:ExclusiveGateway'",
+    )
+    .await;
+    click(&c, "#simulate").await;
+    until(
+        &c,
+        "the game started",
+        "return document.body.dataset.simulation === 'playing'",
+    )
+    .await;
+    let plan = json!({ "SiteApproved": "f_s5", "Slumped": "e12", "EnoughSamples": "f_s13",
+        "BatteryLow": "f_b6", "EnergyLeft": "f_d7" });
+    let mut acts = 0;
+    loop {
+        let state = js(&c, "return document.body.dataset.simulation", vec![]).await;
+        if state.as_str().is_some_and(|s| s.starts_with("ended:")) {
+            assert_eq!(state, "ended:terminated");
+            break;
+        }
+        assert!(acts < 300, "the game did not end within 300 acts: {state}");
+        // What is offered now, as the page shows it.
+        let next = js(
+            &c,
+            "const plan = arguments[0];
+             const all = [...document.querySelectorAll('#simulate-acts button')];
+             const choose = all.filter(b => b.dataset.act === 'choose');
+             const planned = choose.find(b => plan[b.dataset.element] === b.dataset.flow);
+             const b = planned || (!choose.length && (all.find(b => b.dataset.act === 'complete')
+               || all.find(b => b.dataset.act === 'fire')));
+             if (!b) return { stuck: all.map(b => b.textContent) };
+             const before = Number(document.body.dataset.simulationViews);
+             b.click();
+             return { clicked: b.textContent, before };",
+            vec![plan.clone()],
+        )
+        .await;
+        assert!(next.get("stuck").is_none(), "nothing planned to do: {next}");
+        acts += 1;
+        until(
+            &c,
+            "the view after the act",
+            &format!(
+                "return Number(document.body.dataset.simulationViews) > {}",
+                next["before"]
+            ),
+        )
+        .await;
+        if acts == 12 {
+            let shot = c.screenshot().await.expect("screenshot");
+            std::fs::write(dir.join("studio-simulate.png"), shot).expect("screenshot file");
+        }
+    }
+    let last = js(
+        &c,
+        "const t = studio.simulation.view().trace; return t[t.length - 1]",
+        vec![],
+    )
+    .await;
+    assert_eq!(last, "enter:MissionEnd");
     let errors = js(&c, "return studio.errors", vec![]).await;
     assert_eq!(errors, json!([]), "errors in the page");
 }

@@ -5,7 +5,7 @@ use std::sync::Arc;
 
 use axum::Router;
 use axum::body::Bytes;
-use axum::extract::{DefaultBodyLimit, Path, State};
+use axum::extract::{DefaultBodyLimit, Extension, Path, State};
 use axum::http::{StatusCode, header};
 use axum::response::{IntoResponse, Json, Response};
 use axum::routing::{get, post};
@@ -13,6 +13,7 @@ use executive_model::Options;
 use serde_json::json;
 
 use crate::files::{self, FileError};
+use crate::simulate::{Act, Simulation};
 use crate::{Studio, assets, checks};
 
 /// The routes of `studio`.
@@ -33,11 +34,17 @@ pub fn router(studio: Studio) -> Router {
             get(read_requirements).put(write_requirements),
         )
         .route("/api/verify/{name}", post(verify))
+        .route("/api/simulate", post(simulate_start))
+        .route(
+            "/api/simulate/{id}",
+            post(simulate_act).delete(simulate_end),
+        )
         .route(
             "/{file}",
             get(|Path(file): Path<String>| async move { page(&file) }),
         )
         .layer(DefaultBodyLimit::max(limit))
+        .layer(Extension(Arc::new(Games::default())))
         .with_state(Arc::new(studio))
 }
 
@@ -223,7 +230,7 @@ async fn verify(State(s): Shared, Path(name): Path<String>, body: Bytes) -> Resp
     let _one = VERIFYING.lock().await;
     let studio = Arc::clone(&s);
     let job = tokio::task::spawn_blocking(move || {
-        let loaded = checks::load(&studio.dir, body.model.as_bytes());
+        let loaded = checks::load(&studio.dir, body.model.as_bytes(), &Options::default());
         executive::verify::verify_loaded(executive::verify::Job {
             mission: name,
             loaded,
@@ -247,6 +254,125 @@ async fn verify(State(s): Shared, Path(name): Path<String>, body: Bytes) -> Resp
         Err(e) => refuse(
             StatusCode::INTERNAL_SERVER_ERROR,
             format!("the verification failed: {e}"),
+        ),
+    }
+}
+
+/// The token games being played, by id; the oldest goes when there are too many.
+#[derive(Default)]
+struct Games {
+    next: std::sync::atomic::AtomicU64,
+    playing: std::sync::Mutex<std::collections::BTreeMap<u64, Simulation>>,
+}
+
+/// At most this many games at once (one per page, in practice).
+const MAX_GAMES: usize = 16;
+
+type Played = Extension<Arc<Games>>;
+
+/// Starts a token game of the model in the body (loaded as a sketch may be: the token game
+/// plays drawings that `trace run` would refuse, such as tasks without an action): `{id, view}`.
+async fn simulate_start(State(s): Shared, Extension(games): Played, body: Bytes) -> Response {
+    let studio = Arc::clone(&s);
+    let loaded = tokio::task::spawn_blocking(move || {
+        let options = Options {
+            token_game: true,
+            script_connector: true,
+            ..Options::default()
+        };
+        checks::load(&studio.dir, &body, &options)
+    })
+    .await;
+    let loaded = match loaded {
+        Ok(l) => l,
+        Err(e) => {
+            return refuse(
+                StatusCode::INTERNAL_SERVER_ERROR,
+                format!("loading failed: {e}"),
+            );
+        }
+    };
+    let Some(graph) = loaded.graph else {
+        let first = loaded.errors().next().map_or_else(
+            || "not a BPMN model".to_owned(),
+            |d| format!("{} (line {})", d.message, d.line),
+        );
+        return refuse(
+            StatusCode::UNPROCESSABLE_ENTITY,
+            format!("the model cannot be played: {first}"),
+        );
+    };
+    let game = match Simulation::start(Arc::new(graph)) {
+        Ok(g) => g,
+        Err(e) => return refuse(StatusCode::UNPROCESSABLE_ENTITY, e),
+    };
+    let view = game.view();
+    let id = games
+        .next
+        .fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+        + 1;
+    let Ok(mut playing) = games.playing.lock() else {
+        return refuse(
+            StatusCode::INTERNAL_SERVER_ERROR,
+            "the games' table is poisoned",
+        );
+    };
+    while playing.len() >= MAX_GAMES {
+        playing.pop_first();
+    }
+    playing.insert(id, game);
+    tracing::info!(id, "token game started");
+    Json(json!({ "id": id, "view": view })).into_response()
+}
+
+/// One act of the player (`{"act": "complete", "element": "Task_1"}`, see
+/// [`crate::simulate::Act`]): the view after it, or 422 naming what did not fit (the game is
+/// unchanged then) with the view as it is.
+async fn simulate_act(Extension(games): Played, Path(id): Path<u64>, body: Bytes) -> Response {
+    let act = match serde_json::from_slice::<serde_json::Value>(&body)
+        .map_err(|e| crate::simulate::SimError::BadAct {
+            element: "?".into(),
+            reason: e.to_string(),
+        })
+        .and_then(Act::from_json)
+    {
+        Ok(a) => a,
+        Err(e) => return refuse(StatusCode::BAD_REQUEST, e),
+    };
+    let Ok(mut playing) = games.playing.lock() else {
+        return refuse(
+            StatusCode::INTERNAL_SERVER_ERROR,
+            "the games' table is poisoned",
+        );
+    };
+    let Some(game) = playing.get_mut(&id) else {
+        return refuse(
+            StatusCode::NOT_FOUND,
+            format!("no token game {id}: start one"),
+        );
+    };
+    match game.act(act) {
+        Ok(()) => Json(json!({ "view": game.view() })).into_response(),
+        Err(e) => {
+            tracing::warn!(id, "act refused: {e}");
+            (
+                StatusCode::UNPROCESSABLE_ENTITY,
+                Json(json!({ "error": e.to_string(), "view": game.view() })),
+            )
+                .into_response()
+        }
+    }
+}
+
+/// Ends a token game.
+async fn simulate_end(Extension(games): Played, Path(id): Path<u64>) -> Response {
+    let removed = games.playing.lock().map(|mut p| p.remove(&id).is_some());
+    match removed {
+        Ok(true) => StatusCode::NO_CONTENT.into_response(),
+        Ok(false) => refuse(StatusCode::NOT_FOUND, format!("no token game {id}")),
+        Err(_) => refuse(
+            StatusCode::INTERNAL_SERVER_ERROR,
+            "the games' table is poisoned",
         ),
     }
 }

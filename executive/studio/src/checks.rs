@@ -43,7 +43,7 @@ pub struct Coverage {
 /// only), then, when the model is valid and the studio knows the connectors, the catalogue
 /// check of `trace run`.
 pub fn check(studio: &Studio, bytes: &[u8]) -> Report {
-    let loaded = load(&studio.dir, bytes);
+    let loaded = load(&studio.dir, bytes, &Options::default());
     let verdict = if loaded.unreadable() {
         "unreadable"
     } else if loaded.graph.is_some() && loaded.errors().next().is_none() {
@@ -121,9 +121,9 @@ fn at_element(text: &str, id: &str, message: String) -> Diagnostic {
     }
 }
 
-/// Loads a model as `trace validate` does, imports read from `dir` (plain file names only).
-pub fn load(dir: &Path, bytes: &[u8]) -> Loaded {
-    let options = Options::default();
+/// Loads a model as `trace validate` does (with `options`), imports read from `dir` (plain
+/// file names only).
+pub fn load(dir: &Path, bytes: &[u8], options: &Options) -> Loaded {
     let max = options.limits.max_bytes;
     let mut resolve = |location: &str| -> Result<Vec<u8>, String> {
         // Imports may be any file of the directory (not only missions), nothing outside it.
@@ -143,5 +143,5 @@ pub fn load(dir: &Path, bytes: &[u8]) -> Loaded {
         }
         Ok(bytes)
     };
-    load_bundle(bytes, &options, &mut resolve)
+    load_bundle(bytes, options, &mut resolve)
 }

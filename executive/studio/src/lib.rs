@@ -24,6 +24,9 @@ mod assets;
 pub mod checks;
 pub mod files;
 pub mod live;
+pub mod simulate;
+#[cfg(test)]
+mod simulate_tests;
 pub mod templates;
 #[cfg(test)]
 mod templates_tests;

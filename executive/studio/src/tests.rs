@@ -255,6 +255,60 @@ async fn requirements_are_kept_beside_the_mission_and_verify_refuses_what_it_can
 }
 
 #[tokio::test]
+async fn a_token_game_is_played_through_the_routes_and_refuses_acts_that_do_not_fit() {
+    let addr = serve(dir("simulate")).await;
+    let (status, v) = http(addr, "POST", "/api/simulate", b"<not bpmn").await;
+    assert_eq!(status, 422, "{v}");
+    let (status, v) = http(addr, "POST", "/api/simulate", EUROPA.as_bytes()).await;
+    assert_eq!(status, 200, "{v}");
+    let v = json(&v);
+    let id = v["id"].as_u64().expect("an id");
+    let first = v["view"]["tasks"][0]["element"]
+        .as_str()
+        .expect("a task waits")
+        .to_owned();
+    let steps = v["view"]["steps"].as_u64().unwrap();
+    let path = format!("/api/simulate/{id}");
+    let (status, _) = http(addr, "POST", &path, b"{not json").await;
+    assert_eq!(status, 400);
+    let (status, _) = http(addr, "POST", &path, br#"{"act": "dance", "element": "x"}"#).await;
+    assert_eq!(status, 400);
+    let (status, v) = http(
+        addr,
+        "POST",
+        &path,
+        br#"{"act": "complete", "element": "NoSuchTask"}"#,
+    )
+    .await;
+    assert_eq!(status, 422, "{v}");
+    let v = json(&v);
+    assert!(v["error"].as_str().unwrap().contains("NoSuchTask"), "{v}");
+    assert_eq!(
+        v["view"]["steps"].as_u64(),
+        Some(steps),
+        "a refused act changes nothing"
+    );
+    let act = serde_json::json!({ "act": "complete", "element": first }).to_string();
+    let (status, v) = http(addr, "POST", &path, act.as_bytes()).await;
+    assert_eq!(status, 200, "{v}");
+    let v = json(&v);
+    assert!(v["view"]["steps"].as_u64().unwrap() > steps, "{v}");
+    assert!(
+        v["view"]["trace"]
+            .as_array()
+            .unwrap()
+            .contains(&serde_json::json!(format!("exit:{first}"))),
+        "{v}"
+    );
+    let (status, _) = http(addr, "POST", "/api/simulate/999999", act.as_bytes()).await;
+    assert_eq!(status, 404);
+    let (status, _) = http(addr, "DELETE", &path, b"").await;
+    assert_eq!(status, 204);
+    let (status, _) = http(addr, "POST", &path, act.as_bytes()).await;
+    assert_eq!(status, 404);
+}
+
+#[tokio::test]
 async fn a_save_is_atomic_and_refuses_what_is_not_bpmn() {
     let d = dir("save");
     let addr = serve(d.clone()).await;

@@ -1,6 +1,7 @@
 // TRACE Studio's page: bpmn-js Modeler with the properties panel and TRACE's own panel
 // (provider.jsx), the mission files of the studio's directory, and the executive's diagnostics
-// (the same as `trace validate`) on the elements and in a list, checked as the model changes.
+// (the same as `trace validate`) on the elements and in a list, checked as the model changes;
+// verification with its counterexamples replayed (verify.js) and the token game (simulate.js).
 import BpmnModeler from 'bpmn-js/lib/Modeler';
 import { BpmnPropertiesPanelModule, BpmnPropertiesProviderModule } from 'bpmn-js-properties-panel';
 import zeebeModdle from 'zeebe-bpmn-moddle/resources/zeebe.json';
@@ -12,6 +13,7 @@ import './style.css';
 import traceModdle from './trace-moddle.json';
 import TracePanelModule from './provider.jsx';
 import { setupVerify } from './verify.js';
+import { setupSimulate } from './simulate.js';
 
 // Every error the page meets, for the operator's console and for tests to read.
 const errors = [];
@@ -39,6 +41,7 @@ const modeler = new BpmnModeler({
 const $ = id => document.getElementById(id);
 let current = null;   // the open file's name
 const verification = setupVerify({ modeler, api, say, current: () => current });
+const simulation = setupSimulate({ modeler, api, say });
 let dirty = false;
 let checking = null;  // the pending check's timer
 
@@ -82,6 +85,7 @@ async function show(name, xml) {
   const box = canvas.viewbox();
   canvas.viewbox({ x: box.x - 80, y: box.y, width: box.width + 80, height: box.height });
   say(warnings.length ? `${name}: opened with ${warnings.length} import warnings` : `${name}: opened`);
+  simulation.stop();
   await verification.loadRequirements(name);
   await check();
 }
@@ -183,6 +187,8 @@ async function check() {
 
 modeler.on('commandStack.changed', () => {
   dirty = true;
+  // A game of the model as it was is over.
+  simulation.stop();
   clearTimeout(checking);
   checking = setTimeout(check, 400);
 });
@@ -205,7 +211,7 @@ window.addEventListener('keydown', e => {
 window.addEventListener('beforeunload', e => { if (dirty) e.preventDefault(); });
 
 // For tests and tools: the modeler, to read the model the page holds.
-window.studio = { modeler, catalogue, errors, verification };
+window.studio = { modeler, catalogue, errors, verification, simulation };
 
 /**
  * Fetches the catalogues (the server asks the running systems first) and shows where each

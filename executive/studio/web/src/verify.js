@@ -72,6 +72,8 @@ export function setupVerify(ctx) {
     } catch (_) { /* none yet */ }
     $('requirements').value = text;
     $('properties').replaceChildren();
+    $('verify-status').textContent = '';
+    document.body.dataset.verified = '';
     steps = [];
     at = -1;
     $('replay').hidden = true;
