@@ -525,6 +525,19 @@ async fn scenario(c: Client, url: String, dir: std::path::PathBuf) {
     )
     .await;
     assert_eq!(deadlock, "property violated");
+    // The engine's own exploration agrees: a run gets stuck.
+    let native = js(
+        &c,
+        "const li = document.querySelector('#properties li.native'); return li && li.textContent",
+        vec![],
+    )
+    .await;
+    assert!(
+        native.as_str().is_some_and(
+            |n| n.starts_with("engine exploration: ") && n.contains("a run that gets stuck")
+        ),
+        "{native}"
+    );
     // The counterexample, stepped forward: each step's element is the current one, every
     // earlier one stays marked as visited, in the counterexample's order.
     let steps = js(&c, "return studio.verification.replay().steps", vec![]).await;

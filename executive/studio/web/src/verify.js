@@ -113,6 +113,18 @@ export function setupVerify(ctx) {
       }
       return li;
     }));
+    if (report.native) {
+      // The engine's own exploration beside Spin's verdicts (`trace verify --native`).
+      const n = report.native;
+      const li = document.createElement('li');
+      li.className = 'native';
+      const found = [n.deadlock && 'a run that gets stuck', n.unsafe_run && 'an unsafe run',
+        n.dead_activities.length && `never started: ${n.dead_activities.join(', ')}`,
+        n.needs_data && `needs data: ${n.needs_data}`].filter(Boolean);
+      li.textContent = `engine exploration: ${n.states} states${n.complete ? '' : ' (bounded)'}; `
+        + (found.length ? found.join('; ') : 'no stuck or unsafe run, every activity started');
+      $('properties').append(li);
+    }
     document.body.dataset.verified = violated.length ? 'violated' : 'holds';
     if (violated.length) replay(violated[0]);
   }
