@@ -7,7 +7,9 @@
 //! element they concern, and the saved file passes
 //! `trace validate` with the edit in it; a screenshot is kept for the README. And the
 //! catalogues live: a studio on a router's network offers what a running simulator serves, and
-//! stops offering it when the simulator is gone.
+//! stops offering it when the simulator is gone. And operations: during a real `trace fly`, the
+//! page lists the executive, draws its model, shows the tokens of the state query at the same
+//! step, and says plainly when the executive is gone.
 
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};
@@ -746,4 +748,213 @@ fn the_studio_offers_what_the_running_systems_serve() {
     );
     drop(sim);
     until_offered(&addr, "the simulator gone", |o| o.is_empty());
+}
+
+/// A child started in a process group of its own (`process_group(0)`), killed whole when
+/// dropped: `trace fly` and its simulator, a station.
+struct Group(Kill);
+
+impl Drop for Group {
+    fn drop(&mut self) {
+        // The group's id is its leader's pid (never 0 here: a child's id).
+        let _ = Command::new("kill")
+            .args(["-s", "KILL", "--", &format!("-{}", self.0.0.id())])
+            .status();
+        let _ = self.0.0.wait();
+    }
+}
+
+#[test]
+fn operations_follow_a_flying_mission_on_its_diagram() {
+    use std::os::unix::process::CommandExt;
+    let dir = tempdir("studio-ops");
+    let missions = dir.join("missions");
+    std::fs::create_dir_all(&missions).expect("missions dir");
+    // The ground answers nothing: the mission waits at its first site approval (six mission
+    // hours, 21 s at this speed), long enough to compare the page with the executive.
+    let mut fly = Command::new(bin("trace"));
+    fly.args(["fly", "--no-ground", "--speed", "1000", "--dir"])
+        .arg(dir.join("flight"))
+        .process_group(0);
+    let (fly, watch) = start(fly, "watch with:");
+    let fly = Group(fly);
+    let join: Vec<String> = watch
+        .split_once("trace monitor ")
+        .expect("the join flags")
+        .1
+        .split_whitespace()
+        .map(str::to_owned)
+        .collect();
+    let hub = join[1].clone();
+    let deployment = join[3].clone();
+    // A terminal ground station whose operator never answers (its input held open): the
+    // executive needs a ground catalogue to start.
+    let mut station = Command::new(bin("ground-station"));
+    station
+        .args([
+            "--interactive",
+            "--operator",
+            "nobody",
+            "--station",
+            "console",
+        ])
+        .args(&join)
+        .stdin(Stdio::piped())
+        .process_group(0);
+    let (station, _) = start(station, "ready ground console");
+    let _station = Group(station);
+    let mut studio = Command::new(bin("trace"));
+    studio
+        .arg("studio")
+        .arg(&missions)
+        .args(["--port", "0"])
+        .args(&join);
+    let (_studio, ready) = start(studio, "ready http://");
+    let url = ready
+        .split_whitespace()
+        .nth(1)
+        .expect("the studio's address")
+        .to_owned();
+    let port = free_port();
+    let mut driver = Command::new("chromedriver");
+    driver.arg(format!("--port={port}"));
+    let (_driver, _) = start(driver, "started successfully");
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .expect("runtime");
+    rt.block_on(async move {
+        let session = crate::protocol::open(&[], std::slice::from_ref(&hub)).await;
+        let keys = connector_api::Keys::deployed(connector_api::keys::DEFAULT_ROOT, &deployment)
+            .expect("keys");
+        let c = browser(port).await;
+        let outcome = tokio::spawn(ops_scenario(
+            c.clone(),
+            url,
+            session,
+            keys,
+            fly,
+            dir.clone(),
+        ))
+        .await;
+        let _ = c.close().await;
+        if let Err(e) = outcome {
+            std::panic::resume_unwind(e.into_panic());
+        }
+    });
+}
+
+/// A WebDriver session of headless Chromium.
+async fn browser(port: u16) -> Client {
+    let mut caps = serde_json::Map::new();
+    caps.insert(
+        "goog:chromeOptions".into(),
+        json!({ "binary": "/usr/bin/chromium", "args": [
+            "--headless", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
+            "--disable-quic", "--no-first-run", "--disable-background-networking",
+            "--disable-component-update", "--disable-sync", "--window-size=1600,900"] }),
+    );
+    ClientBuilder::new(hyper_util::client::legacy::connect::HttpConnector::new())
+        .capabilities(caps)
+        .connect(&format!("http://127.0.0.1:{port}"))
+        .await
+        .expect("a WebDriver session")
+}
+
+async fn ops_scenario(
+    c: Client,
+    url: String,
+    session: zenoh::Session,
+    keys: connector_api::Keys,
+    fly: Group,
+    dir: std::path::PathBuf,
+) {
+    c.goto(&url).await.expect("the studio's page");
+    until(
+        &c,
+        "the page ready",
+        "return document.body.dataset.ready === 'true'",
+    )
+    .await;
+    click(&c, "#ops-toggle").await;
+    let listed = until(
+        &c,
+        "the executive listed",
+        "return document.body.dataset.executives",
+    )
+    .await;
+    let mission = listed.as_str().expect("a mission id").to_owned();
+    until(
+        &c,
+        "its model drawn and its state shown",
+        "return studio.ops.viewer.get('elementRegistry').get('ApproveSite') && document.body.dataset.opsSeq",
+    )
+    .await;
+    // Waiting for the ground: the page's tokens are the executive's at the same step.
+    until(
+        &c,
+        "the approval waiting",
+        "return (document.body.dataset.opsTokens || '').includes('ApproveSite')",
+    )
+    .await;
+    let start = std::time::Instant::now();
+    loop {
+        let page = js(
+            &c,
+            "return { seq: Number(document.body.dataset.opsSeq), tokens: JSON.parse(document.body.dataset.opsTokens),
+               badges: [...document.querySelectorAll('.djs-overlay-ops .trace-token')].length }",
+            vec![],
+        )
+        .await;
+        let replies = session
+            .get(keys.exec_state(&mission))
+            .await
+            .expect("a state query");
+        let reply = replies.recv_async().await.expect("a state reply");
+        let state: Value =
+            serde_json::from_slice(&reply.result().expect("a state").payload().to_bytes())
+                .expect("JSON");
+        if state["seq"] == page["seq"] {
+            assert_eq!(state["tokens"], page["tokens"], "at step {}", state["seq"]);
+            let elements = state["tokens"].as_object().expect("tokens").len();
+            assert!(
+                page["badges"]
+                    .as_u64()
+                    .is_some_and(|b| b as usize >= elements.min(1)),
+                "{page}"
+            );
+            break;
+        }
+        assert!(
+            start.elapsed() < WAIT,
+            "the page never showed the step of the state: {page} / {}",
+            state["seq"]
+        );
+    }
+    let flight = js(
+        &c,
+        "return [...document.querySelectorAll('#ops-flight li')].map(li => li.dataset.element)",
+        vec![],
+    )
+    .await;
+    assert!(
+        flight
+            .as_array()
+            .is_some_and(|f| f.contains(&json!("ApproveSite"))),
+        "{flight}"
+    );
+    let shot = c.screenshot().await.expect("screenshot");
+    std::fs::write(dir.join("studio-ops.png"), shot).expect("screenshot file");
+    // The executive killed: the page says so plainly.
+    drop(fly);
+    let gone = until(
+        &c,
+        "the executive gone",
+        "return document.body.dataset.opsGone === 'true' && document.getElementById('ops-status').textContent",
+    )
+    .await;
+    assert!(gone.as_str().is_some_and(|g| g.contains("gone")), "{gone}");
+    let errors = js(&c, "return studio.errors", vec![]).await;
+    assert_eq!(errors, json!([]), "errors in the page");
 }

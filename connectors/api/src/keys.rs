@@ -225,6 +225,12 @@ impl Keys {
         format!("{}/exec/{mission}/record", self.root)
     }
 
+    /// `<root>/exec/<mission>/model`: queryable, the mission model's BPMN XML as the executive
+    /// loaded it (for views that draw the mission).
+    pub fn exec_model(&self, mission: &str) -> String {
+        format!("{}/exec/{mission}/model", self.root)
+    }
+
     /// `<root>/exec/<mission>/state`: queryable, the mission's current state.
     pub fn exec_state(&self, mission: &str) -> String {
         format!("{}/exec/{mission}/state", self.root)

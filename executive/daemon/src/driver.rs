@@ -427,6 +427,7 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
         }
     })?);
     let given = digest(&bytes);
+    let model_xml: Arc<[u8]> = Arc::from(bytes);
     if let Some(held) = meta(&rec, "digest")
         && held != given
     {
@@ -595,7 +596,9 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
     let mut monitor = match connectors.session() {
         Some(session) => {
             let keys = opts.zenoh.keys().map_err(|e| RunError::Io(e.to_string()))?;
-            match crate::monitor::Publisher::start(session, &keys, &mission).await {
+            match crate::monitor::Publisher::start(session, &keys, &mission, model_xml.clone())
+                .await
+            {
                 Ok((p, queries)) => {
                     record.mirror(p.mirror());
                     Some((p, queries))

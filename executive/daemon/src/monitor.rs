@@ -1,7 +1,8 @@
 //! Remote monitoring. The executive side (`Publisher`): a liveliness token
 //! `<root>/alive/exec/<mission>`, every execution-record line on `<root>/exec/<mission>/record`,
-//! and a snapshot of the mission's present state on the queryable `<root>/exec/<mission>/state`,
-//! so a monitor that joins late starts from the present. The monitor side is `trace monitor`
+//! a snapshot of the mission's present state on the queryable `<root>/exec/<mission>/state`,
+//! so a monitor that joins late starts from the present, and the mission model's XML on the
+//! queryable `<root>/exec/<mission>/model`, so a view can draw it. The monitor side is `trace monitor`
 //! ([`watch`]).
 
 use connector_api::Keys;
@@ -18,18 +19,40 @@ use zenoh::query::Query;
 /// them between steps with a snapshot built then (nothing is built for nobody).
 pub struct Publisher {
     _queryable: zenoh::query::Queryable<()>,
+    _model: zenoh::query::Queryable<()>,
     _token: zenoh::liveliness::LivelinessToken,
     lines: mpsc::UnboundedSender<String>,
 }
 
 impl Publisher {
-    /// Declares the token and the state queryable (its queries arrive on the returned
-    /// receiver); record lines go out in order on a task.
+    /// Declares the token, the model queryable (answered here with `model`, the BPMN XML) and
+    /// the state queryable (its queries arrive on the returned receiver); record lines go out
+    /// in order on a task.
     pub async fn start(
         session: &Session,
         keys: &Keys,
         mission: &str,
+        model: std::sync::Arc<[u8]>,
     ) -> Result<(Publisher, mpsc::UnboundedReceiver<Query>), zenoh::Error> {
+        // Model queries are answered on a task of this runtime, not in Zenoh's callback.
+        let (model_tx, mut model_queries) = mpsc::unbounded_channel::<Query>();
+        let model_queryable = session
+            .declare_queryable(keys.exec_model(mission))
+            .callback(move |q| {
+                let _ = model_tx.send(q);
+            })
+            .await?;
+        tokio::spawn(async move {
+            while let Some(q) = model_queries.recv().await {
+                if let Err(e) = q
+                    .reply(q.key_expr().clone(), &model[..])
+                    .encoding(zenoh::bytes::Encoding::APPLICATION_XML)
+                    .await
+                {
+                    tracing::debug!(error = %e, "model reply failed");
+                }
+            }
+        });
         let (queries_tx, queries) = mpsc::unbounded_channel();
         let queryable = session
             .declare_queryable(keys.exec_state(mission))
@@ -58,6 +81,7 @@ impl Publisher {
         Ok((
             Publisher {
                 _queryable: queryable,
+                _model: model_queryable,
                 _token: token,
                 lines: tx,
             },
@@ -107,9 +131,21 @@ pub fn snapshot(mission: &str, engine: &Engine, mission_ms: i64, in_flight: Vec<
             }
         }
     }
+    // The timers armed now, by element, with their deadlines in mission time.
+    let timers: Vec<Value> = s
+        .waits
+        .values()
+        .filter_map(|w| match &w.on {
+            executive_engine::On::Timer { due, .. } => {
+                Some(json!({ "element": g.node(w.node).id, "due_ms": due }))
+            }
+            _ => None,
+        })
+        .collect();
     json!({
         "mission": mission,
         "seq": s.last_seq,
+        "timers": timers,
         "mission_ms": mission_ms,
         "instances": instances,
         "tokens": tokens,

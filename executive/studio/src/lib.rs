@@ -12,6 +12,8 @@
 //! - [`checks`]: what a check reports — `trace validate`'s diagnostics and, given the
 //!   connectors, `trace run`'s check against the catalogues, through the executive's library.
 //! - [`live`]: the catalogues the running systems serve, over Zenoh.
+//! - [`ops`]: the running missions followed live (state, record, presence) for the
+//!   operations view.
 //! - [`templates`]: Camunda element templates from the same catalogues (`trace templates`).
 //! - The page itself is built from pinned npm packages by `build.rs` (`web/`, see there) and
 //!   embedded in the binary; nothing third-party is committed.
@@ -24,6 +26,7 @@ mod assets;
 pub mod checks;
 pub mod files;
 pub mod live;
+pub mod ops;
 pub mod simulate;
 #[cfg(test)]
 mod simulate_tests;

@@ -3,7 +3,8 @@
 //! (`<root>/alive/studio/<id>`), and asks every server's catalogue queryable
 //! (`<root>/cat/*`) when the page asks for the catalogues and whenever a served action
 //! appears or goes (`<root>/alive/act/**`). A live catalogue wins over a file of the same
-//! server; a server that stops answering falls back to its file, if any.
+//! server; a server that stops answering falls back to its file, if any. The same membership
+//! follows the running missions for the operations view ([`crate::ops`]).
 
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex};
@@ -32,8 +33,10 @@ pub struct Live {
     session: zenoh::Session,
     keys: Keys,
     heard: Arc<Mutex<BTreeMap<String, Catalogue>>>,
+    executives: Arc<Mutex<BTreeMap<String, crate::ops::Presence>>>,
     _token: zenoh::liveliness::LivelinessToken,
     _watch: zenoh::pubsub::Subscriber<()>,
+    _executives: zenoh::pubsub::Subscriber<()>,
 }
 
 impl std::fmt::Debug for Live {
@@ -65,12 +68,32 @@ impl Live {
             })
             .await
             .map_err(z)?;
+        // The executives, from the tokens already declared on.
+        let executives: Arc<Mutex<BTreeMap<String, crate::ops::Presence>>> = Arc::default();
+        let prefix = format!("{}/alive/exec/", keys.root());
+        let seen = Arc::clone(&executives);
+        let watch_executives = session
+            .liveliness()
+            .declare_subscriber(format!("{prefix}*"))
+            .history(true)
+            .callback(move |s| {
+                let mission = s.key_expr().as_str().trim_start_matches(&prefix);
+                let alive = s.kind() == zenoh::sample::SampleKind::Put;
+                tracing::info!(mission, alive, "executive");
+                if let Ok(mut m) = seen.lock() {
+                    crate::ops::seen(&mut m, mission, alive);
+                }
+            })
+            .await
+            .map_err(z)?;
         let live = Arc::new(Live {
             session,
             keys,
             heard: Arc::default(),
+            executives,
             _token: token,
             _watch: watch,
+            _executives: watch_executives,
         });
         live.ask().await;
         let weak = Arc::downgrade(&live);
@@ -123,6 +146,20 @@ impl Live {
         if let Ok(mut h) = self.heard.lock() {
             *h = heard;
         }
+    }
+
+    /// The studio's Zenoh session.
+    pub fn session(&self) -> &zenoh::Session {
+        &self.session
+    }
+
+    /// The key builder of its deployment.
+    pub fn keys(&self) -> &Keys {
+        &self.keys
+    }
+
+    pub(crate) fn executives_seen(&self) -> &Mutex<BTreeMap<String, crate::ops::Presence>> {
+        &self.executives
     }
 
     /// The catalogues heard in the last round.

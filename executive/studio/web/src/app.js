@@ -1,7 +1,8 @@
 // TRACE Studio's page: bpmn-js Modeler with the properties panel and TRACE's own panel
 // (provider.jsx), the mission files of the studio's directory, and the executive's diagnostics
 // (the same as `trace validate`) on the elements and in a list, checked as the model changes;
-// verification with its counterexamples replayed (verify.js) and the token game (simulate.js).
+// verification with its counterexamples replayed (verify.js), the token game (simulate.js), and
+// the running missions followed live (ops.js).
 import BpmnModeler from 'bpmn-js/lib/Modeler';
 import { BpmnPropertiesPanelModule, BpmnPropertiesProviderModule } from 'bpmn-js-properties-panel';
 import zeebeModdle from 'zeebe-bpmn-moddle/resources/zeebe.json';
@@ -14,6 +15,7 @@ import traceModdle from './trace-moddle.json';
 import TracePanelModule from './provider.jsx';
 import { setupVerify } from './verify.js';
 import { setupSimulate } from './simulate.js';
+import { setupOps } from './ops.js';
 
 // Every error the page meets, for the operator's console and for tests to read.
 const errors = [];
@@ -42,6 +44,7 @@ const $ = id => document.getElementById(id);
 let current = null;   // the open file's name
 const verification = setupVerify({ modeler, api, say, current: () => current });
 const simulation = setupSimulate({ modeler, api, say });
+const ops = setupOps({ api, say });
 let dirty = false;
 let checking = null;  // the pending check's timer
 
@@ -211,7 +214,7 @@ window.addEventListener('keydown', e => {
 window.addEventListener('beforeunload', e => { if (dirty) e.preventDefault(); });
 
 // For tests and tools: the modeler, to read the model the page holds.
-window.studio = { modeler, catalogue, errors, verification, simulation };
+window.studio = { modeler, catalogue, errors, verification, simulation, ops };
 
 /**
  * Fetches the catalogues (the server asks the running systems first) and shows where each

@@ -1,0 +1,176 @@
+// The operations view: a running mission followed live on its own diagram. The studio's server
+// follows the executive over Zenoh as `trace monitor` does and passes on, as server-sent
+// events, its present state (first, and again after each burst of record lines) and every
+// record line; this page draws them: tokens with their counts (the state's, so always the
+// engine's own), activities in flight with their last feedback and how long they have run,
+// elements completed, failed tasks and incidents, timers with their deadlines in mission time,
+// the variables decisions read, and a plain line when the executive goes or comes back.
+import NavigatedViewer from 'bpmn-js/lib/NavigatedViewer';
+
+const fmt = ms => (Number.isFinite(ms) ? new Date(ms).toISOString().replace('.000Z', 'Z') : '?');
+
+/** How long, for people: `3 h 12 min`. */
+function span(ms) {
+  if (!Number.isFinite(ms) || ms < 0) return '';
+  const min = Math.round(ms / 60000);
+  if (min < 60) return `${min} min`;
+  const h = Math.floor(min / 60);
+  return h < 48 ? `${h} h ${min % 60} min` : `${Math.floor(h / 24)} d ${h % 24} h`;
+}
+
+/** Wires the operations view; `ctx` gives `api` and `say`. */
+export function setupOps(ctx) {
+  const { api, say } = ctx;
+  const $ = id => document.getElementById(id);
+  const viewer = new NavigatedViewer({ container: '#ops-canvas' });
+  let source = null;     // the EventSource of the mission followed
+  let mission = null;
+  let state = null;      // the last state
+  let lines = [];        // record lines since the page joined
+  const dispatched = {}; // task key → {element, name, resource, at}
+  const feedback = {};   // task key → last feedback line
+  const done = new Set();
+  const failed = new Set();
+
+  function mark() {
+    if (!state) return;
+    const canvas = viewer.get('canvas');
+    const overlays = viewer.get('overlays');
+    const registry = viewer.get('elementRegistry');
+    overlays.remove({ type: 'ops' });
+    for (const el of registry.getAll()) {
+      for (const m of ['trace-live', 'ops-done', 'ops-flight', 'ops-failed']) canvas.removeMarker(el, m);
+    }
+    for (const id of done) if (registry.get(id)) canvas.addMarker(id, 'ops-done');
+    for (const id of failed) if (registry.get(id)) canvas.addMarker(id, 'ops-failed');
+    const flights = state.in_flight || [];
+    for (const f of flights) if (registry.get(f.element)) canvas.addMarker(f.element, 'ops-flight');
+    for (const [id, n] of Object.entries(state.tokens || {})) {
+      const el = registry.get(id);
+      if (!el) continue;
+      canvas.addMarker(el, 'trace-live');
+      const badge = document.createElement('div');
+      badge.className = 'trace-token';
+      badge.textContent = String(n);
+      overlays.add(el, 'ops', { position: { bottom: 0, left: -9 }, html: badge });
+    }
+    const now = state.mission_ms;
+    $('ops-flight').replaceChildren(...flights.map(f => {
+      const li = document.createElement('li');
+      const fb = feedback[f.task] || (f.feedback && { progress_pct: f.feedback.progress_pct });
+      const progress = fb && Number.isFinite(fb.progress_pct) ? ` ${Math.round(fb.progress_pct)} %` : '';
+      const since = dispatched[f.task] ? `, for ${span(now - dispatched[f.task].at)}` : '';
+      li.textContent = f.user_task
+        ? `${f.name}: waits for the ground${f.deadline_ms ? ` until ${fmt(f.deadline_ms)}` : ''}${since}`
+        : `${f.name} (${f.resource})${progress}${since}`;
+      li.dataset.element = f.element;
+      return li;
+    }));
+    $('ops-timers').replaceChildren(...(state.timers || []).map(t => {
+      const li = document.createElement('li');
+      li.textContent = `${t.element}: at ${fmt(t.due_ms)} (in ${span(t.due_ms - now)})`;
+      return li;
+    }));
+    $('ops-vars').replaceChildren(...Object.entries(state.decision_vars || {}).map(([k, v]) => {
+      const li = document.createElement('li');
+      li.textContent = `${k} = ${JSON.stringify(v)}`;
+      return li;
+    }));
+    const ended = (state.instances || []).filter(i => i.outcome);
+    $('ops-status').className = '';
+    $('ops-status').textContent = `${mission} · step ${state.seq} · mission time ${fmt(now)}`
+      + (ended.length ? ` · ended: ${ended.map(i => JSON.stringify(i.outcome)).join(', ')}` : '');
+    document.body.dataset.opsSeq = String(state.seq);
+    document.body.dataset.opsTokens = JSON.stringify(state.tokens || {});
+  }
+
+  function line(v) {
+    lines.push(v);
+    const id = v.element && v.element.id;
+    switch (v.kind) {
+      case 'dispatched':
+      case 'user_task_opened':
+        dispatched[v.task] = { element: id, at: v.mission_ms };
+        break;
+      case 'left':
+        if (id) done.add(id);
+        break;
+      case 'feedback':
+        feedback[v.task] = v;
+        break;
+      case 'failed':
+        if (dispatched[v.task]) failed.add(dispatched[v.task].element);
+        break;
+      case 'incident':
+        if (id) failed.add(id);
+        break;
+      case 'reboot':
+        document.body.dataset.opsReboots = String(v.reboots);
+        break;
+      default:
+    }
+    const li = document.createElement('li');
+    li.textContent = `${v.kind} ${id || v.task || ''}${v.code ? ` ${v.code}` : ''}${v.kind === 'reboot' ? ' — the executive restarted' : ''}`;
+    if (v.kind === 'reboot') li.className = 'reboot';
+    $('ops-log').append(li);
+    while ($('ops-log').children.length > 200) $('ops-log').firstChild.remove();
+    document.body.dataset.opsLines = String(lines.length);
+  }
+
+  async function follow(id) {
+    if (source) source.close();
+    mission = id;
+    state = null;
+    lines = [];
+    done.clear();
+    failed.clear();
+    $('ops-log').replaceChildren();
+    try {
+      await viewer.importXML(await api(`/api/ops/${encodeURIComponent(id)}/model`));
+      viewer.get('canvas').zoom('fit-viewport');
+    } catch (e) {
+      $('ops-status').textContent = `${id}: cannot draw its model — ${e.message}`;
+      return;
+    }
+    source = new EventSource(`/api/ops/${encodeURIComponent(id)}/events`);
+    source.addEventListener('state', e => { state = JSON.parse(e.data); document.body.dataset.opsGone = ''; mark(); });
+    source.addEventListener('record', e => { line(JSON.parse(e.data)); mark(); });
+    source.addEventListener('gone', () => {
+      document.body.dataset.opsGone = 'true';
+      $('ops-status').className = 'gone';
+      $('ops-status').textContent = `${id}: the executive is gone (stopped or crashed); waiting for it to come back`;
+    });
+    source.addEventListener('back', () => {
+      document.body.dataset.opsBack = String(Number(document.body.dataset.opsBack || 0) + 1);
+      say(`${id}: the executive is back`, 'ok');
+    });
+  }
+
+  async function executives() {
+    const list = JSON.parse(await api('/api/ops/executives'));
+    const box = $('executives');
+    const chosen = box.value;
+    box.replaceChildren(...list.map(p => new Option(`${p.mission}${p.alive ? '' : ' (gone)'}`, p.mission)));
+    if (chosen) box.value = chosen;
+    document.body.dataset.executives = list.map(p => p.mission).join(' ');
+    if (!mission && list.some(p => p.alive)) follow(list.find(p => p.alive).mission);
+  }
+
+  let polling = null;
+  function show(on) {
+    document.body.classList.toggle('ops-mode', on);
+    $('ops-canvas').hidden = !on;
+    $('ops-side').hidden = !on;
+    $('ops-toggle').textContent = on ? 'Compose' : 'Operations';
+    clearInterval(polling);
+    if (on) {
+      const poll = () => executives().catch(e => { $('ops-status').textContent = e.message; });
+      poll();
+      polling = setInterval(poll, 3000);
+    }
+  }
+
+  $('ops-toggle').addEventListener('click', () => show(!document.body.classList.contains('ops-mode')));
+  $('executives').addEventListener('change', e => follow(e.target.value));
+  return { show, follow, state: () => state, lines: () => lines, viewer };
+}
