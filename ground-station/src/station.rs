@@ -32,6 +32,9 @@ const VERDICT_WAIT: Duration = Duration::from_secs(30);
 const RETRY_FIRST: Duration = Duration::from_millis(200);
 const RETRY_MAX: Duration = Duration::from_secs(5);
 
+/// How many event lines [`Station::log`] keeps.
+pub const LOG_LINES: usize = 200;
+
 /// A running ground station.
 pub struct Station {
     session: Session,
@@ -46,8 +49,16 @@ pub struct Station {
     resumed: Mutex<Vec<connector_zenoh::GoalHandle>>,
     /// Told when a task whose answer is out is withdrawn: that answer's wait looks at why.
     withdrawals: tokio::sync::Notify,
+    /// The last event lines said, for views other than the terminal.
+    log: Mutex<std::collections::VecDeque<String>>,
     _server: ActionServer,
     _alive: LivelinessToken,
+}
+
+impl std::fmt::Debug for Station {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Station").field("id", &self.id).finish()
+    }
 }
 
 /// Prints one event line and flushes (the output may be a pipe or a terminal).
@@ -97,10 +108,32 @@ impl Station {
             policy,
             resumed,
             withdrawals: tokio::sync::Notify::new(),
+            log: Mutex::default(),
             _server: server,
             _alive: alive,
         });
         Ok((station, requests))
+    }
+
+    /// Says an event line and keeps it in the log.
+    fn tell(&self, line: String) {
+        say(&line);
+        let mut log = self.log.lock().unwrap_or_else(|p| p.into_inner());
+        if log.len() == LOG_LINES {
+            log.pop_front();
+        }
+        log.push_back(line);
+    }
+
+    /// The last event lines said (at most [`LOG_LINES`]), oldest first: `task 3 open: …`,
+    /// `task 3 closed: answered by ana@console`, …
+    pub fn log(&self) -> Vec<String> {
+        self.log
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .iter()
+            .cloned()
+            .collect()
     }
 
     /// The desk of open tasks.
@@ -139,7 +172,7 @@ impl Station {
                     };
                     if let Some(t) = closed {
                         h.canceled(Fields::new()).await;
-                        say(&format!("task {} closed: {why}", t.number));
+                        self.tell(format!("task {} closed: {why}", t.number));
                     }
                 }
             }
@@ -152,17 +185,17 @@ impl Station {
             Some(t) => (t.number, t.line()),
             None => return,
         };
-        say(&format!("task {number} open: {line}"));
+        self.tell(format!("task {number} open: {line}"));
         let Some(policy) = self.policy.clone() else {
             return;
         };
         match policy.decide(&h.action, &h.fields) {
             Decision::Leave => {}
-            Decision::Silent => say(&format!(
+            Decision::Silent => self.tell(format!(
                 "task {number} left to the model's timer (policy: silent)"
             )),
             Decision::Answer { fields: Err(e), .. } => {
-                say(&format!("task {number} not answered by policy: {e}"))
+                self.tell(format!("task {number} not answered by policy: {e}"))
             }
             Decision::Answer {
                 delay,
@@ -196,7 +229,7 @@ impl Station {
         let (goal_id, action, handle) = match picked {
             Ok(p) => p,
             Err(why) => {
-                say(&format!("task {number} refused: {why}"));
+                self.tell(format!("task {number} refused: {why}"));
                 return false;
             }
         };
@@ -211,7 +244,7 @@ impl Station {
             Ok(r) if r.applied => {
                 self.desk().close(&goal_id);
                 handle.succeed(fields).await;
-                say(&format!(
+                self.tell(format!(
                     "task {number} answered: applied ({operator}@{})",
                     self.id
                 ));
@@ -219,12 +252,12 @@ impl Station {
             }
             Ok(r) => {
                 let reason = r.reason.unwrap_or_else(|| "refused".to_owned());
-                say(&format!("task {number} refused: {reason}"));
+                self.tell(format!("task {number} refused: {reason}"));
                 self.not_applied(number, &handle).await;
                 false
             }
             Err(e) => {
-                say(&format!("task {number} refused: {e}"));
+                self.tell(format!("task {number} refused: {e}"));
                 self.not_applied(number, &handle).await;
                 false
             }
@@ -289,7 +322,7 @@ impl Station {
             if !still {
                 return Err(e);
             }
-            say(&format!(
+            self.tell(format!(
                 "task {number} answer pending: {e}; sending it again in {:.1} s",
                 pause.as_secs_f64()
             ));
@@ -313,7 +346,7 @@ impl Station {
         };
         if let Some(why) = withdrawn {
             handle.canceled(Fields::new()).await;
-            say(&format!("task {number} closed: {why}"));
+            self.tell(format!("task {number} closed: {why}"));
         }
     }
 }

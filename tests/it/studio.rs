@@ -9,9 +9,12 @@
 //! catalogues live: a studio on a router's network offers what a running simulator serves, and
 //! stops offering it when the simulator is gone. And operations: during a real `trace fly`, the
 //! page lists the executive, draws its model, shows the tokens of the state query at the same
-//! step, and says plainly when the executive is gone.
+//! step, answers the site approval as operator `ana` at station `web` (recorded as
+//! `ana@web`, the terminal station told), says plainly when the executive is gone, and follows
+//! it again, its reboot marked, when it is resumed.
 
 use std::io::{BufRead, BufReader};
+use std::os::unix::process::CommandExt;
 use std::process::{Child, Command, Stdio};
 use std::time::Duration;
 
@@ -766,7 +769,6 @@ impl Drop for Group {
 
 #[test]
 fn operations_follow_a_flying_mission_on_its_diagram() {
-    use std::os::unix::process::CommandExt;
     let dir = tempdir("studio-ops");
     let missions = dir.join("missions");
     std::fs::create_dir_all(&missions).expect("missions dir");
@@ -800,14 +802,27 @@ fn operations_follow_a_flying_mission_on_its_diagram() {
         ])
         .args(&join)
         .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
         .process_group(0);
-    let (station, _) = start(station, "ready ground console");
-    let _station = Group(station);
+    let mut station = station.spawn().expect("ground-station starts");
+    // Everything the terminal station says, for what it is told.
+    let said = std::sync::Arc::new(std::sync::Mutex::new(Vec::<String>::new()));
+    {
+        let (out, said) = (station.stdout.take().expect("stdout"), said.clone());
+        std::thread::spawn(move || {
+            for line in BufReader::new(out).lines().map_while(Result::ok) {
+                said.lock().expect("lines").push(line);
+            }
+        });
+    }
+    let _station = Group(Kill(station));
     let mut studio = Command::new(bin("trace"));
+    // The studio is a ground station too: the page answers through it.
     studio
         .arg("studio")
         .arg(&missions)
-        .args(["--port", "0"])
+        .args(["--port", "0", "--station", "web", "--catalogue"])
+        .arg(repo().join("deploy/ground/forms.json"))
         .args(&join);
     let (_studio, ready) = start(studio, "ready http://");
     let url = ready
@@ -829,15 +844,13 @@ fn operations_follow_a_flying_mission_on_its_diagram() {
         let keys = connector_api::Keys::deployed(connector_api::keys::DEFAULT_ROOT, &deployment)
             .expect("keys");
         let c = browser(port).await;
-        let outcome = tokio::spawn(ops_scenario(
-            c.clone(),
-            url,
-            session,
-            keys,
+        let flight = Flight {
             fly,
-            dir.clone(),
-        ))
-        .await;
+            dir: dir.clone(),
+            said,
+            join: join.clone(),
+        };
+        let outcome = tokio::spawn(ops_scenario(c.clone(), url, session, keys, flight)).await;
         let _ = c.close().await;
         if let Err(e) = outcome {
             std::panic::resume_unwind(e.into_panic());
@@ -862,14 +875,28 @@ async fn browser(port: u16) -> Client {
         .expect("a WebDriver session")
 }
 
+/// The flight the operations view follows: `trace fly` (killed when dropped), its directory,
+/// what the terminal station said, and the flags that join its network.
+struct Flight {
+    fly: Group,
+    dir: std::path::PathBuf,
+    said: std::sync::Arc<std::sync::Mutex<Vec<String>>>,
+    join: Vec<String>,
+}
+
 async fn ops_scenario(
     c: Client,
     url: String,
     session: zenoh::Session,
     keys: connector_api::Keys,
-    fly: Group,
-    dir: std::path::PathBuf,
+    flight: Flight,
 ) {
+    let Flight {
+        fly,
+        dir,
+        said,
+        join,
+    } = flight;
     c.goto(&url).await.expect("the studio's page");
     until(
         &c,
@@ -898,7 +925,7 @@ async fn ops_scenario(
         "return (document.body.dataset.opsTokens || '').includes('ApproveSite')",
     )
     .await;
-    let start = std::time::Instant::now();
+    let began = std::time::Instant::now();
     loop {
         let page = js(
             &c,
@@ -927,7 +954,7 @@ async fn ops_scenario(
             break;
         }
         assert!(
-            start.elapsed() < WAIT,
+            began.elapsed() < WAIT,
             "the page never showed the step of the state: {page} / {}",
             state["seq"]
         );
@@ -944,8 +971,82 @@ async fn ops_scenario(
             .is_some_and(|f| f.contains(&json!("ApproveSite"))),
         "{flight}"
     );
+    // The site approval answered from the page: typed fields, an operator's name required.
+    let form = r#"#ground-tasks .ground-task[data-task="ApproveSite"]"#;
+    until(
+        &c,
+        "the approval on the page's desk",
+        &format!("return !!document.querySelector('{form}')"),
+    )
+    .await;
     let shot = c.screenshot().await.expect("screenshot");
     std::fs::write(dir.join("studio-ops.png"), shot).expect("screenshot file");
+    js(&c, "document.getElementById('operator').value = ''", vec![]).await;
+    click(&c, &format!("{form} button")).await;
+    let refused = until(
+        &c,
+        "no answer without an operator",
+        &format!(
+            "const r = document.querySelector('{form} .answer-error'); return r && r.textContent"
+        ),
+    )
+    .await;
+    assert!(
+        refused.as_str().is_some_and(|r| r.contains("operator")),
+        "{refused}"
+    );
+    js(
+        &c,
+        &format!(
+            "document.getElementById('operator').value = 'ana';
+             document.querySelector('{form} select[name=approve]').value = 'true';
+             document.querySelector('{form} input[name=comment]').value = 'go';"
+        ),
+        vec![],
+    )
+    .await;
+    click(&c, &format!("{form} button")).await;
+    let outcome = until(
+        &c,
+        "the executive's verdict",
+        &format!("const b = document.querySelector('{form}'); return b && b.dataset.outcome"),
+    )
+    .await;
+    assert_eq!(outcome, "applied");
+    // The executive recorded who answered, and the other station was told.
+    let record = dir.join("flight/store/record.jsonl");
+    let answered = |text: &str| {
+        text.lines()
+            .filter_map(|l| serde_json::from_str::<Value>(l).ok())
+            .find(|v| v["kind"] == "user_task_answered")
+    };
+    let began = std::time::Instant::now();
+    let line = loop {
+        if let Some(v) = answered(&std::fs::read_to_string(&record).unwrap_or_default()) {
+            break v;
+        }
+        assert!(
+            began.elapsed() < WAIT,
+            "no user_task_answered in the record"
+        );
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    };
+    assert_eq!(line["operator"], "ana@web", "{line}");
+    assert_eq!(line["answer"]["approve"], true, "{line}");
+    let began = std::time::Instant::now();
+    while !said
+        .lock()
+        .expect("lines")
+        .iter()
+        .any(|l| l.contains("closed: answered by ana@web"))
+    {
+        assert!(
+            began.elapsed() < WAIT,
+            "the terminal station was not told: {:?}",
+            said.lock().expect("lines")
+        );
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
     // The executive killed: the page says so plainly.
     drop(fly);
     let gone = until(
@@ -955,6 +1056,41 @@ async fn ops_scenario(
     )
     .await;
     assert!(gone.as_str().is_some_and(|g| g.contains("gone")), "{gone}");
+    // Resumed, on the same store, endpoint and deployment: the page follows again and marks
+    // the reboot.
+    let hub = join[1].clone();
+    let mut sim = Command::new(bin("elap-sim"));
+    sim.args([
+        "--speed",
+        "1000",
+        "--seed",
+        "1",
+        "--profile",
+        "nominal",
+        "--store",
+    ])
+    .arg(dir.join("flight/sim"))
+    .args(&join)
+    .process_group(0);
+    let (sim, _) = start(sim, "ready");
+    let _sim = Group(sim);
+    let mut exec = Command::new(bin("trace"));
+    exec.args(["resume", "--store"])
+        .arg(dir.join("flight/store"))
+        .arg("--connectors")
+        .arg(dir.join("flight/connectors.toml"))
+        .args(["-l", &hub, "--deployment", &join[3]])
+        .stdout(Stdio::null())
+        .process_group(0);
+    let _exec = Group(Kill(exec.spawn().expect("trace resume starts")));
+    let back = until(
+        &c,
+        "the executive back, its reboot marked",
+        "return document.body.dataset.opsBack && document.body.dataset.opsReboots
+           && document.body.dataset.opsGone === '' && document.getElementById('ops-status').textContent",
+    )
+    .await;
+    assert!(back.as_str().is_some_and(|b| b.contains("step")), "{back}");
     let errors = js(&c, "return studio.errors", vec![]).await;
     assert_eq!(errors, json!([]), "errors in the page");
 }

@@ -358,6 +358,10 @@ struct StudioArgs {
     /// Do not join Zenoh: offer only the catalogue files.
     #[arg(long)]
     offline: bool,
+    /// Also be ground station NAME: the operations view answers user tasks through it, judged
+    /// by the executive like any station's (needs the ground forms, `server: "ground"`).
+    #[arg(long, value_name = "NAME", conflicts_with = "offline")]
+    station: Option<String>,
     /// How to reach the running systems, whose catalogues win over the files (as the
     /// deployment's other processes are configured: a router's client, or a peer).
     #[command(flatten)]
@@ -451,11 +455,39 @@ fn studio(args: StudioArgs) -> anyhow::Result<ExitCode> {
             Some(executive_studio::live::Live::join(&args.zenoh).await?)
         };
         let heard = live.as_ref().map_or(0, |l| l.heard().len());
+        let ground = match (&args.station, &live) {
+            (Some(id), Some(live)) => {
+                let forms = catalogues
+                    .iter()
+                    .cloned()
+                    .chain(live.heard())
+                    .find(|c| c.server == "ground")
+                    .ok_or_else(|| {
+                        anyhow::anyhow!(
+                            "--station {id} needs the ground forms: --catalogue deploy/ground/forms.json"
+                        )
+                    })?;
+                let (station, requests) = ground_station::station::Station::start(
+                    live.session(),
+                    live.keys().clone(),
+                    std::sync::Arc::new(forms),
+                    id.clone(),
+                    None,
+                    None,
+                )
+                .await
+                .map_err(|e| anyhow::anyhow!("--station {id}: {e}"))?;
+                tokio::spawn(std::sync::Arc::clone(&station).serve(requests));
+                Some(station)
+            }
+            _ => None,
+        };
         let studio = executive_studio::Studio {
             dir: args.dir.clone(),
             catalogues,
             connectors,
             live,
+            ground,
         };
         let addr = std::net::SocketAddr::new(args.address, args.port);
         let bound = executive_studio::bind(studio, addr, args.public).await?;

@@ -353,6 +353,8 @@ pub fn run_with(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErr
 }
 
 struct Driver {
+    /// Restarts of this mission so far (shown to monitors).
+    reboots: u64,
     g: Arc<ProcessGraph>,
     engine: Engine,
     store: SledStore,
@@ -638,6 +640,7 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
         HashMap::new()
     };
     let mut d = Driver {
+        reboots: 0,
         g: graph,
         engine,
         store,
@@ -679,6 +682,7 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
             .reboot(d.clock.now(), wall_ms(), reboots, in_flight.len())
             .map_err(|e| RunError::Io(e.to_string()))?;
         tracing::info!(reboots, recommanded = in_flight.len(), "resumed");
+        d.reboots = reboots;
         // Actions committed but not performed, except commands: those come from the state.
         // A command committed but never performed is sent; one performed before the crash is
         // reconciled with its system (still running, finished, or lost).
@@ -1302,6 +1306,7 @@ impl Driver {
             .map(|c| (c.name().to_owned(), serde_json::json!(c.dropped())))
             .collect();
         state["dropped"] = serde_json::Value::Object(dropped);
+        state["reboots"] = serde_json::json!(self.reboots);
         state
     }
 

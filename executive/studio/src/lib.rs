@@ -1,14 +1,19 @@
 //! TRACE Studio: the mission composer, served on loopback by `trace studio [DIR]`.
 //!
-//! A planner opens, draws, checks and saves the BPMN mission files of one directory in the
-//! browser: bpmn-js's modeler and properties panel, a TRACE panel that writes the `trace:task`
-//! binding from the systems' catalogues, and every diagnostic of `trace validate` on the
-//! element it concerns, checked again as the model changes.
+//! A planner opens, draws, checks, verifies, plays and saves the BPMN mission files of one
+//! directory in the browser: bpmn-js's modeler and properties panel, a TRACE panel that writes
+//! the `trace:task` binding from the systems' catalogues (live over Zenoh, or from files), every
+//! diagnostic of `trace validate` and of `trace run`'s catalogue check on the element it
+//! concerns, `trace verify` with counterexamples replayed on the diagram, and the token game on
+//! the engine. Ground operators follow running missions on their diagram and answer their
+//! decisions (the operations view).
 //!
 //! - [`files`]: the mission directory — names are plain `*.bpmn` file names, never paths, and
 //!   a save is atomic (a temporary file renamed over the old one).
 //! - [`api`]: the HTTP routes (axum on the executive's tokio) — the page, `GET/PUT
-//!   /api/missions/{name}`, `POST /api/validate`, `GET /api/catalogues`.
+//!   /api/missions/{name}` and `/api/requirements/{name}`, `POST /api/validate`, `GET
+//!   /api/catalogues`, `POST /api/verify/{name}`, `POST /api/simulate[/{id}]`, `GET
+//!   /api/ops/...` (executives, model, state, events) and `/api/ground[/{number}]`.
 //! - [`checks`]: what a check reports — `trace validate`'s diagnostics and, given the
 //!   connectors, `trace run`'s check against the catalogues, through the executive's library.
 //! - [`live`]: the catalogues the running systems serve, over Zenoh.
@@ -54,6 +59,9 @@ pub struct Studio {
     /// The studio's place on the Zenoh network, when it joined one: the catalogues the
     /// running systems serve.
     pub live: Option<std::sync::Arc<live::Live>>,
+    /// The ground station the page answers user tasks through, when the studio is one
+    /// (`trace studio --station NAME`).
+    pub ground: Option<std::sync::Arc<ground_station::station::Station>>,
 }
 
 /// Where a catalogue the studio offers came from.

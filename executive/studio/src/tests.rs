@@ -36,6 +36,7 @@ async fn serve(dir: PathBuf) -> SocketAddr {
                 .expect("connectors"),
             ),
             live: None,
+            ground: None,
         },
         "127.0.0.1:0".parse().unwrap(),
         false,
@@ -394,6 +395,7 @@ async fn only_loopback_unless_asked_and_only_a_directory() {
         catalogues: Vec::new(),
         connectors: None,
         live: None,
+        ground: None,
     };
     let e = bind(studio.clone(), "0.0.0.0:0".parse().unwrap(), false).await;
     assert!(matches!(e, Err(StartError::NotLoopback(_))));
@@ -403,6 +405,7 @@ async fn only_loopback_unless_asked_and_only_a_directory() {
             catalogues: Vec::new(),
             connectors: None,
             live: None,
+            ground: None,
         },
         "127.0.0.1:0".parse().unwrap(),
         false,

@@ -6,6 +6,7 @@
 // elements completed, failed tasks and incidents, timers with their deadlines in mission time,
 // the variables decisions read, and a plain line when the executive goes or comes back.
 import NavigatedViewer from 'bpmn-js/lib/NavigatedViewer';
+import { setupGround } from './ground.js';
 
 const fmt = ms => (Number.isFinite(ms) ? new Date(ms).toISOString().replace('.000Z', 'Z') : '?');
 
@@ -23,6 +24,7 @@ export function setupOps(ctx) {
   const { api, say } = ctx;
   const $ = id => document.getElementById(id);
   const viewer = new NavigatedViewer({ container: '#ops-canvas' });
+  const ground = setupGround({ api });
   let source = null;     // the EventSource of the mission followed
   let mission = null;
   let state = null;      // the last state
@@ -80,6 +82,10 @@ export function setupOps(ctx) {
     $('ops-status').className = '';
     $('ops-status').textContent = `${mission} · step ${state.seq} · mission time ${fmt(now)}`
       + (ended.length ? ` · ended: ${ended.map(i => JSON.stringify(i.outcome)).join(', ')}` : '');
+    if (state.reboots) {
+      $('ops-status').textContent += ` · resumed ${state.reboots} time${state.reboots === 1 ? '' : 's'}`;
+      document.body.dataset.opsReboots = String(state.reboots);
+    }
     document.body.dataset.opsSeq = String(state.seq);
     document.body.dataset.opsTokens = JSON.stringify(state.tokens || {});
   }
@@ -164,9 +170,12 @@ export function setupOps(ctx) {
     $('ops-toggle').textContent = on ? 'Compose' : 'Operations';
     clearInterval(polling);
     if (on) {
-      const poll = () => executives().catch(e => { $('ops-status').textContent = e.message; });
+      const poll = () => {
+        executives().catch(e => { $('ops-status').textContent = e.message; });
+        ground.refresh();
+      };
       poll();
-      polling = setInterval(poll, 3000);
+      polling = setInterval(poll, 2000);
     }
   }
 

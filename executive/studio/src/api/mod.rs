@@ -1,0 +1,82 @@
+//! The studio's HTTP routes: the page, the mission files, validation and the catalogues.
+//! Every refusal is JSON `{"error": "..."}` with a status that says whose fault it is.
+
+use std::sync::Arc;
+
+use axum::Router;
+use axum::extract::{DefaultBodyLimit, Extension, Path, State};
+use axum::http::{StatusCode, header};
+use axum::response::{IntoResponse, Json, Response};
+use axum::routing::{get, post};
+use executive_model::Options;
+use serde_json::json;
+
+use crate::files::FileError;
+use crate::{Studio, assets};
+
+mod games;
+mod ground;
+mod missions;
+mod ops;
+mod verify;
+
+/// The routes of `studio`.
+pub fn router(studio: Studio) -> Router {
+    // A model is read only up to the loader's own limit; a larger body is refused by axum.
+    let limit = Options::default().limits.max_bytes + 1;
+    Router::new()
+        .route("/", get(|| async { page("index.html") }))
+        // Browsers ask for it unprompted; there is none.
+        .route("/favicon.ico", get(|| async { StatusCode::NO_CONTENT }))
+        .route("/api/missions", get(missions::list))
+        .route(
+            "/api/missions/{name}",
+            get(missions::read).put(missions::write),
+        )
+        .route("/api/validate", post(missions::validate_text))
+        .route("/api/validate/{name}", post(missions::validate_named))
+        .route("/api/catalogues", get(missions::catalogues))
+        .route(
+            "/api/requirements/{name}",
+            get(missions::read_requirements).put(missions::write_requirements),
+        )
+        .route("/api/verify/{name}", post(verify::verify))
+        .route("/api/ops/executives", get(ops::executives))
+        .route("/api/ops/{mission}/model", get(ops::model))
+        .route("/api/ops/{mission}/state", get(ops::state))
+        .route("/api/ops/{mission}/events", get(ops::events))
+        .route("/api/ground", get(ground::desk))
+        .route("/api/ground/{number}", post(ground::answer))
+        .route("/api/simulate", post(games::start))
+        .route("/api/simulate/{id}", post(games::act).delete(games::end))
+        .route(
+            "/{file}",
+            get(|Path(file): Path<String>| async move { page(&file) }),
+        )
+        .layer(DefaultBodyLimit::max(limit))
+        .layer(Extension(Arc::new(games::Games::default())))
+        .with_state(Arc::new(studio))
+}
+
+pub(super) type Shared = State<Arc<Studio>>;
+
+pub(super) fn refuse(status: StatusCode, why: impl std::fmt::Display) -> Response {
+    tracing::warn!(status = status.as_u16(), "refused: {why}");
+    (status, Json(json!({ "error": why.to_string() }))).into_response()
+}
+
+pub(super) fn file_error(e: FileError) -> Response {
+    let status = match e {
+        FileError::BadName(_) => StatusCode::BAD_REQUEST,
+        FileError::Missing(_) => StatusCode::NOT_FOUND,
+        FileError::Io { .. } => StatusCode::INTERNAL_SERVER_ERROR,
+    };
+    refuse(status, e)
+}
+
+fn page(file: &str) -> Response {
+    match assets::get(file) {
+        Some((bytes, kind)) => ([(header::CONTENT_TYPE, kind)], bytes).into_response(),
+        None => refuse(StatusCode::NOT_FOUND, format!("no page file `{file}`")),
+    }
+}
