@@ -11,7 +11,8 @@
 //! page lists the executive, draws its model, shows the tokens of the state query at the same
 //! step, answers the site approval as operator `ana` at station `web` (recorded as
 //! `ana@web`, the terminal station told), says plainly when the executive is gone, and follows
-//! it again, its reboot marked, when it is resumed.
+//! it again, its reboot marked, when it is resumed; the flight's record, replayed through the
+//! engine on the mission in the composer, shows at a chosen step the tokens its lines leave.
 
 use std::io::{BufRead, BufReader};
 use std::os::unix::process::CommandExt;
@@ -772,6 +773,12 @@ fn operations_follow_a_flying_mission_on_its_diagram() {
     let dir = tempdir("studio-ops");
     let missions = dir.join("missions");
     std::fs::create_dir_all(&missions).expect("missions dir");
+    // The mission the composer holds, for replaying the flight's record on it.
+    std::fs::copy(
+        repo().join("deploy/missions/europa-bsm1.bpmn"),
+        missions.join("europa-bsm1.bpmn"),
+    )
+    .expect("europa");
     // The ground answers nothing: the mission waits at its first site approval (six mission
     // hours, 21 s at this speed), long enough to compare the page with the executive.
     let mut fly = Command::new(bin("trace"));
@@ -1091,6 +1098,79 @@ async fn ops_scenario(
     )
     .await;
     assert!(back.as_str().is_some_and(|b| b.contains("step")), "{back}");
+    // The record so far (a kill, a resume and a reboot in it), replayed on the mission in the
+    // composer: at the step the approval was answered, the engine's tokens are those the
+    // record's own entered/left/withdrawn lines leave.
+    let copy = dir.join("record-so-far.jsonl");
+    std::fs::copy(dir.join("flight/store/record.jsonl"), &copy).expect("record copy");
+    let text = std::fs::read_to_string(&copy).expect("record");
+    let lines: Vec<Value> = text
+        .lines()
+        .filter_map(|l| serde_json::from_str(l).ok())
+        .collect();
+    let answered_at = lines
+        .iter()
+        .find(|v| v["kind"] == "user_task_answered")
+        .and_then(|v| v["seq"].as_u64())
+        .expect("the answer's step");
+    let mut seen = std::collections::BTreeSet::new();
+    let mut at: std::collections::BTreeMap<u64, String> = std::collections::BTreeMap::new();
+    for v in &lines {
+        let (Some(seq), Some(idx)) = (v["seq"].as_u64(), v["idx"].as_u64()) else {
+            continue;
+        };
+        if seq > answered_at || !seen.insert((seq, idx)) {
+            continue;
+        }
+        let token = v["token"].as_u64();
+        match (v["kind"].as_str(), token) {
+            (Some("entered"), Some(t)) => {
+                at.insert(t, v["element"]["id"].as_str().unwrap_or("?").to_owned());
+            }
+            (Some("left" | "withdrawn"), Some(t)) => {
+                at.remove(&t);
+            }
+            _ => {}
+        }
+    }
+    let mut expected = serde_json::Map::new();
+    for element in at.values() {
+        let n = expected.get(element).and_then(Value::as_u64).unwrap_or(0);
+        expected.insert(element.clone(), json!(n + 1));
+    }
+    click(&c, "#ops-toggle").await;
+    c.find(Locator::Css("#record-file"))
+        .await
+        .expect("the record input")
+        .send_keys(&copy.display().to_string())
+        .await
+        .expect("the record chosen");
+    let frames = until(
+        &c,
+        "the record replayed",
+        "return document.body.dataset.recordFrames",
+    )
+    .await;
+    assert!(
+        frames
+            .as_str()
+            .and_then(|f| f.parse::<usize>().ok())
+            .is_some_and(|n| n > 10),
+        "{frames}"
+    );
+    js(&c, &format!("studio.recording.at({answered_at})"), vec![]).await;
+    let shown = js(
+        &c,
+        "return { seq: Number(document.body.dataset.recordSeq), tokens: JSON.parse(document.body.dataset.recordTokens) }",
+        vec![],
+    )
+    .await;
+    assert_eq!(shown["seq"], json!(answered_at));
+    assert_eq!(
+        shown["tokens"],
+        Value::Object(expected),
+        "at step {answered_at}"
+    );
     let errors = js(&c, "return studio.errors", vec![]).await;
     assert_eq!(errors, json!([]), "errors in the page");
 }

@@ -108,6 +108,18 @@ enum Command {
     /// activities, every run ends, no lost signal (exit 0 all hold, 1 violated, 2 incomplete
     /// or not verifiable).
     Verify(executive::verify::VerifyOptions),
+    /// Replay an execution record on its mission model through the engine: every step read
+    /// back into its input, the engine's lines checked against the record's, and the tokens
+    /// after each step printed (or only after step --at).
+    Replay {
+        /// The mission model the record was run on.
+        mission: PathBuf,
+        /// The execution record (JSON Lines).
+        record: PathBuf,
+        /// Print only the state after this step.
+        #[arg(long, value_name = "SEQ")]
+        at: Option<u64>,
+    },
     /// Write the execution record as a self-contained HTML timeline (opens offline).
     Timeline {
         /// The execution record (JSON Lines).
@@ -299,6 +311,42 @@ fn main() -> anyhow::Result<ExitCode> {
                 executive::verify::print(&report, &mut std::io::stdout().lock())?;
             }
             Ok(ExitCode::from(report.exit_code()))
+        }
+        Command::Replay {
+            mission,
+            record,
+            at,
+        } => {
+            let loaded =
+                executive::validate::load_file(&mission, &executive_model::Options::default())
+                    .map_err(|e| anyhow::anyhow!("{}: {e}", mission.display()))?;
+            let graph = loaded.graph.ok_or_else(|| {
+                anyhow::anyhow!(
+                    "{}: the mission model is invalid (trace validate)",
+                    mission.display()
+                )
+            })?;
+            let text = std::fs::read_to_string(&record)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", record.display()))?;
+            let frames = executive::replay::replay(std::sync::Arc::new(graph), &text)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", record.display()))?;
+            for f in frames.iter().filter(|f| at.is_none_or(|a| a == f.seq)) {
+                let tokens: Vec<String> =
+                    f.tokens.iter().map(|(e, n)| format!("{e} ×{n}")).collect();
+                println!(
+                    "{} {} {} | {}",
+                    f.seq,
+                    f.mission_ms,
+                    f.what,
+                    tokens.join(", ")
+                );
+            }
+            if let Some(a) = at
+                && !frames.iter().any(|f| f.seq == a)
+            {
+                anyhow::bail!("{}: no step {a}", record.display());
+            }
+            Ok(ExitCode::SUCCESS)
         }
         Command::Timeline { record, output } => {
             let t = executive::timeline::write(&record, &output)

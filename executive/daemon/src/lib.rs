@@ -21,6 +21,7 @@ pub mod driver;
 pub mod fly;
 pub mod monitor;
 pub mod record;
+pub mod replay;
 pub mod script;
 pub mod timeline;
 pub mod validate;

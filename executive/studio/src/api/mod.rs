@@ -18,6 +18,7 @@ mod games;
 mod ground;
 mod missions;
 mod ops;
+mod replay;
 mod verify;
 
 /// The routes of `studio`.
@@ -47,6 +48,7 @@ pub fn router(studio: Studio) -> Router {
         .route("/api/ops/{mission}/events", get(ops::events))
         .route("/api/ground", get(ground::desk))
         .route("/api/ground/{number}", post(ground::answer))
+        .route("/api/replay", post(replay::replay))
         .route("/api/simulate", post(games::start))
         .route("/api/simulate/{id}", post(games::act).delete(games::end))
         .route(

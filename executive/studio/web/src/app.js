@@ -16,6 +16,7 @@ import TracePanelModule from './provider.jsx';
 import { setupVerify } from './verify.js';
 import { setupSimulate } from './simulate.js';
 import { setupOps } from './ops.js';
+import { setupRecord } from './record.js';
 
 // Every error the page meets, for the operator's console and for tests to read.
 const errors = [];
@@ -45,6 +46,7 @@ let current = null;   // the open file's name
 const verification = setupVerify({ modeler, api, say, current: () => current });
 const simulation = setupSimulate({ modeler, api, say });
 const ops = setupOps({ api, say });
+const recording = setupRecord({ modeler, api, say });
 let dirty = false;
 let checking = null;  // the pending check's timer
 
@@ -214,7 +216,7 @@ window.addEventListener('keydown', e => {
 window.addEventListener('beforeunload', e => { if (dirty) e.preventDefault(); });
 
 // For tests and tools: the modeler, to read the model the page holds.
-window.studio = { modeler, catalogue, errors, verification, simulation, ops };
+window.studio = { modeler, catalogue, errors, verification, simulation, ops, recording };
 
 /**
  * Fetches the catalogues (the server asks the running systems first) and shows where each
