@@ -9,7 +9,9 @@
 //! catalogues live: a studio on a router's network offers what a running simulator serves, and
 //! stops offering it when the simulator is gone. And operations: during a real `trace fly`, the
 //! page lists the executive, draws its model, shows the tokens of the state query at the same
-//! step, answers the site approval as operator `ana` at station `web` (recorded as
+//! step, draws the timeline from the executive's record as it grows (a bar selects its
+//! element, an element outlines its bars), answers the site approval as operator `ana` at
+//! station `web` (recorded as
 //! `ana@web`, the terminal station told), says plainly when the executive is gone, and follows
 //! it again, its reboot marked, when it is resumed; the flight's record, replayed through the
 //! engine on the mission in the composer, shows at a chosen step the tokens its lines leave.
@@ -1054,6 +1056,46 @@ async fn ops_scenario(
         );
         tokio::time::sleep(Duration::from_millis(100)).await;
     }
+    // The timeline below the diagram: drawn from the executive's record, growing with it, and
+    // selecting with the diagram both ways.
+    let bars = |min: u64| {
+        format!(
+            "return Number(document.body.dataset.opsTimelineBars || 0) > {min} && Number(document.body.dataset.opsTimelineBars)"
+        )
+    };
+    let first = until(&c, "the timeline drawn", &bars(0)).await;
+    let first = first.as_u64().expect("bars");
+    until(&c, "the timeline grown with the record", &bars(first)).await;
+    js(
+        &c,
+        r#"const d = document.getElementById('ops-timeline').contentDocument;
+           d.querySelector('rect.bar[data-element="ApproveSite"]').dispatchEvent(new MouseEvent('click', { bubbles: true }));"#,
+        vec![],
+    )
+    .await;
+    until(
+        &c,
+        "the bar's element selected on the diagram",
+        "return document.body.dataset.opsSelected === 'ApproveSite'
+           && studio.ops.viewer.get('canvas').hasMarker('ApproveSite', 'ops-selected')",
+    )
+    .await;
+    js(
+        &c,
+        "const v = studio.ops.viewer;
+         v.get('eventBus').fire('element.click', { element: v.get('elementRegistry').get('CapturePanorama') });",
+        vec![],
+    )
+    .await;
+    until(
+        &c,
+        "the element's bars outlined in the timeline",
+        r#"const d = document.getElementById('ops-timeline').contentDocument;
+           const b = [...d.querySelectorAll('rect.bar[data-element="CapturePanorama"]')];
+           return b.length && b.every(r => r.classList.contains('selected'))
+             && !d.querySelector('rect.bar.selected:not([data-element="CapturePanorama"])')"#,
+    )
+    .await;
     // The executive killed: the page says so plainly.
     drop(fly);
     let gone = until(

@@ -231,6 +231,11 @@ impl Keys {
         format!("{}/exec/{mission}/model", self.root)
     }
 
+    /// `<root>/exec/<mission>/history`: queryable, the execution record written so far.
+    pub fn exec_history(&self, mission: &str) -> String {
+        format!("{}/exec/{mission}/history", self.root)
+    }
+
     /// `<root>/exec/<mission>/state`: queryable, the mission's current state.
     pub fn exec_state(&self, mission: &str) -> String {
         format!("{}/exec/{mission}/state", self.root)

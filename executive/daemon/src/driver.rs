@@ -598,8 +598,14 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
     let mut monitor = match connectors.session() {
         Some(session) => {
             let keys = opts.zenoh.keys().map_err(|e| RunError::Io(e.to_string()))?;
-            match crate::monitor::Publisher::start(session, &keys, &mission, model_xml.clone())
-                .await
+            match crate::monitor::Publisher::start(
+                session,
+                &keys,
+                &mission,
+                model_xml.clone(),
+                record_path.clone(),
+            )
+            .await
             {
                 Ok((p, queries)) => {
                     record.mirror(p.mirror());

@@ -1,8 +1,9 @@
 //! Remote monitoring. The executive side (`Publisher`): a liveliness token
 //! `<root>/alive/exec/<mission>`, every execution-record line on `<root>/exec/<mission>/record`,
 //! a snapshot of the mission's present state on the queryable `<root>/exec/<mission>/state`,
-//! so a monitor that joins late starts from the present, and the mission model's XML on the
-//! queryable `<root>/exec/<mission>/model`, so a view can draw it. The monitor side is `trace monitor`
+//! so a monitor that joins late starts from the present, the mission model's XML on the
+//! queryable `<root>/exec/<mission>/model`, so a view can draw it, and the record written so far
+//! on `<root>/exec/<mission>/history`, so a view can draw its timeline. The monitor side is `trace monitor`
 //! ([`watch`]).
 
 use connector_api::Keys;
@@ -20,6 +21,7 @@ use zenoh::query::Query;
 pub struct Publisher {
     _queryable: zenoh::query::Queryable<()>,
     _model: zenoh::query::Queryable<()>,
+    _history: zenoh::query::Queryable<()>,
     _token: zenoh::liveliness::LivelinessToken,
     lines: mpsc::UnboundedSender<String>,
 }
@@ -33,7 +35,34 @@ impl Publisher {
         keys: &Keys,
         mission: &str,
         model: std::sync::Arc<[u8]>,
+        record: std::path::PathBuf,
     ) -> Result<(Publisher, mpsc::UnboundedReceiver<Query>), zenoh::Error> {
+        // The record so far, read when asked (a monitor that joins late draws its timeline).
+        let (history_tx, mut history_queries) = mpsc::unbounded_channel::<Query>();
+        let history_queryable = session
+            .declare_queryable(keys.exec_history(mission))
+            .callback(move |q| {
+                let _ = history_tx.send(q);
+            })
+            .await?;
+        tokio::spawn(async move {
+            while let Some(q) = history_queries.recv().await {
+                let text = match tokio::fs::read(&record).await {
+                    Ok(t) => t,
+                    Err(e) => {
+                        tracing::warn!(record = %record.display(), error = %e, "history not read");
+                        continue;
+                    }
+                };
+                if let Err(e) = q
+                    .reply(q.key_expr().clone(), text)
+                    .encoding(encoding("record"))
+                    .await
+                {
+                    tracing::debug!(error = %e, "history reply failed");
+                }
+            }
+        });
         // Model queries are answered on a task of this runtime, not in Zenoh's callback.
         let (model_tx, mut model_queries) = mpsc::unbounded_channel::<Query>();
         let model_queryable = session
@@ -82,6 +111,7 @@ impl Publisher {
             Publisher {
                 _queryable: queryable,
                 _model: model_queryable,
+                _history: history_queryable,
                 _token: token,
                 lines: tx,
             },

@@ -20,6 +20,8 @@ const TEMPLATE: &str = include_str!("../assets/timeline.html");
 pub struct Bar {
     /// Lane name.
     pub lane: String,
+    /// The BPMN element id (for views that select it on the diagram).
+    pub element: String,
     /// Label (element name or id).
     pub label: String,
     /// Start, mission ms.
@@ -92,8 +94,9 @@ fn label(v: &Value) -> String {
 /// read once).
 pub fn build(lines: impl Iterator<Item = String>) -> Timeline {
     let mut t = Timeline::default();
-    let mut open: BTreeMap<String, (String, String, i64, String)> = BTreeMap::new(); // task → (lane, label, start, resource)
-    let mut phases: BTreeMap<i64, (String, i64)> = BTreeMap::new(); // token → (label, start)
+    // task → (lane, label, start, resource, element)
+    let mut open: BTreeMap<String, (String, String, i64, String, String)> = BTreeMap::new();
+    let mut phases: BTreeMap<i64, (String, i64, String)> = BTreeMap::new(); // token → (label, start, element)
     let mut reader = crate::record::Reader::default();
     let (mut first, mut last) = (i64::MAX, i64::MIN);
     let mut lanes: Vec<String> = Vec::new();
@@ -114,14 +117,18 @@ pub fn build(lines: impl Iterator<Item = String>) -> Timeline {
             "entered" => {
                 let ty = v["element"]["type"].as_str().unwrap_or_default();
                 if matches!(ty, "subProcess" | "callActivity" | "transaction") {
-                    phases.insert(v["token"].as_i64().unwrap_or(-1), (label(&v), at));
+                    phases.insert(
+                        v["token"].as_i64().unwrap_or(-1),
+                        (label(&v), at, element(&v)),
+                    );
                 }
             }
             "left" | "withdrawn" => {
-                if let Some((l, start)) = phases.remove(&v["token"].as_i64().unwrap_or(-1)) {
+                if let Some((l, start, id)) = phases.remove(&v["token"].as_i64().unwrap_or(-1)) {
                     lane("mission phases", &mut lanes);
                     t.bars.push(Bar {
                         lane: "mission phases".into(),
+                        element: id,
                         detail: format!(
                             "{l}: {}",
                             if v["kind"] == "left" {
@@ -145,17 +152,23 @@ pub fn build(lines: impl Iterator<Item = String>) -> Timeline {
                 let resource = v["resource"].as_str().unwrap_or_default().to_owned();
                 let l = lane_of(&resource);
                 lane(&l, &mut lanes);
-                open.insert(task, (l, label(&v), at, resource));
+                open.insert(task, (l, label(&v), at, resource, element(&v)));
             }
             "user_task_opened" => {
                 lane("ground decisions", &mut lanes);
                 open.insert(
                     task,
-                    ("ground decisions".into(), label(&v), at, "user task".into()),
+                    (
+                        "ground decisions".into(),
+                        label(&v),
+                        at,
+                        "user task".into(),
+                        element(&v),
+                    ),
                 );
             }
             kind @ ("completed" | "failed" | "cancelled" | "user_task_answered") => {
-                if let Some((l, name, start, resource)) = open.remove(&task) {
+                if let Some((l, name, start, resource, id)) = open.remove(&task) {
                     let detail = match kind {
                         "failed" => format!(
                             "{name} ({resource}) failed: {} {}",
@@ -184,6 +197,7 @@ pub fn build(lines: impl Iterator<Item = String>) -> Timeline {
                     }
                     t.bars.push(Bar {
                         lane: l,
+                        element: id,
                         label: name,
                         start,
                         end: at,
@@ -237,9 +251,10 @@ pub fn build(lines: impl Iterator<Item = String>) -> Timeline {
             _ => {}
         }
     }
-    for (_, (l, name, start, resource)) in open {
+    for (_, (l, name, start, resource, id)) in open {
         t.bars.push(Bar {
             lane: l,
+            element: id,
             detail: format!("{name} ({resource}) still running at the end of the record"),
             label: name,
             start,
@@ -266,18 +281,27 @@ pub fn build(lines: impl Iterator<Item = String>) -> Timeline {
     t
 }
 
+/// The element id of a record line (empty if it names none).
+fn element(v: &serde_json::Value) -> String {
+    v["element"]["id"].as_str().unwrap_or_default().to_owned()
+}
+
+/// The page for a timeline: the self-contained HTML of `trace timeline`, titled `title`.
+pub fn page(t: &Timeline, title: &str) -> std::io::Result<String> {
+    let data = serde_json::to_string(t)
+        .map_err(std::io::Error::other)?
+        .replace("</", "<\\/");
+    let title = title.replace('&', "&amp;").replace('<', "&lt;");
+    Ok(TEMPLATE
+        .replace("/*DATA*/", &data)
+        .replace("{{TITLE}}", &title))
+}
+
 /// Writes the page for `record` to `out`; returns the timeline drawn.
 pub fn write(record: &Path, out: &Path) -> std::io::Result<Timeline> {
     let f = std::fs::File::open(record)?;
     let t = build(std::io::BufReader::new(f).lines().map_while(Result::ok));
-    let data = serde_json::to_string(&t)
-        .map_err(std::io::Error::other)?
-        .replace("</", "<\\/");
-    let title = record.display().to_string().replace('<', "&lt;");
-    let page = TEMPLATE
-        .replace("/*DATA*/", &data)
-        .replace("{{TITLE}}", &title);
-    std::fs::write(out, page)?;
+    std::fs::write(out, page(&t, &record.display().to_string())?)?;
     Ok(t)
 }
 

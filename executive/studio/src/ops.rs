@@ -76,6 +76,14 @@ impl Live {
             .await
     }
 
+    /// The execution record the mission's executive has written so far.
+    pub async fn history(&self, mission: &str) -> Result<String, AskError> {
+        let bytes = self
+            .ask_one(&self.keys().exec_history(mission), mission)
+            .await?;
+        Ok(String::from_utf8_lossy(&bytes).into_owned())
+    }
+
     /// The mission's present state.
     pub async fn state(&self, mission: &str) -> Result<Value, AskError> {
         let bytes = self

@@ -46,6 +46,7 @@ pub fn router(studio: Studio) -> Router {
         .route("/api/ops/{mission}/model", get(ops::model))
         .route("/api/ops/{mission}/state", get(ops::state))
         .route("/api/ops/{mission}/events", get(ops::events))
+        .route("/api/ops/{mission}/timeline", get(ops::timeline))
         .route("/api/ground", get(ground::desk))
         .route("/api/ground/{number}", post(ground::answer))
         .route("/api/replay", post(replay::replay))

@@ -95,3 +95,25 @@ pub(super) async fn events(State(s): Shared, Path(mission): Path<String>) -> Res
         .keep_alive(KeepAlive::default())
         .into_response()
 }
+
+/// The mission's timeline so far: the page `trace timeline` writes, drawn from the record its
+/// executive serves (`<root>/exec/<mission>/history`); bars tell the embedding page which
+/// element they are when clicked.
+pub(super) async fn timeline(State(s): Shared, Path(mission): Path<String>) -> Response {
+    let live = match joined(&s, Some(&mission)) {
+        Ok(l) => l,
+        Err((status, why)) => return refuse(status, why),
+    };
+    let record = match live.history(&mission).await {
+        Ok(r) => r,
+        Err(e) => return ask_error(e),
+    };
+    let t = executive::timeline::build(record.lines().map(str::to_owned));
+    match executive::timeline::page(&t, &mission) {
+        Ok(html) => ([(header::CONTENT_TYPE, "text/html; charset=utf-8")], html).into_response(),
+        Err(e) => refuse(
+            StatusCode::INTERNAL_SERVER_ERROR,
+            format!("no timeline: {e}"),
+        ),
+    }
+}

@@ -90,8 +90,53 @@ export function setupOps(ctx) {
     document.body.dataset.opsTokens = JSON.stringify(state.tokens || {});
   }
 
+  // The timeline below the diagram, drawn by the server from the executive's record; drawn
+  // again (at most every 3 s) while lines arrive, keeping the element selected.
+  let selected = null;
+  let stale = false;
+  let drawing = null;
+  function timeline(now) {
+    stale = true;
+    if (drawing && !now) return;
+    clearTimeout(drawing);
+    drawing = setTimeout(() => {
+      drawing = null;
+      if (!stale || !mission) return;
+      stale = false;
+      $('ops-timeline').src = `/api/ops/${encodeURIComponent(mission)}/timeline?at=${lines.length}`;
+    }, now ? 0 : 3000);
+  }
+  $('ops-timeline').addEventListener('load', () => {
+    const doc = $('ops-timeline').contentDocument;
+    document.body.dataset.opsTimelineBars = doc && doc.body ? (doc.body.dataset.rendered || '0') : '0';
+    if (selected) $('ops-timeline').contentWindow.postMessage({ trace: 'highlight', element: selected }, '*');
+  });
+  function select(id) {
+    const canvas = viewer.get('canvas');
+    const registry = viewer.get('elementRegistry');
+    if (selected && registry.get(selected)) canvas.removeMarker(selected, 'ops-selected');
+    selected = id;
+    if (id && registry.get(id)) {
+      canvas.addMarker(id, 'ops-selected');
+      canvas.scrollToElement(registry.get(id));
+    }
+    document.body.dataset.opsSelected = id || '';
+  }
+  // A bar clicked in the timeline selects its element on the diagram…
+  window.addEventListener('message', e => {
+    if (e.source !== $('ops-timeline').contentWindow || !e.data || e.data.trace !== 'select') return;
+    select(e.data.element);
+  });
+  // …and an element clicked on the diagram outlines its bars.
+  viewer.on('element.click', e => {
+    const id = e.element && e.element.businessObject && e.element.id;
+    select(id);
+    $('ops-timeline').contentWindow.postMessage({ trace: 'highlight', element: id }, '*');
+  });
+
   function line(v) {
     lines.push(v);
+    if (v.seq !== undefined || v.kind === 'reboot') timeline(false);
     const id = v.element && v.element.id;
     switch (v.kind) {
       case 'dispatched':
@@ -139,6 +184,7 @@ export function setupOps(ctx) {
       return;
     }
     source = new EventSource(`/api/ops/${encodeURIComponent(id)}/events`);
+    timeline(true);
     source.addEventListener('state', e => { state = JSON.parse(e.data); document.body.dataset.opsGone = ''; mark(); });
     source.addEventListener('record', e => { line(JSON.parse(e.data)); mark(); });
     source.addEventListener('gone', () => {
@@ -166,6 +212,7 @@ export function setupOps(ctx) {
   function show(on) {
     document.body.classList.toggle('ops-mode', on);
     $('ops-canvas').hidden = !on;
+    $('ops-timeline').hidden = !on;
     $('ops-side').hidden = !on;
     $('ops-toggle').textContent = on ? 'Compose' : 'Operations';
     clearInterval(polling);
@@ -181,5 +228,5 @@ export function setupOps(ctx) {
 
   $('ops-toggle').addEventListener('click', () => show(!document.body.classList.contains('ops-mode')));
   $('executives').addEventListener('change', e => follow(e.target.value));
-  return { show, follow, state: () => state, lines: () => lines, viewer };
+  return { show, follow, select, state: () => state, lines: () => lines, viewer };
 }
