@@ -4,7 +4,9 @@
 //! racing), every operation a role may not do refused, a client without the deployment's
 //! certificate kept out, a user task answered across a link cut for an hour of mission time,
 //! a cut with goals in flight unnoticed on the lander and a late monitor given the present,
-//! seconds of latency on a narrow link, and the crash matrix with router kills on either side.
+//! seconds of latency on a narrow link, the crash matrix with router kills on either side, and
+//! TRACE Studio on the ground following the mission on the lander (with the monitor's
+//! certificate: its list, model, present and timeline, nothing refused).
 
 use std::time::Duration;
 
@@ -794,4 +796,75 @@ fn seconds_of_latency_between_the_hosts_neither_repeat_an_answer_nor_lose_the_gr
 #[test]
 fn the_crash_matrix_across_two_hosts_with_router_kills_loses_nothing_and_repeats_nothing() {
     crate::crash::reduced_matrix(mission_tests::matrix::Layout::Hosts);
+}
+
+/// `http-get URL` inside namespace `ns`: the body, or the reason it failed.
+fn http_get(lab: &Lab, ns: &str, url: &str) -> Result<String, String> {
+    let out = lab
+        .command(ns, "http-get", &[url])
+        .output()
+        .map_err(|e| e.to_string())?;
+    if out.status.success() {
+        Ok(String::from_utf8_lossy(&out.stdout).into_owned())
+    } else {
+        Err(String::from_utf8_lossy(&out.stderr).into_owned())
+    }
+}
+
+#[test]
+fn the_studio_on_the_ground_follows_the_mission_flying_on_the_lander() {
+    let mut lab = Lab::new("studio", 1);
+    lab.routers();
+    let ground = lab.grounds[0].clone();
+    let record = start_europa(&mut lab, "5000", &["station-a"]);
+    lab.until_recorded(&record, "a lander activity dispatched", WAIT, |l| {
+        l["kind"] == "dispatched"
+    });
+    // The studio on the ground host, with the monitor's configuration and certificate.
+    std::fs::create_dir_all(lab.dir.join("missions")).expect("missions dir");
+    let mut args = ["studio", "missions", "--port", "7780"]
+        .map(str::to_owned)
+        .to_vec();
+    args.extend(Lab::client_flags("monitor.json5", "monitor"));
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let studio = lab.command(&ground, "trace", &args);
+    lab.start("studio", studio);
+    let base = "http://127.0.0.1:7780/api/ops";
+    let executives = mission_tests::hosts::poll(WAIT, || {
+        let list: serde_json::Value =
+            serde_json::from_str(&http_get(&lab, &ground, &format!("{base}/executives")).ok()?)
+                .ok()?;
+        list.as_array()
+            .filter(|l| l.iter().any(|e| e["alive"] == true))
+            .cloned()
+    })
+    .expect("the executive on the lander is listed on the ground");
+    let mission = executives[0]["mission"]
+        .as_str()
+        .expect("mission id")
+        .to_owned();
+    // Its model, its present and its timeline, across the link and both routers' access
+    // control (a monitor may ask exactly these).
+    let model = http_get(&lab, &ground, &format!("{base}/{mission}/model")).expect("model");
+    assert!(model.contains(r#"id="ApproveSite""#), "not Europa's model");
+    let state: serde_json::Value = serde_json::from_str(
+        &http_get(&lab, &ground, &format!("{base}/{mission}/state")).expect("state"),
+    )
+    .expect("a state");
+    assert_eq!(state["mission"], mission.as_str());
+    assert!(state["seq"].as_u64().is_some_and(|s| s > 0), "{state}");
+    let page = http_get(&lab, &ground, &format!("{base}/{mission}/timeline")).expect("timeline");
+    assert!(
+        page.contains(r#""bars":[{"#),
+        "the timeline drawn on the ground has no bars"
+    );
+    // Nothing the studio did was refused by either router.
+    for router in ["ground-router1", "lander-router"] {
+        let log = lab.log(router);
+        assert!(
+            !log.contains(REFUSAL),
+            "{router} refused something:
+{log}"
+        );
+    }
 }

@@ -479,13 +479,17 @@ impl ActionServer {
             );
         }
         let cat = json(&opts.catalogue);
+        let cat_key = opts.keys.catalogue(&server);
+        let own = cat_key.clone();
         queryables.push(
             session
-                .declare_queryable(opts.keys.catalogue(&server))
+                .declare_queryable(cat_key)
                 .complete(true)
                 .callback(move |q| {
+                    // On the server's own key, not the query's: a query for every catalogue
+                    // (`…/cat/*`) gets each on its server's key, which access control allows.
                     if let Err(e) = q
-                        .reply(q.key_expr().clone(), cat.clone())
+                        .reply(own.clone(), cat.clone())
                         .encoding(encoding("catalogue"))
                         .wait()
                     {

@@ -1,6 +1,6 @@
 //! The catalogues the connected systems serve, live over Zenoh: the studio joins the network
-//! as the deployment's other processes do (the same `ZenohArgs`), announces itself
-//! (`<root>/alive/studio/<id>`), and asks every server's catalogue queryable
+//! as the deployment's other processes do (the same `ZenohArgs`), announces itself as a monitor
+//! (`<root>/alive/monitor/studio-<pid>`), and asks every server's catalogue queryable
 //! (`<root>/cat/*`) when the page asks for the catalogues and whenever a served action
 //! appears or goes (`<root>/alive/act/**`). A live catalogue wins over a file of the same
 //! server; a server that stops answering falls back to its file, if any. The same membership
@@ -56,7 +56,9 @@ impl Live {
         let z = |e: zenoh::Error| LiveError::Zenoh(e.to_string());
         let token = session
             .liveliness()
-            .declare_token(keys.alive("studio", &format!("studio-{}", std::process::id())))
+            // A studio announces itself as a monitor: that is what it does on the network
+            // (what access control lets a monitor's certificate declare).
+            .declare_token(keys.alive("monitor", &format!("studio-{}", std::process::id())))
             .await
             .map_err(z)?;
         let (changed_tx, mut changed) = tokio::sync::mpsc::unbounded_channel::<()>();
