@@ -16,6 +16,7 @@ mod ground;
 mod hostile;
 mod hosts;
 mod missions;
+mod ops;
 mod protocol;
 mod python;
 mod realworld;
