@@ -310,6 +310,53 @@ async fn a_token_game_is_played_through_the_routes_and_refuses_acts_that_do_not_
 }
 
 #[tokio::test]
+async fn a_record_is_replayed_on_the_model_or_refused_naming_the_line() {
+    let addr = serve(dir("replay")).await;
+    let body = |record: &str| serde_json::json!({ "model": EUROPA, "record": record }).to_string();
+    let started = r#"{"v":1,"kind":"instance_started","seq":1,"idx":0,"mission_ms":5,"instance":1,"process":"BSM1","vars":{}}"#;
+    let (status, v) = http(addr, "POST", "/api/replay", body(started).as_bytes()).await;
+    assert_eq!(status, 200, "{v}");
+    let frames = json(&v)["frames"].as_array().cloned().expect("frames");
+    assert_eq!(frames.len(), 1, "{v}");
+    assert_eq!(frames[0]["what"], "instance started");
+    assert!(
+        frames[0]["tokens"]
+            .as_object()
+            .is_some_and(|t| !t.is_empty()),
+        "{v}"
+    );
+    let (status, v) = http(addr, "POST", "/api/replay", body("{not json").as_bytes()).await;
+    assert_eq!(status, 422, "{v}");
+    assert!(
+        json(&v)["error"]
+            .as_str()
+            .unwrap()
+            .starts_with("record line 1:"),
+        "{v}"
+    );
+    let (status, _) = http(addr, "POST", "/api/replay", b"[]").await;
+    assert_eq!(status, 400);
+}
+
+#[tokio::test]
+async fn an_offline_studio_says_it_follows_no_mission_and_is_no_ground_station() {
+    let addr = serve(dir("offline")).await;
+    for path in ["/api/ops/executives", "/api/ops/m1/state", "/api/ground"] {
+        let (status, v) = http(addr, "GET", path, b"").await;
+        assert_eq!(status, 503, "{path}: {v}");
+        assert!(json(&v)["error"].as_str().is_some(), "{v}");
+    }
+    let (status, _) = http(
+        addr,
+        "POST",
+        "/api/ground/1",
+        br#"{"operator":"ana","fields":{}}"#,
+    )
+    .await;
+    assert_eq!(status, 503);
+}
+
+#[tokio::test]
 async fn a_save_is_atomic_and_refuses_what_is_not_bpmn() {
     let d = dir("save");
     let addr = serve(d.clone()).await;
