@@ -379,7 +379,6 @@ fn main() -> anyhow::Result<ExitCode> {
     }
 }
 
-/// A tokio runtime on one worker thread (Zenoh refuses the current-thread scheduler).
 /// `trace studio`'s arguments.
 #[derive(clap::Args)]
 struct StudioArgs {
@@ -559,6 +558,7 @@ fn studio(args: StudioArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// A tokio runtime on one worker thread (Zenoh refuses the current-thread scheduler).
 fn one_worker() -> std::io::Result<tokio::runtime::Runtime> {
     tokio::runtime::Builder::new_multi_thread()
         .worker_threads(1)

@@ -773,7 +773,10 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
         // continues.
         let state_query = async {
             match monitor.as_mut() {
-                Some((_, queries)) => queries.recv().await,
+                Some((p, queries)) => {
+                    let q = queries.recv().await;
+                    q.map(|q| (q, p.state_key().to_owned()))
+                }
                 None => std::future::pending().await,
             }
         };
@@ -783,8 +786,8 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
             _ = term.recv() => { interrupted = true; break }
             m = rx.recv() => m,
             r = reports.recv() => r.and_then(|r| d.event_of(r)),
-            Some(q) = state_query => {
-                crate::monitor::answer(q, d.snapshot()).await;
+            Some((q, key)) = state_query => {
+                crate::monitor::answer(q, &key, d.snapshot()).await;
                 None
             }
             () = tokio::time::sleep(due.unwrap_or_default()), if due.is_some() => d.due_event(),

@@ -21,15 +21,17 @@ use zenoh::query::Query;
 pub struct Publisher {
     _queryable: zenoh::query::Queryable<()>,
     _model: zenoh::query::Queryable<()>,
+    state_key: String,
     _history: zenoh::query::Queryable<()>,
     _token: zenoh::liveliness::LivelinessToken,
     lines: mpsc::UnboundedSender<String>,
 }
 
 impl Publisher {
-    /// Declares the token, the model queryable (answered here with `model`, the BPMN XML) and
-    /// the state queryable (its queries arrive on the returned receiver); record lines go out
-    /// in order on a task.
+    /// Declares the token, the model queryable (answered here with `model`, the BPMN XML), the
+    /// history queryable (answered with the file `record` as it is then) and the state
+    /// queryable (its queries arrive on the returned receiver); record lines go out in order on
+    /// a task.
     pub async fn start(
         session: &Session,
         keys: &Keys,
@@ -39,8 +41,12 @@ impl Publisher {
     ) -> Result<(Publisher, mpsc::UnboundedReceiver<Query>), zenoh::Error> {
         // The record so far, read when asked (a monitor that joins late draws its timeline).
         let (history_tx, mut history_queries) = mpsc::unbounded_channel::<Query>();
+        // Replies go on the queryable's own key (a query may name a wildcard, on which access
+        // control refuses replies).
+        let history_key = keys.exec_history(mission);
+        let model_key = keys.exec_model(mission);
         let history_queryable = session
-            .declare_queryable(keys.exec_history(mission))
+            .declare_queryable(history_key.clone())
             .callback(move |q| {
                 let _ = history_tx.send(q);
             })
@@ -55,8 +61,8 @@ impl Publisher {
                     }
                 };
                 if let Err(e) = q
-                    .reply(q.key_expr().clone(), text)
-                    .encoding(encoding("record"))
+                    .reply(history_key.clone(), text)
+                    .encoding(zenoh::bytes::Encoding::TEXT_PLAIN.with_schema("trace.record/1"))
                     .await
                 {
                     tracing::debug!(error = %e, "history reply failed");
@@ -66,7 +72,7 @@ impl Publisher {
         // Model queries are answered on a task of this runtime, not in Zenoh's callback.
         let (model_tx, mut model_queries) = mpsc::unbounded_channel::<Query>();
         let model_queryable = session
-            .declare_queryable(keys.exec_model(mission))
+            .declare_queryable(model_key.clone())
             .callback(move |q| {
                 let _ = model_tx.send(q);
             })
@@ -74,7 +80,7 @@ impl Publisher {
         tokio::spawn(async move {
             while let Some(q) = model_queries.recv().await {
                 if let Err(e) = q
-                    .reply(q.key_expr().clone(), &model[..])
+                    .reply(model_key.clone(), &model[..])
                     .encoding(zenoh::bytes::Encoding::APPLICATION_XML)
                     .await
                 {
@@ -111,12 +117,18 @@ impl Publisher {
             Publisher {
                 _queryable: queryable,
                 _model: model_queryable,
+                state_key: keys.exec_state(mission),
                 _history: history_queryable,
                 _token: token,
                 lines: tx,
             },
             queries,
         ))
+    }
+
+    /// The key the state is answered on.
+    pub fn state_key(&self) -> &str {
+        &self.state_key
     }
 
     /// A function handing record lines to the publication.
@@ -318,10 +330,11 @@ async fn state(session: &zenoh::Session, key: &str) -> Result<Value, WatchError>
     })
 }
 
-/// Answers one state query.
-pub async fn answer(query: Query, snapshot: Value) {
+/// Answers one state query, on the state's own key `key` (a query may name a wildcard, on
+/// which access control refuses replies).
+pub async fn answer(query: Query, key: &str, snapshot: Value) {
     if let Err(e) = query
-        .reply(query.key_expr().clone(), snapshot.to_string())
+        .reply(key, snapshot.to_string())
         .encoding(encoding("exec_state"))
         .await
     {

@@ -1,13 +1,18 @@
 //! Deterministic replay of an execution record: every engine step of the record is read back
 //! into the input that caused it (an instance started, a task completed or failed, a user task
-//! answered, a timer fired, system data changed, a cancel), given to a fresh engine of the
-//! mission model in order, and the lines the engine would write are compared with the lines
-//! the record holds. The state after each step is then the engine's own — what the studio's
+//! answered, a timer fired, system data changed), given to a fresh engine of the mission model
+//! in order, and the lines the engine writes are compared with the lines the record holds —
+//! every field but wall time, and no line more or fewer (only the last step of a record cut by
+//! a kill may lack its tail). The state after each step is then the engine's own — what the studio's
 //! replay shows at any chosen moment — and a record that does not come from this model (or a
 //! model changed since) is refused at the first step that differs, naming it.
 //!
 //! Lines of no step (`reboot`, `accepted`, `feedback`) are skipped; a line written again after
 //! a crash (the same `seq` and `idx`) is read once, as every record reader does.
+//!
+//! What a record cannot say is not replayed: inputs the runtime does not give (a message, a
+//! signal or a cancel from outside; a token game's choices), and a process started by a
+//! condition or a message (the record names no start event). Such a step is refused, naming it.
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -84,8 +89,8 @@ pub enum ReplayError {
     TooLong,
 }
 
-/// One step's lines, by index.
-type Step = BTreeMap<usize, Value>;
+/// One step's lines, by index, each with its 1-based line number in the record.
+type Step = BTreeMap<usize, (usize, Value)>;
 
 /// Replays `record` (JSON Lines) on `graph`: one frame per step, in order.
 pub fn replay(graph: Arc<ProcessGraph>, record: &str) -> Result<Vec<Frame>, ReplayError> {
@@ -98,24 +103,24 @@ pub fn replay(graph: Arc<ProcessGraph>, record: &str) -> Result<Vec<Frame>, Repl
     let mut ended = BTreeMap::new();
     // Task keys to element names, from the dispatches seen so far (completions name no element).
     let mut names: BTreeMap<String, String> = BTreeMap::new();
+    let last = steps.keys().next_back().copied();
     for (seq, lines) in steps {
-        let (event, mut what) = input(seq, &lines)?;
-        if let Some(name) = lines.values().find_map(|l| {
-            l["task"]
-                .as_str()
-                .filter(|_| l["element"].is_null())
-                .and_then(|t| names.get(t))
-        }) {
+        let (event, mut what, cause) = input(seq, &lines)?;
+        if let Some(name) = cause["task"]
+            .as_str()
+            .filter(|_| cause["element"].is_null())
+            .and_then(|t| names.get(t))
+        {
             what = format!("{what} {name}");
         }
-        for l in lines.values() {
+        for (_, l) in lines.values() {
             if let (Some(t), Some(n)) = (l["task"].as_str(), l["element"]["name"].as_str()) {
                 names.insert(t.to_owned(), n.to_owned());
             }
         }
         let at = lines
             .values()
-            .find_map(|l| l["mission_ms"].as_i64())
+            .find_map(|(_, l)| l["mission_ms"].as_i64())
             .unwrap_or_default();
         let actions = engine
             .step(Input { seq, at, event })
@@ -123,7 +128,7 @@ pub fn replay(graph: Arc<ProcessGraph>, record: &str) -> Result<Vec<Frame>, Repl
                 seq,
                 reason: e.to_string(),
             })?;
-        compare(&graph, seq, &actions, &lines)?;
+        compare(&graph, seq, &actions, &lines, Some(seq) == last)?;
         for (id, i) in &engine.state().instances {
             if let Some(o) = &i.outcome {
                 ended.entry(id.0).or_insert_with(|| outcome(o));
@@ -169,7 +174,10 @@ fn steps(record: &str) -> Result<BTreeMap<u64, Step>, ReplayError> {
             .entry(seq)
             .or_default()
             .entry(idx as usize)
-            .or_insert(v);
+            .or_insert((n + 1, v));
+        if steps.len() > MAX_STEPS {
+            return Err(ReplayError::TooLong);
+        }
     }
     Ok(steps)
 }
@@ -183,17 +191,24 @@ fn triple(s: &str) -> Option<(u64, u64, u32)> {
     parts.next().is_none().then_some((a, b, c))
 }
 
-fn vars(v: &Value) -> Vars {
-    serde_json::from_value(v.clone()).unwrap_or_default()
+/// The variables of a line's field `key` (absent: none).
+fn vars(l: &Value, key: &str) -> Result<Vars, String> {
+    match &l[key] {
+        Value::Null => Ok(Vars::new()),
+        v => {
+            serde_json::from_value(v.clone()).map_err(|e| format!("`{key}` is not variables: {e}"))
+        }
+    }
 }
 
-/// The input that caused a step, read from the first of its lines that says.
-fn input(seq: u64, lines: &Step) -> Result<(Event, String), ReplayError> {
-    let bad = |idx: usize, what: &str| ReplayError::Line {
-        line: idx,
-        reason: format!("step {seq}: {what}"),
-    };
-    for (idx, l) in lines {
+/// The input that caused a step, read from the first of its lines that says; with it, what it
+/// was for people and that line.
+fn input(seq: u64, lines: &Step) -> Result<(Event, String, &Value), ReplayError> {
+    for (line, l) in lines.values() {
+        let bad = |what: &str| ReplayError::Line {
+            line: *line,
+            reason: format!("step {seq}: {what}"),
+        };
         let element = l["element"]["name"].as_str().unwrap_or("").to_owned();
         let task = || {
             l["task"]
@@ -204,20 +219,20 @@ fn input(seq: u64, lines: &Step) -> Result<(Event, String), ReplayError> {
                     token: TokenId(t),
                     attempt: a,
                 })
-                .ok_or_else(|| bad(*idx, "a task key `<instance>-<token>-<attempt>` is missing"))
+                .ok_or_else(|| bad("a task key `<instance>-<token>-<attempt>` is missing"))
         };
         let event = match l["kind"].as_str().unwrap_or("") {
             "instance_started" => Event::InstanceStarted {
                 process: l["process"]
                     .as_str()
-                    .ok_or_else(|| bad(*idx, "instance_started without its process"))?
+                    .ok_or_else(|| bad("instance_started without its process"))?
                     .to_owned(),
-                vars: vars(&l["vars"]),
+                vars: vars(l, "vars").map_err(|e| bad(&e))?,
                 start: None,
             },
             "completed" => Event::TaskCompleted {
                 task: task()?,
-                output: vars(&l["output"]),
+                output: vars(l, "output").map_err(|e| bad(&e))?,
             },
             "failed" => Event::TaskFailed {
                 task: task()?,
@@ -226,13 +241,14 @@ fn input(seq: u64, lines: &Step) -> Result<(Event, String), ReplayError> {
             },
             "user_task_answered" => Event::UserTaskAnswered {
                 task: task()?,
-                answer: vars(&l["answer"]),
+                answer: vars(l, "answer").map_err(|e| bad(&e))?,
                 operator: l["operator"].as_str().unwrap_or_default().to_owned(),
             },
             "timer_fired" => {
-                let (i, w, f) = l["timer"].as_str().and_then(triple).ok_or_else(|| {
-                    bad(*idx, "a timer key `<instance>-<wait>-<firing>` is missing")
-                })?;
+                let (i, w, f) = l["timer"]
+                    .as_str()
+                    .and_then(triple)
+                    .ok_or_else(|| bad("a timer key `<instance>-<wait>-<firing>` is missing"))?;
                 Event::TimerFired {
                     timer: TimerKey {
                         instance: InstanceId(i),
@@ -242,12 +258,12 @@ fn input(seq: u64, lines: &Step) -> Result<(Event, String), ReplayError> {
                 }
             }
             "data" => Event::DataChanged {
-                key: l["key"].as_str().unwrap_or_default().to_owned(),
+                key: l["key"]
+                    .as_str()
+                    .ok_or_else(|| bad("data without its key"))?
+                    .to_owned(),
                 value: serde_json::from_value(l["value"].clone())
-                    .map_err(|e| bad(*idx, &format!("data value: {e}")))?,
-            },
-            "instance_finished" if l["outcome"]["type"] == "cancelled" => Event::CancelRequested {
-                instance: InstanceId(l["instance"].as_u64().unwrap_or_default()),
+                    .map_err(|e| bad(&format!("data value: {e}")))?,
             },
             _ => continue,
         };
@@ -257,25 +273,27 @@ fn input(seq: u64, lines: &Step) -> Result<(Event, String), ReplayError> {
         } else {
             format!("{kind} {element}")
         };
-        return Ok((event, what));
+        return Ok((event, what, l));
     }
     Err(ReplayError::NoInput {
         seq,
         kinds: lines
             .values()
-            .filter_map(|l| l["kind"].as_str())
+            .filter_map(|(_, l)| l["kind"].as_str())
             .collect::<Vec<_>>()
             .join(", "),
     })
 }
 
-/// The lines the engine writes for this step against the record's: kind, instance, element
-/// and the fields the engine decides (everything but wall time).
+/// The lines the engine writes for this step against the record's: every field but wall time
+/// (and the schema version), line for line. Only the `last` step may lack lines at its end (a
+/// record cut by a kill); a line the engine does not write is a difference too.
 fn compare(
     graph: &ProcessGraph,
     seq: u64,
     actions: &[Action],
     lines: &Step,
+    last: bool,
 ) -> Result<(), ReplayError> {
     let shown = |v: &Value| {
         format!(
@@ -289,28 +307,49 @@ fn compare(
         .trim_end()
         .to_owned()
     };
+    let differs = |idx: usize, recorded: String, replayed: String| ReplayError::Differs {
+        seq,
+        idx,
+        recorded,
+        replayed,
+    };
+    let mut written = std::collections::BTreeSet::new();
+    let mut missing = None;
     for (idx, action) in actions.iter().enumerate() {
         let Action::Record(r) = action else { continue };
+        written.insert(idx);
         let mut replayed = crate::record::to_json(graph, seq, 0, r);
         replayed["idx"] = serde_json::json!(idx);
-        let Some(recorded) = lines.get(&idx) else {
-            // A record cut by a kill may end inside its last step.
+        let Some((_, recorded)) = lines.get(&idx) else {
+            missing.get_or_insert((idx, shown(&replayed)));
             continue;
         };
-        let same = |key: &str| replayed[key] == recorded[key];
-        let differs = ![
-            "kind", "instance", "element", "task", "token", "flow", "code", "timer",
-        ]
-        .iter()
-        .all(|k| same(k));
-        if differs {
-            return Err(ReplayError::Differs {
-                seq,
-                idx,
-                recorded: shown(recorded),
-                replayed: shown(&replayed),
-            });
+        if let Some((at, _)) = missing {
+            // A hole before a line the record has: not a cut tail.
+            return Err(differs(at, "nothing".into(), shown(&replayed)));
         }
+        let same = |v: &Value, w: &Value| {
+            let strip = |x: &Value| {
+                let mut x = x.clone();
+                if let Some(o) = x.as_object_mut() {
+                    o.remove("wall");
+                    o.remove("v");
+                }
+                x
+            };
+            strip(v) == strip(w)
+        };
+        if !same(recorded, &replayed) {
+            return Err(differs(idx, shown(recorded), shown(&replayed)));
+        }
+    }
+    if let Some((idx, replayed)) = missing
+        && !last
+    {
+        return Err(differs(idx, "nothing".into(), replayed));
+    }
+    if let Some((idx, (_, extra))) = lines.iter().find(|(i, _)| !written.contains(*i)) {
+        return Err(differs(*idx, shown(extra), "nothing".into()));
     }
     Ok(())
 }
@@ -432,6 +471,24 @@ mod tests {
                 .starts_with(&format!("record line {n}: not JSON")),
             "{e}"
         );
+        // A line taken out of a step that is not the last, a field changed, a line added.
+        let lines: Vec<&str> = record.lines().collect();
+        let holed = [&lines[..1], &lines[2..]].concat().join("\n");
+        let e = replay(graph(MODEL), &holed).expect_err("a line missing");
+        assert!(matches!(e, ReplayError::Differs { seq: 1, .. }), "{e}");
+        let changed = record.replacen(r#""resource":"arm.dig""#, r#""resource":"arm.dug""#, 1);
+        assert_ne!(changed, record);
+        let e = replay(graph(MODEL), &changed).expect_err("a field changed");
+        assert!(matches!(e, ReplayError::Differs { .. }), "{e}");
+        let extra = format!(
+            "{record}{}\n",
+            lines[0].replace(r#""idx":0"#, r#""idx":99"#)
+        );
+        let e = replay(graph(MODEL), &extra).expect_err("a line more");
+        assert!(matches!(e, ReplayError::Differs { idx: 99, .. }), "{e}");
+        // The last step cut short by a kill still replays.
+        let cut = lines[..lines.len() - 1].join("\n");
+        assert_eq!(replay(graph(MODEL), &cut).expect("a cut tail").len(), 3);
         // A step whose lines say nothing of its cause.
         let e = replay(
             graph(MODEL),

@@ -292,9 +292,10 @@ pub fn page(t: &Timeline, title: &str) -> std::io::Result<String> {
         .map_err(std::io::Error::other)?
         .replace("</", "<\\/");
     let title = title.replace('&', "&amp;").replace('<', "&lt;");
+    // The title first: the data may hold anything, `{{TITLE}}` included.
     Ok(TEMPLATE
-        .replace("/*DATA*/", &data)
-        .replace("{{TITLE}}", &title))
+        .replace("{{TITLE}}", &title)
+        .replace("/*DATA*/", &data))
 }
 
 /// Writes the page for `record` to `out`; returns the timeline drawn.

@@ -12,8 +12,10 @@
 //!   a save is atomic (a temporary file renamed over the old one).
 //! - [`api`]: the HTTP routes (axum on the executive's tokio) — the page, `GET/PUT
 //!   /api/missions/{name}` and `/api/requirements/{name}`, `POST /api/validate`, `GET
-//!   /api/catalogues`, `POST /api/verify/{name}`, `POST /api/simulate[/{id}]`, `GET
-//!   /api/ops/...` (executives, model, state, events) and `/api/ground[/{number}]`.
+//!   /api/catalogues`, `POST /api/validate/{name}`, `POST /api/verify/{name}`, `POST
+//!   /api/simulate`, `POST|DELETE /api/simulate/{id}`, `POST /api/replay`, `GET /api/ops/...`
+//!   (executives, model, state, events, timeline) and `/api/ground[/{number}]`.
+//! - [`simulate`]: the token game on the engine.
 //! - [`checks`]: what a check reports — `trace validate`'s diagnostics and, given the
 //!   connectors, `trace run`'s check against the catalogues, through the executive's library.
 //! - [`live`]: the catalogues the running systems serve, over Zenoh.
@@ -170,6 +172,14 @@ pub enum CatalogueError {
         /// Why.
         source: serde_json::Error,
     },
+    /// The catalogue's server id is not one plain name.
+    #[error("{path}: the server id is not a plain name: {reason}")]
+    Server {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        reason: String,
+    },
     /// The connectors configuration is not one (`deploy/connectors.toml`).
     #[error("{path}: not a connectors configuration: {reason}")]
     Connectors {
@@ -206,10 +216,17 @@ pub fn read_catalogues(paths: &[PathBuf]) -> Result<Vec<Catalogue>, CatalogueErr
         .iter()
         .map(|f| {
             let text = std::fs::read_to_string(f).map_err(io(f))?;
-            serde_json::from_str(&text).map_err(|source| CatalogueError::Parse {
+            let cat: Catalogue =
+                serde_json::from_str(&text).map_err(|source| CatalogueError::Parse {
+                    path: f.clone(),
+                    source,
+                })?;
+            // The server id names keys and files (`trace templates`): one plain chunk.
+            connector_api::keys::check_chunk(&cat.server).map_err(|e| CatalogueError::Server {
                 path: f.clone(),
-                source,
-            })
+                reason: e.to_string(),
+            })?;
+            Ok(cat)
         })
         .collect()
 }

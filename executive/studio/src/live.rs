@@ -133,9 +133,11 @@ impl Live {
             let Ok(sample) = reply.result() else { continue };
             let at = sample.key_expr().as_str().to_owned();
             match wire::parse::<Catalogue>("catalogue", &at, &sample.payload().to_bytes()) {
-                // A catalogue comes on its server's key, or on the key asked (servers reply
-                // on the query's key expression); never on another server's.
-                Ok(cat) if at == key || at == self.keys.catalogue(&cat.server) => {
+                // A catalogue comes on its own server's key, never another's.
+                Ok(cat)
+                    if connector_api::keys::check_chunk(&cat.server).is_ok()
+                        && at == self.keys.catalogue(&cat.server) =>
+                {
                     heard.insert(cat.server.clone(), cat);
                 }
                 Ok(cat) => {

@@ -155,7 +155,10 @@ impl Live {
                     () = out.closed() => break,
                     () = tokio::time::sleep(SETTLE), if dirty => {
                         dirty = false;
-                        seq0 = present(&live, &mission, &out).await.or(seq0);
+                        match present(&live, &mission, &out).await {
+                            Some(s) => seq0 = Some(s),
+                            None => gone = true,
+                        }
                     }
                     raw = raw.recv() => match raw {
                         None => break,
@@ -185,7 +188,10 @@ impl Live {
                         Some(Raw::Token(true)) if gone => {
                             gone = false;
                             let _ = out.send(Happening::Back);
-                            seq0 = present(&live, &mission, &out).await.or(seq0);
+                            match present(&live, &mission, &out).await {
+                                Some(s) => seq0 = Some(s),
+                                None => gone = true,
+                            }
                         }
                         Some(Raw::Token(true)) => {}
                     }

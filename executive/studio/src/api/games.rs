@@ -17,7 +17,7 @@ use crate::simulate::{Act, Simulation};
 #[derive(Default)]
 pub(super) struct Games {
     next: std::sync::atomic::AtomicU64,
-    playing: std::sync::Mutex<std::collections::BTreeMap<u64, Simulation>>,
+    playing: std::sync::Mutex<std::collections::BTreeMap<u64, Game>>,
 }
 
 /// At most this many games at once (one per page, in practice).
@@ -57,9 +57,15 @@ pub(super) async fn start(State(s): Shared, Extension(games): Played, body: Byte
             format!("the model cannot be played: {first}"),
         );
     };
-    let game = match Simulation::start(Arc::new(graph)) {
-        Ok(g) => g,
-        Err(e) => return refuse(StatusCode::UNPROCESSABLE_ENTITY, e),
+    let game = match tokio::task::spawn_blocking(move || Simulation::start(Arc::new(graph))).await {
+        Ok(Ok(g)) => g,
+        Ok(Err(e)) => return refuse(StatusCode::UNPROCESSABLE_ENTITY, e),
+        Err(e) => {
+            return refuse(
+                StatusCode::INTERNAL_SERVER_ERROR,
+                format!("the start failed: {e}"),
+            );
+        }
     };
     let view = game.view();
     let id = games
@@ -67,15 +73,12 @@ pub(super) async fn start(State(s): Shared, Extension(games): Played, body: Byte
         .fetch_add(1, std::sync::atomic::Ordering::Relaxed)
         + 1;
     let Ok(mut playing) = games.playing.lock() else {
-        return refuse(
-            StatusCode::INTERNAL_SERVER_ERROR,
-            "the games' table is poisoned",
-        );
+        return poisoned();
     };
     while playing.len() >= MAX_GAMES {
         playing.pop_first();
     }
-    playing.insert(id, game);
+    playing.insert(id, Arc::new(std::sync::Mutex::new(game)));
     tracing::info!(id, "token game started");
     Json(json!({ "id": id, "view": view })).into_response()
 }
@@ -94,28 +97,38 @@ pub(super) async fn act(Extension(games): Played, Path(id): Path<u64>, body: Byt
         Ok(a) => a,
         Err(e) => return refuse(StatusCode::BAD_REQUEST, e),
     };
-    let Ok(mut playing) = games.playing.lock() else {
-        return refuse(
-            StatusCode::INTERNAL_SERVER_ERROR,
-            "the games' table is poisoned",
-        );
+    let game = match games.playing.lock() {
+        Ok(playing) => playing.get(&id).cloned(),
+        Err(_) => return poisoned(),
     };
-    let Some(game) = playing.get_mut(&id) else {
+    let Some(game) = game else {
         return refuse(
             StatusCode::NOT_FOUND,
             format!("no token game {id}: start one"),
         );
     };
-    match game.act(act) {
-        Ok(()) => Json(json!({ "view": game.view() })).into_response(),
-        Err(e) => {
+    // An act may run long (a model that loops until the engine's bound): off the async
+    // threads, holding only this game.
+    let played = tokio::task::spawn_blocking(move || {
+        let mut game = game.lock().unwrap_or_else(|p| p.into_inner());
+        let done = game.act(act);
+        (done, game.view())
+    })
+    .await;
+    match played {
+        Ok((Ok(()), view)) => Json(json!({ "view": view })).into_response(),
+        Ok((Err(e), view)) => {
             tracing::warn!(id, "act refused: {e}");
             (
                 StatusCode::UNPROCESSABLE_ENTITY,
-                Json(json!({ "error": e.to_string(), "view": game.view() })),
+                Json(json!({ "error": e.to_string(), "view": view })),
             )
                 .into_response()
         }
+        Err(e) => refuse(
+            StatusCode::INTERNAL_SERVER_ERROR,
+            format!("the act failed: {e}"),
+        ),
     }
 }
 
@@ -125,9 +138,16 @@ pub(super) async fn end(Extension(games): Played, Path(id): Path<u64>) -> Respon
     match removed {
         Ok(true) => StatusCode::NO_CONTENT.into_response(),
         Ok(false) => refuse(StatusCode::NOT_FOUND, format!("no token game {id}")),
-        Err(_) => refuse(
-            StatusCode::INTERNAL_SERVER_ERROR,
-            "the games' table is poisoned",
-        ),
+        Err(_) => poisoned(),
     }
+}
+
+/// One game, locked while an act runs.
+type Game = Arc<std::sync::Mutex<Simulation>>;
+
+fn poisoned() -> Response {
+    refuse(
+        StatusCode::INTERNAL_SERVER_ERROR,
+        "the games' table is poisoned",
+    )
 }

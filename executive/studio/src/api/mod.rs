@@ -1,5 +1,9 @@
-//! The studio's HTTP routes: the page, the mission files, validation and the catalogues.
-//! Every refusal is JSON `{"error": "..."}` with a status that says whose fault it is.
+//! The studio's HTTP routes: the page, and the API of each part in its own file — missions,
+//! requirements, validation and catalogues (`missions.rs`), verification (`verify.rs`), the
+//! token games (`games.rs`), the followed missions (`ops.rs`), the ground desk (`ground.rs`),
+//! record replay (`replay.rs`). Every refusal this code makes is JSON `{"error": "..."}` with a
+//! status that says whose fault it is (axum's own rejections of a malformed path are plain
+//! text).
 
 use std::sync::Arc;
 

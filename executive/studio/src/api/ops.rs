@@ -51,7 +51,16 @@ pub(super) async fn model(State(s): Shared, Path(mission): Path<String>) -> Resp
         Err((status, why)) => return refuse(status, why),
     };
     match live.model(&mission).await {
-        Ok(xml) => ([(header::CONTENT_TYPE, "application/xml")], xml).into_response(),
+        // XML from the network: never run as a page of the studio's origin.
+        Ok(xml) => (
+            [
+                (header::CONTENT_TYPE, "application/xml"),
+                (header::X_CONTENT_TYPE_OPTIONS, "nosniff"),
+                (header::CONTENT_SECURITY_POLICY, "sandbox"),
+            ],
+            xml,
+        )
+            .into_response(),
         Err(e) => ask_error(e),
     }
 }

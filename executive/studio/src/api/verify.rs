@@ -31,7 +31,8 @@ fn one() -> u8 {
 }
 
 /// One verification at a time: Spin is CPU-bound and each mission has one work directory.
-static VERIFYING: tokio::sync::Mutex<()> = tokio::sync::Mutex::const_new(());
+static VERIFYING: std::sync::LazyLock<Arc<tokio::sync::Mutex<()>>> =
+    std::sync::LazyLock::new(Arc::default);
 
 /// `trace verify` (Spin, and with `native` the engine's own exploration) on the model and
 /// requirements the page holds for mission `name`: the same report, counterexamples included.
@@ -58,9 +59,11 @@ pub(super) async fn verify(State(s): Shared, Path(name): Path<String>, body: Byt
         );
     }
     let req_path = model_path.with_extension("req.toml");
-    let _one = VERIFYING.lock().await;
+    // Held by the verification itself: a page that goes away does not free it while Spin runs.
+    let one = Arc::clone(&VERIFYING).lock_owned().await;
     let studio = Arc::clone(&s);
     let job = tokio::task::spawn_blocking(move || {
+        let _one = one;
         let loaded = checks::load(&studio.dir, body.model.as_bytes(), &Options::default());
         executive::verify::verify_loaded(executive::verify::Job {
             mission: name,
