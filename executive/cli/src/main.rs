@@ -486,14 +486,7 @@ fn studio(args: StudioArgs) -> anyhow::Result<ExitCode> {
              missing): install them (Debian: apt-get install nodejs npm) and build again"
         );
     }
-    let connectors = match args
-        .connectors
-        .clone()
-        .or_else(|| Some(args.dir.join("../connectors.toml")).filter(|p| p.exists()))
-    {
-        Some(p) => Some(executive_studio::read_connectors(&p)?),
-        None => None,
-    };
+    let connectors = connectors_of(&args.dir, args.connectors.clone())?;
     let rt = one_worker()?;
     rt.block_on(async {
         let live = if args.offline {

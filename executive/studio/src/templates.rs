@@ -111,8 +111,8 @@ fn template(server: &str, action: &ActionSpec, resource: &str, platform: Platfor
                 "binding": { "type": "property", "name": "camunda:topic" }
             }));
             // Camunda 7 has no optional input: an empty parameter would be the text "".
-            for (path, ty, optional) in goal.iter().filter(|(_, _, optional)| !optional) {
-                properties.push(c7_input(path, ty, *optional));
+            for (path, ty, _) in goal.iter().filter(|(_, _, optional)| !optional) {
+                properties.push(c7_input(path, ty));
             }
             for (field, ty) in &result {
                 properties.push(json!({
@@ -187,7 +187,9 @@ fn field_help(path: &str, ty: &Type, optional: bool) -> String {
     )
 }
 
-fn c7_input(path: &str, ty: &Type, optional: bool) -> Value {
+/// A required goal field's Camunda 7 input (optional ones are not offered, see above).
+fn c7_input(path: &str, ty: &Type) -> Value {
+    let optional = false;
     let binding = json!({ "type": "camunda:inputParameter", "name": path });
     let label = format!("{path} ({ty})");
     match ty {

@@ -58,7 +58,10 @@ pub(super) async fn verify(State(s): Shared, Path(name): Path<String>, body: Byt
             format!("loops {} is not 1 to 3", body.loops),
         );
     }
-    let req_path = model_path.with_extension("req.toml");
+    let req_path = match files::requirements(&s.dir, &name) {
+        Ok(p) => p,
+        Err(e) => return file_error(e),
+    };
     // Held by the verification itself: a page that goes away does not free it while Spin runs.
     let one = Arc::clone(&VERIFYING).lock_owned().await;
     let studio = Arc::clone(&s);
