@@ -1,7 +1,8 @@
 //! `trace fly` as a user runs it: from a directory that is not the repository, as installed
 //! binaries (the systems found next to `trace` or on `PATH`, the demo mission and its files
 //! built in), and two flights at once while a Zenoh router's default port is taken — each
-//! flight its own deployment on its own free port.
+//! flight its own deployment on its own free port; each finished flight's record replays
+//! through the engine (`trace replay`).
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
@@ -140,5 +141,27 @@ fn two_flights_at_once_from_anywhere_each_its_own_deployment_and_port() {
             sim.starts_with(&format!("ready lander_sim — deployment {deployment} ")),
             "{sim}"
         );
+        // The finished flight replays through the engine, every line as recorded, one state per
+        // step, and ends with no token left.
+        let steps: std::collections::BTreeSet<u64> = record
+            .lines()
+            .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+            .filter_map(|v| v["seq"].as_u64())
+            .collect();
+        let out = Command::new(bin("trace"))
+            .arg("replay")
+            .arg(dir.join("europa-bsm1.bpmn"))
+            .arg(dir.join("store/record.jsonl"))
+            .output()
+            .expect("trace replay");
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert_eq!(text.lines().count(), steps.len());
+        let last = text.lines().last().expect("a last step");
+        assert!(last.ends_with("| "), "tokens left at the end: {last}");
     }
 }
