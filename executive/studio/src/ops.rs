@@ -27,8 +27,8 @@ pub struct Presence {
     pub mission: String,
     /// Its liveliness token is declared now.
     pub alive: bool,
-    /// How many times it came back after going (restarts seen).
-    pub returns: u32,
+    /// How many times it came back after going (restarts seen by this studio).
+    pub reboots: u32,
 }
 
 /// What following a mission tells the page, in order.
@@ -229,10 +229,10 @@ pub(crate) fn seen(map: &mut BTreeMap<String, Presence>, mission: &str, alive: b
     let p = map.entry(mission.to_owned()).or_insert_with(|| Presence {
         mission: mission.to_owned(),
         alive,
-        returns: 0,
+        reboots: 0,
     });
     if alive && !p.alive {
-        p.returns += 1;
+        p.reboots += 1;
     }
     p.alive = alive;
 }

@@ -36,7 +36,7 @@ fn ask_error(e: crate::ops::AskError) -> Response {
     refuse(status, e)
 }
 
-/// Every executive seen on the network: `[{mission, alive, returns}]`.
+/// Every executive seen on the network: `[{mission, alive, reboots}]`.
 pub(super) async fn executives(State(s): Shared) -> Response {
     match joined(&s, None) {
         Ok(live) => Json(live.executives()).into_response(),
