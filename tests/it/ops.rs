@@ -10,14 +10,13 @@
 use std::io::{BufRead, BufReader};
 use std::os::unix::process::CommandExt;
 use std::process::{Command, Stdio};
-use std::time::Duration;
 
-use fantoccini::{Client, ClientBuilder, Locator};
+use fantoccini::{Client, Locator};
 use mission_tests::{bin, repo};
 use serde_json::{Value, json};
 
 use crate::protocol::tempdir;
-use crate::studio::{Kill, WAIT, click, free_port, js, start, until};
+use crate::studio::{Kill, Page, WAIT, click, js, start, until};
 
 /// A child started in a process group of its own (`process_group(0)`), killed whole when
 /// dropped: `trace fly` and its simulator, a station.
@@ -77,16 +76,14 @@ fn operations_follow_a_flying_mission_on_its_diagram() {
         .stdout(Stdio::piped())
         .process_group(0);
     let mut station = station.spawn().expect("ground-station starts");
-    // Everything the terminal station says, for what it is told.
-    let said = std::sync::Arc::new(std::sync::Mutex::new(Vec::<String>::new()));
-    {
-        let (out, said) = (station.stdout.take().expect("stdout"), said.clone());
-        std::thread::spawn(move || {
-            for line in BufReader::new(out).lines().map_while(Result::ok) {
-                said.lock().expect("lines").push(line);
-            }
-        });
-    }
+    // Everything the terminal station says, line by line as it says it.
+    let (tell, said) = tokio::sync::mpsc::unbounded_channel::<String>();
+    let out = station.stdout.take().expect("stdout");
+    std::thread::spawn(move || {
+        for line in BufReader::new(out).lines().map_while(Result::ok) {
+            let _ = tell.send(line);
+        }
+    });
     let _station = Group(Kill(station));
     let mut studio = Command::new(bin("trace"));
     // The studio is a ground station too: the page answers through it.
@@ -96,16 +93,7 @@ fn operations_follow_a_flying_mission_on_its_diagram() {
         .args(["--port", "0", "--station", "web", "--catalogue"])
         .arg(repo().join("deploy/ground/forms.json"))
         .args(&join);
-    let (_studio, ready) = start(studio, "ready http://");
-    let url = ready
-        .split_whitespace()
-        .nth(1)
-        .expect("the studio's address")
-        .to_owned();
-    let port = free_port();
-    let mut driver = Command::new("chromedriver");
-    driver.arg(format!("--port={port}"));
-    let (_driver, _) = start(driver, "started successfully");
+    let page = Page::start(studio);
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
@@ -115,14 +103,21 @@ fn operations_follow_a_flying_mission_on_its_diagram() {
         let session = crate::protocol::open(&[], std::slice::from_ref(&hub)).await;
         let keys = connector_api::Keys::deployed(connector_api::keys::DEFAULT_ROOT, &deployment)
             .expect("keys");
-        let c = browser(port).await;
+        let c = page.browser().await;
         let flight = Flight {
             fly,
             dir: dir.clone(),
             said,
             join: join.clone(),
         };
-        let outcome = tokio::spawn(ops_scenario(c.clone(), url, session, keys, flight)).await;
+        let outcome = tokio::spawn(ops_scenario(
+            c.clone(),
+            page.url.clone(),
+            session,
+            keys,
+            flight,
+        ))
+        .await;
         let _ = c.close().await;
         if let Err(e) = outcome {
             std::panic::resume_unwind(e.into_panic());
@@ -130,29 +125,12 @@ fn operations_follow_a_flying_mission_on_its_diagram() {
     });
 }
 
-/// A WebDriver session of headless Chromium.
-async fn browser(port: u16) -> Client {
-    let mut caps = serde_json::Map::new();
-    caps.insert(
-        "goog:chromeOptions".into(),
-        json!({ "binary": "/usr/bin/chromium", "args": [
-            "--headless", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
-            "--disable-quic", "--no-first-run", "--disable-background-networking",
-            "--disable-component-update", "--disable-sync", "--window-size=1600,900"] }),
-    );
-    ClientBuilder::new(hyper_util::client::legacy::connect::HttpConnector::new())
-        .capabilities(caps)
-        .connect(&format!("http://127.0.0.1:{port}"))
-        .await
-        .expect("a WebDriver session")
-}
-
 /// The flight the operations view follows: `trace fly` (killed when dropped), its directory,
 /// what the terminal station said, and the flags that join its network.
 struct Flight {
     fly: Group,
     dir: std::path::PathBuf,
-    said: std::sync::Arc<std::sync::Mutex<Vec<String>>>,
+    said: tokio::sync::mpsc::UnboundedReceiver<String>,
     join: Vec<String>,
 }
 
@@ -166,7 +144,7 @@ async fn ops_scenario(
     let Flight {
         fly,
         dir,
-        said,
+        mut said,
         join,
     } = flight;
     c.goto(&url).await.expect("the studio's page");
@@ -285,39 +263,31 @@ async fn ops_scenario(
     )
     .await;
     assert_eq!(outcome, "applied");
-    // The executive recorded who answered, and the other station was told.
-    let record = dir.join("flight/store/record.jsonl");
-    let answered = |text: &str| {
-        text.lines()
-            .filter_map(|l| serde_json::from_str::<Value>(l).ok())
-            .find(|v| v["kind"] == "user_task_answered")
-    };
-    let began = std::time::Instant::now();
-    let line = loop {
-        if let Some(v) = answered(&std::fs::read_to_string(&record).unwrap_or_default()) {
-            break v;
-        }
-        assert!(
-            began.elapsed() < WAIT,
-            "no user_task_answered in the record"
-        );
-        tokio::time::sleep(Duration::from_millis(100)).await;
-    };
+    // The executive recorded who answered (the line arrives on the page's record stream after
+    // it is written to the file), and the other station was told.
+    until(
+        &c,
+        "the answer in the record stream",
+        "return studio.ops.lines().some(l => l.kind === 'user_task_answered')",
+    )
+    .await;
+    let record = std::fs::read_to_string(dir.join("flight/store/record.jsonl")).expect("record");
+    let line = record
+        .lines()
+        .filter_map(|l| serde_json::from_str::<Value>(l).ok())
+        .find(|v| v["kind"] == "user_task_answered")
+        .expect("user_task_answered in the record");
     assert_eq!(line["operator"], "ana@web", "{line}");
     assert_eq!(line["answer"]["approve"], true, "{line}");
-    let began = std::time::Instant::now();
-    while !said
-        .lock()
-        .expect("lines")
-        .iter()
-        .any(|l| l.contains("closed: answered by ana@web"))
+    let mut heard = Vec::new();
+    while !heard
+        .last()
+        .is_some_and(|l: &String| l.contains("closed: answered by ana@web"))
     {
-        assert!(
-            began.elapsed() < WAIT,
-            "the terminal station was not told: {:?}",
-            said.lock().expect("lines")
-        );
-        tokio::time::sleep(Duration::from_millis(100)).await;
+        match tokio::time::timeout(WAIT, said.recv()).await {
+            Ok(Some(l)) => heard.push(l),
+            _ => panic!("the terminal station was not told: {heard:?}"),
+        }
     }
     // The timeline below the diagram: drawn from the executive's record, growing with it, and
     // selecting with the diagram both ways.

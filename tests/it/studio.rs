@@ -59,6 +59,54 @@ pub(crate) fn free_port() -> u16 {
 
 pub(crate) const WAIT: Duration = Duration::from_secs(30);
 
+/// A started studio with chromedriver beside it, both killed when dropped.
+pub(crate) struct Page {
+    /// The studio's address (`http://127.0.0.1:PORT/`).
+    pub(crate) url: String,
+    driver_port: u16,
+    _studio: Kill,
+    _driver: Kill,
+}
+
+impl Page {
+    /// Starts `studio` (a `trace studio` command) and a chromedriver on a free port.
+    pub(crate) fn start(studio: Command) -> Page {
+        let (studio, ready) = start(studio, "ready http://");
+        let url = ready
+            .split_whitespace()
+            .nth(1)
+            .expect("the studio's address")
+            .to_owned();
+        let driver_port = free_port();
+        let mut driver = Command::new("chromedriver");
+        driver.arg(format!("--port={driver_port}"));
+        let (driver, _) = start(driver, "started successfully");
+        Page {
+            url,
+            driver_port,
+            _studio: studio,
+            _driver: driver,
+        }
+    }
+
+    /// A WebDriver session of headless Debian chromium.
+    pub(crate) async fn browser(&self) -> Client {
+        let mut caps = serde_json::Map::new();
+        caps.insert(
+            "goog:chromeOptions".into(),
+            json!({ "binary": "/usr/bin/chromium", "args": [
+                "--headless", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
+                "--disable-quic", "--no-first-run", "--disable-background-networking",
+                "--disable-component-update", "--disable-sync", "--window-size=1600,900"] }),
+        );
+        ClientBuilder::new(hyper_util::client::legacy::connect::HttpConnector::new())
+            .capabilities(caps)
+            .connect(&format!("http://127.0.0.1:{}", self.driver_port))
+            .await
+            .expect("a WebDriver session")
+    }
+}
+
 #[test]
 fn the_studio_opens_checks_edits_and_saves_a_mission_in_headless_chromium() {
     let dir = tempdir("studio");
@@ -98,36 +146,15 @@ fn the_studio_opens_checks_edits_and_saves_a_mission_in_headless_chromium() {
         .arg(repo().join("deploy/connectors.toml"))
         // The files only: another test's systems on this host stay out of it.
         .arg("--offline");
-    let (_studio, ready) = start(studio, "ready http://");
-    let url = ready
-        .split_whitespace()
-        .nth(1)
-        .expect("the studio's address")
-        .to_owned();
-    let port = free_port();
-    let mut driver = Command::new("chromedriver");
-    driver.arg(format!("--port={port}"));
-    let (_driver, _) = start(driver, "started successfully");
+    let page = Page::start(studio);
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
         .expect("runtime");
     rt.block_on(async move {
-        let mut caps = serde_json::Map::new();
-        caps.insert(
-            "goog:chromeOptions".into(),
-            json!({ "binary": "/usr/bin/chromium", "args": [
-                "--headless", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
-                "--disable-quic", "--no-first-run", "--disable-background-networking",
-                "--disable-component-update", "--disable-sync", "--window-size=1600,900"] }),
-        );
-        let c = ClientBuilder::new(hyper_util::client::legacy::connect::HttpConnector::new())
-            .capabilities(caps)
-            .connect(&format!("http://127.0.0.1:{port}"))
-            .await
-            .expect("a WebDriver session");
+        let c = page.browser().await;
         // A failing scenario still ends the session, or Chromium outlives the test.
-        let outcome = tokio::spawn(scenario(c.clone(), url, dir.clone())).await;
+        let outcome = tokio::spawn(scenario(c.clone(), page.url.clone(), dir.clone())).await;
         let _ = c.close().await;
         if let Err(e) = outcome {
             std::panic::resume_unwind(e.into_panic());

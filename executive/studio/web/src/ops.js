@@ -7,6 +7,7 @@
 // the variables decisions read, and a plain line when the executive goes or comes back.
 import NavigatedViewer from 'bpmn-js/lib/NavigatedViewer';
 import { setupGround } from './ground.js';
+import { showTokens } from './tokens.js';
 
 const fmt = ms => (Number.isFinite(ms) ? new Date(ms).toISOString().replace('.000Z', 'Z') : '?');
 
@@ -47,15 +48,7 @@ export function setupOps(ctx) {
     for (const id of failed) if (registry.get(id)) canvas.addMarker(id, 'ops-failed');
     const flights = state.in_flight || [];
     for (const f of flights) if (registry.get(f.element)) canvas.addMarker(f.element, 'ops-flight');
-    for (const [id, n] of Object.entries(state.tokens || {})) {
-      const el = registry.get(id);
-      if (!el) continue;
-      canvas.addMarker(el, 'trace-live');
-      const badge = document.createElement('div');
-      badge.className = 'trace-token';
-      badge.textContent = String(n);
-      overlays.add(el, 'ops', { position: { bottom: 0, left: -9 }, html: badge });
-    }
+    showTokens(viewer, state.tokens || {}, 'ops');
     const now = state.mission_ms;
     $('ops-flight').replaceChildren(...flights.map(f => {
       const li = document.createElement('li');

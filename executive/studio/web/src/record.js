@@ -3,6 +3,8 @@
 // against the record's), and the page scrubs through the engine's state after each step —
 // tokens on the diagram, the step's input and mission time, instances ended by then.
 
+import { showTokens } from './tokens.js';
+
 /** Wires the record replay; `ctx` gives the modeler, `api` and `say`. */
 export function setupRecord(ctx) {
   const { modeler, api, say } = ctx;
@@ -19,18 +21,7 @@ export function setupRecord(ctx) {
     clear();
     const f = frames[i];
     if (!f) return;
-    const canvas = modeler.get('canvas');
-    const overlays = modeler.get('overlays');
-    const registry = modeler.get('elementRegistry');
-    for (const [id, n] of Object.entries(f.tokens)) {
-      const el = registry.get(id);
-      if (!el) continue;
-      canvas.addMarker(el, 'trace-live');
-      const badge = document.createElement('div');
-      badge.className = 'trace-token';
-      badge.textContent = String(n);
-      overlays.add(el, 'trace-record', { position: { bottom: 0, left: -9 }, html: badge });
-    }
+    showTokens(modeler, f.tokens, 'trace-record');
     const ended = Object.entries(f.ended).map(([i, o]) => `instance ${i} ${o}`).join(', ');
     $('record-frame').textContent = `step ${f.seq} (${i + 1} of ${frames.length}) · `
       + `${new Date(f.mission_ms).toISOString()} · ${f.what}${ended ? ` · ${ended}` : ''}`;

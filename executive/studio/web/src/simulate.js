@@ -4,6 +4,8 @@
 // player may do next: complete or fail a waiting task (with the codes its error boundaries
 // catch), choose a gateway's flow, fire a timer, message, signal or boundary.
 
+import { showTokens } from './tokens.js';
+
 /** Wires the simulation box; `ctx` gives the modeler, `api` and `say`. */
 export function setupSimulate(ctx) {
   const { modeler, api, say } = ctx;
@@ -44,18 +46,7 @@ export function setupSimulate(ctx) {
 
   function render() {
     clear();
-    const canvas = modeler.get('canvas');
-    const overlays = modeler.get('overlays');
-    const registry = modeler.get('elementRegistry');
-    for (const t of view.tokens) {
-      const el = registry.get(t.element);
-      if (!el) continue;
-      canvas.addMarker(el, 'trace-live');
-      const badge = document.createElement('div');
-      badge.className = 'trace-token';
-      badge.textContent = String(t.count);
-      overlays.add(el, 'trace-sim', { position: { bottom: 0, left: -9 }, html: badge });
-    }
+    showTokens(modeler, Object.fromEntries(view.tokens.map(t => [t.element, t.count])), 'trace-sim');
     const acts = [];
     for (const t of view.tasks) {
       acts.push(button(`Complete ${t.name}`, { act: 'complete', element: t.element },
