@@ -1,6 +1,7 @@
 //! Core model tests: energy bookkeeping, determinism for a seed, scripted faults, cancellation
 //! with partial effects, an activity behind every catalogue entry, and goals keyed so that a
-//! restart carries an activity on and never applies its effects twice.
+//! restart carries an activity on and never applies its effects twice, and every simulated
+//! duration and power inside the bounds the catalogue declares for verification.
 
 use serde_json::json;
 
@@ -192,4 +193,67 @@ fn a_goal_is_planned_once_and_its_effects_applied_once() {
         again.end("g2", false, t).is_none(),
         "a forgotten goal is unknown"
     );
+}
+
+#[test]
+fn every_planned_activity_lies_within_the_catalogue_cost() {
+    let cat = crate::catalogue::catalogue();
+    let battery = cat.battery.clone().expect("battery declared");
+    let w = World::new(0, 1);
+    assert_eq!(
+        (battery.capacity_wh, battery.idle_w),
+        (w.capacity_wh, w.idle_w)
+    );
+    // Goals varied over what the mission sets; each seed and profile draws other faults.
+    let goals = [
+        json!({"site_id": 1, "target_depth_cm": 10.0, "bite_depth_cm": 2.0, "max_bites": 8,
+               "duration_s": 86400, "max_mb": 50.0, "queue": [], "link": "relay"}),
+        json!({"site_id": 2, "target_depth_cm": 30.0, "bite_depth_cm": 1.0, "max_bites": 3,
+               "duration_s": 60, "max_mb": 500.0}),
+        json!({"site_id": 3}),
+    ];
+    let mut checked = 0;
+    for seed in 0..40u64 {
+        for profile in [Profile::Quiet, Profile::Nominal, Profile::Demanding] {
+            let mut s = sim(seed, profile, Script::default());
+            // Sites come with the map even when its matching fails.
+            let _ = run(&mut s, "world_model.build_terrain_map", json!({}));
+            for _ in 0..3 {
+                s.world
+                    .advance(s.world.now_ms + (seed as i64 % 7) * 13 * HOUR_MS);
+                for spec in &cat.actions {
+                    let cost = spec
+                        .cost
+                        .as_ref()
+                        .unwrap_or_else(|| panic!("{} has no cost", spec.name));
+                    for goal in &goals {
+                        let goal = fields(goal.clone());
+                        let plan = s.plan(&spec.name, &goal).expect("served");
+                        // A failure's own bounds where the catalogue gives them.
+                        let cost = match &plan.outcome {
+                            Err((code, _)) => cost.errors.get(code).unwrap_or(cost),
+                            Ok(_) => cost,
+                        };
+                        let field = |f: &str| Ok(goal.get(f).and_then(serde_json::Value::as_f64));
+                        let (lo, hi) = cost.duration_s.range(field).expect("duration");
+                        let secs = plan.duration_ms as f64 / 1000.0;
+                        assert!(
+                            lo <= secs && secs <= hi,
+                            "{}: {secs} s outside [{lo}, {hi}] for {goal:?}",
+                            spec.name
+                        );
+                        let (plo, phi) = cost.power_w.range(field).expect("power");
+                        assert!(
+                            plo <= plan.power_w && plan.power_w <= phi,
+                            "{}: {} W outside [{plo}, {phi}]",
+                            spec.name,
+                            plan.power_w
+                        );
+                        checked += 1;
+                    }
+                }
+            }
+        }
+    }
+    assert!(checked > 10_000, "{checked} plans checked");
 }

@@ -9,6 +9,12 @@ use crate::rng::Rng;
 /// One hour of mission time, ms.
 pub const HOUR_MS: i64 = 3_600_000;
 
+/// The battery's capacity, Wh (the catalogue declares it too).
+pub const CAPACITY_WH: f64 = 45_000.0;
+
+/// Hotel loads and survival heaters, W, drawn all the time (the catalogue declares it too).
+pub const IDLE_W: f64 = 55.0;
+
 /// Surface material of a site (drives slump and dig rate).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -122,10 +128,10 @@ impl World {
     pub fn new(start_ms: i64, seed: u64) -> World {
         World {
             now_ms: start_ms,
-            capacity_wh: 45_000.0,
-            energy_wh: 45_000.0,
+            capacity_wh: CAPACITY_WH,
+            energy_wh: CAPACITY_WH,
             extra_draw_w: 0.0,
-            idle_w: 55.0,
+            idle_w: IDLE_W,
             arm_temp_k: 110.0,
             arm_state: "stowed".into(),
             sites: Vec::new(),

@@ -63,7 +63,7 @@ fn catalogue(server: &str, actions: &[&str]) -> Catalogue {
     Catalogue {
         server: server.into(),
         actions: actions.iter().map(|a| spec(a)).collect(),
-        telemetry: BTreeMap::new(),
+        ..Catalogue::default()
     }
 }
 

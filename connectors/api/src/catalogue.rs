@@ -224,6 +224,9 @@ pub struct ActionSpec {
     /// Error codes it may raise, with their meaning.
     #[serde(default)]
     pub errors: BTreeMap<String, String>,
+    /// What it costs in time and energy, for verification before flight (`None`: undeclared).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cost: Option<crate::cost::Cost>,
 }
 
 /// Looks a dotted path (`selected_site.site_id`) up in a message's fields.
@@ -309,6 +312,9 @@ pub struct Catalogue {
     /// mission as system data is checked against its type before it reaches the engine.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub telemetry: BTreeMap<String, Type>,
+    /// The battery its actions draw from, for verification before flight.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub battery: Option<crate::cost::Battery>,
 }
 
 impl Catalogue {

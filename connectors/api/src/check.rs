@@ -199,7 +199,7 @@ mod tests {
                 }))
                 .unwrap(),
             ],
-            telemetry: Default::default(),
+            ..Catalogue::default()
         };
         let tasks = vec![
             TaskUse {

@@ -22,6 +22,7 @@
 pub mod catalogue;
 pub mod check;
 pub mod contract;
+pub mod cost;
 pub mod keys;
 pub mod routes;
 pub mod wire;

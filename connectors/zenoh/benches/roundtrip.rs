@@ -77,8 +77,9 @@ async fn main() {
             result: BTreeMap::new(),
             feedback: BTreeMap::new(),
             errors: BTreeMap::new(),
+            cost: None,
         }],
-        telemetry: BTreeMap::new(),
+        ..Catalogue::default()
     };
     let (_server, mut requests) = ActionServer::start(
         &sys,

@@ -14,6 +14,7 @@
 //!   thread is enough, since the engine step is microseconds and everything else waits.
 //! - `chrono` for wall-clock stamps in the execution record.
 
+pub mod catalogues;
 pub mod config;
 pub mod conformance;
 pub mod connectors;

@@ -182,6 +182,17 @@ pub fn build(lines: impl Iterator<Item = String>) -> Timeline {
                         ),
                         _ => format!("{name} ({resource}) {kind}"),
                     };
+                    // A verifier's counterexample says what each activity spent.
+                    let detail = match v["energy_wh"].as_array().map(|e| {
+                        (
+                            e.first().and_then(|x| x.as_f64()),
+                            e.get(1).and_then(|x| x.as_f64()),
+                        )
+                    }) {
+                        Some((Some(lo), Some(hi))) if lo == hi => format!("{detail}, {lo:.0} Wh"),
+                        Some((Some(lo), Some(hi))) => format!("{detail}, {lo:.0}–{hi:.0} Wh"),
+                        _ => detail,
+                    };
                     if kind == "failed" {
                         t.markers.push(Marker {
                             lane: l.clone(),

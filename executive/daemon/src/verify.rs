@@ -34,6 +34,16 @@ pub struct VerifyOptions {
     /// Also explore the executive's own engine (no translation) and compare its verdicts.
     #[arg(long)]
     pub native: bool,
+    /// The connectors (routes to the systems) whose catalogues cost the tasks, for requirements
+    /// on time and energy (default: `connectors.toml` in the model's folder or the one above).
+    #[arg(long)]
+    pub connectors: Option<PathBuf>,
+    /// Catalogue files or folders of them (default: `catalogues/` beside the connectors file).
+    #[arg(long)]
+    pub catalogues: Vec<PathBuf>,
+    /// States the timed exploration may visit before its verdicts are `incomplete`.
+    #[arg(long, default_value_t = 400_000)]
+    pub max_states: usize,
 }
 
 /// Why verification could not give verdicts.
@@ -66,6 +76,14 @@ pub enum VerifyError {
     /// The requirements file is unusable.
     #[error(transparent)]
     Requirements(#[from] executive_verify::RequirementsError),
+    /// Requirements read time or energy but the tasks' costs are not known.
+    #[error("{path}: requirements on time and energy need every task's cost:\n{}", .problems.iter().map(|p| format!("  {p}")).collect::<Vec<_>>().join("\n"))]
+    Costs {
+        /// The model.
+        path: String,
+        /// Every problem.
+        problems: Vec<String>,
+    },
 }
 
 /// The result: every property, and where the work files are.
@@ -83,6 +101,20 @@ pub struct Report {
     pub ends: std::collections::BTreeSet<String>,
     /// The native exploration, when asked for.
     pub native: Option<executive_verify::Exploration>,
+    /// The timed exploration, when requirements read time or energy (their verdicts are in
+    /// `properties`).
+    pub timed: Option<TimedSummary>,
+}
+
+/// What the timed exploration covered.
+#[derive(Debug, serde::Serialize)]
+pub struct TimedSummary {
+    /// States explored.
+    pub states: usize,
+    /// When runs end and the energy used by then, over every run.
+    pub end: Option<executive_verify::timed::Resources>,
+    /// Where the costs came from (the connectors file).
+    pub connectors: String,
 }
 
 impl Report {
@@ -134,7 +166,58 @@ pub fn verify(opts: &VerifyOptions) -> Result<Report, VerifyError> {
         loops: opts.loops,
         depth: opts.depth,
         native: opts.native,
+        systems: systems(path, opts.connectors.as_deref(), &opts.catalogues),
+        max_states: opts.max_states,
     })
+}
+
+/// The connectors and catalogues that cost the tasks: the files named, or `connectors.toml` in
+/// the model's folder or the one above and `catalogues/` beside it. `Err` says what is missing
+/// or unreadable (only an error when a requirement needs the costs).
+pub fn systems(
+    model: &Path,
+    connectors: Option<&Path>,
+    catalogues: &[PathBuf],
+) -> Result<Systems, String> {
+    let file = match connectors {
+        Some(f) => f.to_path_buf(),
+        None => {
+            let dir = model.parent().unwrap_or(Path::new("."));
+            [dir.join("connectors.toml"), dir.join("../connectors.toml")]
+                .into_iter()
+                .find(|f| f.exists())
+                .ok_or_else(|| {
+                    format!(
+                        "no connectors.toml in {} or the folder above (give --connectors)",
+                        dir.display()
+                    )
+                })?
+        }
+    };
+    let config = crate::catalogues::read_connectors(&file).map_err(|e| e.to_string())?;
+    let paths = if catalogues.is_empty() {
+        vec![file.parent().unwrap_or(Path::new(".")).join("catalogues")]
+    } else {
+        catalogues.to_vec()
+    };
+    let read = crate::catalogues::read(&paths).map_err(|e| e.to_string())?;
+    let served = crate::catalogues::served(&config, &read);
+    Ok(Systems {
+        source: file.display().to_string(),
+        config,
+        catalogues: served,
+    })
+}
+
+/// The systems a mission will drive, as files describe them.
+#[derive(Clone, Debug)]
+pub struct Systems {
+    /// Where they were read (the connectors file).
+    pub source: String,
+    /// Its routes.
+    pub config: connector_api::ConnectorsConfig,
+    /// Each connector's catalogue, if one was found.
+    pub catalogues: Vec<Option<connector_api::Catalogue>>,
 }
 
 /// One verification of a model already read (`trace verify`, and the studio's, which holds
@@ -154,6 +237,10 @@ pub struct Job {
     pub depth: u64,
     /// As [`VerifyOptions::native`].
     pub native: bool,
+    /// The systems whose catalogues cost the tasks (`Err`: why they are not known).
+    pub systems: Result<Systems, String>,
+    /// As [`VerifyOptions::max_states`].
+    pub max_states: usize,
 }
 
 /// Verifies a loaded model against its requirements.
@@ -178,6 +265,22 @@ pub fn verify_loaded(job: Job) -> Result<Report, VerifyError> {
         None => Default::default(),
     };
     let reqs = loaded.requirements;
+    let timed_costs = if reqs.iter().any(|r| r.form.timed()) {
+        let costs = job
+            .systems
+            .as_ref()
+            .map_err(|e| vec![e.clone()])
+            .and_then(|s| {
+                executive_verify::resources::costs(&graph, &s.config, &s.catalogues)
+                    .map(|c| (c, s.source.clone()))
+            });
+        Some(costs.map_err(|problems| VerifyError::Costs {
+            path: job.mission.clone(),
+            problems,
+        })?)
+    } else {
+        None
+    };
     let (atoms, formulas) = executive_verify::requirements::shared_atoms(&reqs);
     let t = executive_verify::translate(
         &graph,
@@ -196,8 +299,22 @@ pub fn verify_loaded(job: Job) -> Result<Report, VerifyError> {
         ..Limits::default()
     };
     let checked = executive_verify::check(&t, &ltls, &dir, limits)?;
-    let properties = checked.properties;
+    let mut properties = checked.properties;
     let graph = std::sync::Arc::new(graph);
+    let timed = timed_costs.map(|(costs, connectors)| {
+        let limits = executive_verify::timed::TimedLimits {
+            loops: job.loops,
+            max_states: job.max_states,
+        };
+        let t =
+            executive_verify::timed::check(std::sync::Arc::clone(&graph), &costs, &reqs, limits);
+        properties.extend(t.properties);
+        TimedSummary {
+            states: t.states,
+            end: t.end,
+            connectors,
+        }
+    });
     let native = job
         .native
         .then(|| executive_verify::explore(std::sync::Arc::clone(&graph), 2_000_000));
@@ -216,6 +333,7 @@ pub fn verify_loaded(job: Job) -> Result<Report, VerifyError> {
         dir,
         ends: checked.ends,
         native,
+        timed,
     })
 }
 
@@ -258,7 +376,15 @@ pub fn as_record(
     let mut out = String::new();
     let mut tokens = std::collections::BTreeMap::new();
     for (i, s) in steps.iter().enumerate() {
-        let at = i as i64 * 60_000;
+        // A timed counterexample has its times (the latest the step can happen); Spin's
+        // steps get one minute each.
+        let at = s
+            .resources
+            .map_or(i as i64 * 60_000, |r| r.time_ms.hi.min(9e15) as i64);
+        let spent = s
+            .resources
+            .and_then(|r| r.activity_wh)
+            .map(|e| json!([round(e.lo), round(e.hi)]));
         // Record lines are told apart by (seq, idx): one step's lines get their own indices.
         let mut idx = 0;
         let mut line = |extra: serde_json::Value, at: i64| {
@@ -315,7 +441,10 @@ pub fn as_record(
                 }
             }
             "start" => line(dispatched, at),
-            "complete" => line(json!({"kind": "completed", "task": key}), at),
+            "complete" => line(
+                json!({"kind": "completed", "task": key, "energy_wh": spent}),
+                at,
+            ),
             "run" => {
                 line(dispatched, at);
                 line(json!({"kind": "completed", "task": key}), at + 30_000);
@@ -323,7 +452,7 @@ pub fn as_record(
             p if p.starts_with("fail[") => line(
                 json!({"kind": "failed", "task": key,
                 "code": p.trim_start_matches("fail[").trim_end_matches(']'),
-                "message": "a failure the model catches"}),
+                "message": "a failure the model catches", "energy_wh": spent}),
                 at,
             ),
             "fire" => {
@@ -349,8 +478,27 @@ pub fn as_record(
             }
             _ => {}
         }
+        if let Some(r) = s.resources {
+            line(
+                json!({"kind": "data", "key": "energy_used_wh", "value": round(r.energy_wh.hi)}),
+                at,
+            );
+        }
     }
     out
+}
+
+/// Mission time for people: `3d 04:12`.
+fn mission_time(ms: f64) -> String {
+    if !ms.is_finite() {
+        return "later".into();
+    }
+    let m = (ms / 60_000.0).round() as i64;
+    format!("{}d {:02}:{:02}", m / 1440, (m % 1440) / 60, m % 60)
+}
+
+fn round(x: f64) -> f64 {
+    (x * 10.0).round() / 10.0
 }
 
 /// Prints a report for people.
@@ -399,6 +547,22 @@ pub fn print(report: &Report, out: &mut dyn Write) -> std::io::Result<()> {
             report.ends.iter().cloned().collect::<Vec<_>>().join(", ")
         )?;
     }
+    if let Some(t) = &report.timed {
+        let end = t.end.map_or_else(String::new, |e| {
+            format!(
+                "; runs end between {} and {} having used {:.0} to {:.0} Wh",
+                mission_time(e.time_ms.lo),
+                mission_time(e.time_ms.hi),
+                e.energy_wh.lo,
+                e.energy_wh.hi
+            )
+        });
+        writeln!(
+            out,
+            "timed exploration of the engine: {} states, costs from {}{end}",
+            t.states, t.connectors
+        )?;
+    }
     for o in &report.properties {
         let verdict = match &o.verdict {
             Verdict::Holds => "holds".to_owned(),
@@ -415,7 +579,15 @@ pub fn print(report: &Report, out: &mut dyn Write) -> std::io::Result<()> {
         }
         if !o.counterexample.is_empty() {
             writeln!(out, "               counterexample:")?;
+            // A long run (weeks of a monitor polling hourly): its start and its end.
+            let total = o.counterexample.len();
             for (i, s) in o.counterexample.iter().enumerate() {
+                if total > 60 && i == 10 {
+                    writeln!(out, "               … {} steps …", total - 50)?;
+                }
+                if total > 60 && (10..total - 40).contains(&i) {
+                    continue;
+                }
                 let what = match &s.step {
                     Some(st) => format!("{}{} ({}) {}", st.path, st.element, st.name, st.phase),
                     None => s.marker.clone(),
@@ -425,7 +597,14 @@ pub fn print(report: &Report, out: &mut dyn Write) -> std::io::Result<()> {
                 } else {
                     ""
                 };
-                writeln!(out, "               {:>3}. {what}{cycle}", i + 1)?;
+                let at = s.resources.map_or_else(String::new, |r| {
+                    format!(
+                        "  [{}, {:.0} Wh]",
+                        mission_time(r.time_ms.hi),
+                        r.energy_wh.hi
+                    )
+                });
+                writeln!(out, "               {:>3}. {what}{cycle}{at}", i + 1)?;
             }
             let file = Path::new(&report.dir).join(format!("{}.counterexample", o.name));
             writeln!(

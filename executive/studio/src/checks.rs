@@ -4,7 +4,6 @@
 
 use std::path::{Path, PathBuf};
 
-use connector_api::{Catalogue, ConnectorsConfig};
 use executive_model::{Category, Diagnostic, Loaded, Options, Severity, load_bundle};
 use serde::Serialize;
 
@@ -54,7 +53,7 @@ pub fn check(studio: &Studio, bytes: &[u8]) -> Report {
     let mut diagnostics = loaded.diagnostics;
     let mut catalogue = Coverage::default();
     if let (Some(graph), Some(config)) = (&loaded.graph, &studio.connectors) {
-        let catalogues = served(config, &studio.catalogues());
+        let catalogues = executive::catalogues::served(config, &studio.catalogues());
         catalogue.checked = true;
         for (c, cat) in config.connectors.iter().zip(&catalogues) {
             let list = if cat.is_some() {
@@ -77,21 +76,6 @@ pub fn check(studio: &Studio, bytes: &[u8]) -> Report {
         diagnostics,
         catalogue,
     }
-}
-
-/// Each configured connector's catalogue, by its server id (`None`: none known, or a scripted
-/// connector, which serves anything).
-fn served(config: &ConnectorsConfig, catalogues: &[Catalogue]) -> Vec<Option<Catalogue>> {
-    config
-        .connectors
-        .iter()
-        .map(|c| match c.kind {
-            connector_api::Kind::Script => None,
-            connector_api::Kind::Zenoh => {
-                catalogues.iter().find(|k| k.server == c.server()).cloned()
-            }
-        })
-        .collect()
 }
 
 /// An error on element `id`, placed where `id="…"` is written in `text`.

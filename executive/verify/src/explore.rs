@@ -49,7 +49,7 @@ struct Node {
 
 /// The shape of a state: tokens by (scope path, node, flow in, what they do), waits by node,
 /// instance outcomes.
-fn shape(g: &ProcessGraph, s: &State) -> String {
+pub(crate) fn shape(g: &ProcessGraph, s: &State) -> String {
     let path = |mut scope: Option<executive_engine::ScopeId>| {
         let mut p = Vec::new();
         while let Some(id) = scope {
@@ -105,7 +105,7 @@ fn shape(g: &ProcessGraph, s: &State) -> String {
 
 /// The error codes a failing task might raise: one per code some boundary catches, plus one no
 /// boundary names (for catch-all boundaries).
-fn codes(g: &ProcessGraph) -> Vec<String> {
+pub(crate) fn codes(g: &ProcessGraph) -> Vec<String> {
     let mut out = BTreeSet::new();
     let mut catch_all = false;
     for n in &g.nodes {

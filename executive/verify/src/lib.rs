@@ -19,7 +19,10 @@ pub mod data;
 pub mod explore;
 pub mod promela;
 pub mod requirements;
+pub mod resources;
 pub mod spin;
+pub mod timed;
+mod zone;
 
 pub use explore::{Exploration, explore};
 pub use promela::{Bounds, Refusal, Step, Translation, translate};

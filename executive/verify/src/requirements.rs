@@ -1,5 +1,6 @@
 //! Mission requirements (`<mission>.req.toml`): named statements in a small language over BPMN
-//! elements, compiled to LTL for Spin.
+//! elements and the mission's time and energy, compiled to LTL for Spin or to a [`Form`] for the
+//! timed exploration.
 //!
 //! ```toml
 //! [[requirement]]
@@ -22,6 +23,19 @@
 //! `count "X"` (how often; compare with `>= 5`, `== 0`, …), `running "X"` (the activity X runs
 //! now), `signal "S"` (signal S was thrown), `error "CODE"` (a failure with CODE was caught),
 //! `ended`, `failed`, `terminated`, combined with `and`, `or`, `not` and parentheses.
+//!
+//! Resources: `time` (mission time since the start, compared with an ISO 8601 duration:
+//! `time <= P10D`), `energy` (used since the start, idle draw included: `energy <= 40 kWh`),
+//! `energy_left` (`>= 5 %`, or in `Wh`/`kWh`). Suffixes: `E with Q` (E and, at that moment, Q),
+//! `E after D` (E, later than D), `E within D` (eventually E, no later than D). A statement that
+//! reads time or energy is `always`, `never`, `eventually` or `… within D`, and is checked by the
+//! timed exploration ([`crate::timed`]) against the catalogues' costs, not by Spin:
+//!
+//! ```toml
+//! [[requirement]]
+//! name = "five_samples_in_ten_days"
+//! check = 'count "Analyze Sample" >= 5 within P10D'
+//! ```
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -53,7 +67,10 @@ pub struct Requirement {
     pub says: String,
     /// The statement as written.
     pub check: String,
-    /// The LTL formula with `@k` standing for atom `k` (see [`Requirement::atoms`]).
+    /// What it requires of every run.
+    pub form: Form,
+    /// The LTL formula with `@k` standing for atom `k` (see [`Requirement::atoms`]); empty when
+    /// the statement reads time or energy ([`Form::timed`]: the timed exploration checks it).
     pub formula: String,
     /// The atoms it reads, in `@k` order.
     pub atoms: Vec<Atom>,
@@ -163,7 +180,7 @@ pub fn parse(text: &str, path: &str, g: &ProcessGraph) -> Result<Loaded, Require
             continue;
         }
         match compile(&e.check, g) {
-            Ok((formula, atoms)) => out.push(Requirement {
+            Ok((form, formula, atoms)) => out.push(Requirement {
                 name: e.name,
                 says: if e.says.is_empty() {
                     e.check.clone()
@@ -171,6 +188,7 @@ pub fn parse(text: &str, path: &str, g: &ProcessGraph) -> Result<Loaded, Require
                     e.says
                 },
                 check: e.check,
+                form,
                 formula,
                 atoms,
             }),
@@ -192,6 +210,7 @@ enum Tok {
     Word(String),
     Str(String),
     Num(u64),
+    Real(f64),
     Op(String),
 }
 
@@ -214,13 +233,19 @@ fn lex(text: &str) -> Result<Vec<Tok>, String> {
             out.push(Tok::Str(s));
         } else if c.is_ascii_digit() {
             let mut n = String::new();
-            while let Some(&d) = chars.peek().filter(|d| d.is_ascii_digit()) {
+            while let Some(&d) = chars.peek().filter(|d| d.is_ascii_digit() || **d == '.') {
                 n.push(d);
                 chars.next();
             }
-            out.push(Tok::Num(
-                n.parse().map_err(|_| format!("`{n}` is too large"))?,
-            ));
+            if n.contains('.') {
+                out.push(Tok::Real(
+                    n.parse().map_err(|_| format!("`{n}` is not a number"))?,
+                ));
+            } else {
+                out.push(Tok::Num(
+                    n.parse().map_err(|_| format!("`{n}` is too large"))?,
+                ));
+            }
         } else if c.is_ascii_alphabetic() || c == '_' {
             let mut w = String::new();
             while let Some(&d) = chars
@@ -239,12 +264,164 @@ fn lex(text: &str) -> Result<Vec<Tok>, String> {
                     chars.next();
                     out.push(Tok::Op(two.unwrap_or_default()));
                 }
-                _ if "<>()".contains(c) => out.push(Tok::Op(c.to_string())),
+                _ if "<>()%".contains(c) => out.push(Tok::Op(c.to_string())),
                 _ => return Err(format!("`{c}` is not part of the requirement language")),
             }
         }
     }
     Ok(out)
+}
+
+/// A quantity a resource requirement reads over a run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Quantity {
+    /// Mission time since the start, ms.
+    Time,
+    /// Energy used since the start (idle draw included), Wh.
+    Energy,
+    /// Energy left in the battery, % of its capacity.
+    EnergyLeftPct,
+    /// Energy left in the battery, Wh.
+    EnergyLeftWh,
+}
+
+/// A comparison.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Cmp {
+    /// `<`
+    Lt,
+    /// `<=`
+    Le,
+    /// `>`
+    Gt,
+    /// `>=`
+    Ge,
+    /// `==`
+    Eq,
+    /// `!=`
+    Ne,
+}
+
+impl Cmp {
+    fn parse(op: &str) -> Option<Cmp> {
+        Some(match op {
+            "<" => Cmp::Lt,
+            "<=" => Cmp::Le,
+            ">" => Cmp::Gt,
+            ">=" => Cmp::Ge,
+            "==" => Cmp::Eq,
+            "!=" => Cmp::Ne,
+            _ => return None,
+        })
+    }
+
+    fn text(self) -> &'static str {
+        match self {
+            Cmp::Lt => "<",
+            Cmp::Le => "<=",
+            Cmp::Gt => ">",
+            Cmp::Ge => ">=",
+            Cmp::Eq => "==",
+            Cmp::Ne => "!=",
+        }
+    }
+
+    /// Whether `a OP b`.
+    pub fn holds(self, a: f64, b: f64) -> bool {
+        match self {
+            Cmp::Lt => a < b,
+            Cmp::Le => a <= b,
+            Cmp::Gt => a > b,
+            Cmp::Ge => a >= b,
+            Cmp::Eq => a == b,
+            Cmp::Ne => a != b,
+        }
+    }
+}
+
+/// A statement's expression (atoms by index into the requirement's [`Requirement::atoms`]).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Expr {
+    /// An atom that is true or false (`done`, `running`, `signal`, `error`).
+    Atom(usize),
+    /// A counted atom compared with a number.
+    Count(usize, Cmp, u64),
+    /// `ended`, `failed` or `terminated`.
+    Word(String),
+    /// A quantity compared with an amount (in the quantity's unit).
+    Quantity(Quantity, Cmp, f64),
+    /// `not`
+    Not(Box<Expr>),
+    /// `and`
+    And(Box<Expr>, Box<Expr>),
+    /// `or`
+    Or(Box<Expr>, Box<Expr>),
+}
+
+impl Expr {
+    fn and(a: Expr, b: Expr) -> Expr {
+        Expr::And(Box::new(a), Box::new(b))
+    }
+
+    /// Whether it reads a quantity (time, energy).
+    pub fn timed(&self) -> bool {
+        match self {
+            Expr::Quantity(..) => true,
+            Expr::Not(e) => e.timed(),
+            Expr::And(a, b) | Expr::Or(a, b) => a.timed() || b.timed(),
+            _ => false,
+        }
+    }
+
+    /// The LTL text, atoms as `@k`.
+    fn ltl(&self) -> String {
+        match self {
+            Expr::Atom(k) => format!("@{k}"),
+            Expr::Count(k, op, n) => format!("(@{k} {} {})", op.text(), n.min(&255)),
+            Expr::Word(w) => w.clone(),
+            Expr::Quantity(..) => "true".into(),
+            Expr::Not(e) => format!("!{}", e.ltl()),
+            Expr::And(a, b) => format!("({} && {})", a.ltl(), b.ltl()),
+            Expr::Or(a, b) => format!("({} || {})", a.ltl(), b.ltl()),
+        }
+    }
+}
+
+/// What a statement requires of every run.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Form {
+    /// At some point.
+    Eventually(Expr),
+    /// At every point.
+    Always(Expr),
+    /// `after A eventually|always|never B` (the inner form).
+    After(Expr, Box<Form>),
+    /// At the end, if the condition holds (`None`: unless the mission failed).
+    When(Expr, Option<Expr>),
+}
+
+impl Form {
+    /// Whether it reads time or energy (then the timed exploration checks it, not Spin).
+    pub fn timed(&self) -> bool {
+        match self {
+            Form::Eventually(e) | Form::Always(e) => e.timed(),
+            Form::After(a, f) => a.timed() || f.timed(),
+            Form::When(e, c) => e.timed() || c.as_ref().is_some_and(Expr::timed),
+        }
+    }
+
+    fn ltl(&self) -> String {
+        match self {
+            Form::Eventually(e) => format!("<> ({})", e.ltl()),
+            Form::Always(Expr::Not(e)) => format!("[] !({})", e.ltl()),
+            Form::Always(e) => format!("[] ({})", e.ltl()),
+            Form::After(a, f) => format!("[] (({}) -> {})", a.ltl(), f.ltl()),
+            Form::When(e, c) => {
+                let c = c.as_ref().map_or_else(|| "!failed".to_owned(), Expr::ltl);
+                format!("[] ((ended && ({c})) -> ({}))", e.ltl())
+            }
+        }
+    }
 }
 
 struct Parser<'a> {
@@ -277,15 +454,14 @@ impl Parser<'_> {
         }
     }
 
-    fn atom(&mut self, a: Atom) -> String {
-        let k = match self.atoms.iter().position(|x| *x == a) {
+    fn atom(&mut self, a: Atom) -> usize {
+        match self.atoms.iter().position(|x| *x == a) {
             Some(k) => k,
             None => {
                 self.atoms.push(a);
                 self.atoms.len() - 1
             }
-        };
-        format!("@{k}")
+        }
     }
 
     fn element(&self, name: &str) -> Result<NodeId, String> {
@@ -309,53 +485,82 @@ impl Parser<'_> {
         }
     }
 
-    fn or(&mut self) -> Result<String, String> {
+    fn or(&mut self) -> Result<Expr, String> {
         let mut e = self.and()?;
         while self.word("or") {
-            e = format!("({e} || {})", self.and()?);
+            e = Expr::Or(Box::new(e), Box::new(self.and()?));
         }
         Ok(e)
     }
 
-    fn and(&mut self) -> Result<String, String> {
+    fn and(&mut self) -> Result<Expr, String> {
         let mut e = self.not()?;
         while self.word("and") {
-            e = format!("({e} && {})", self.not()?);
+            e = Expr::and(e, self.not()?);
         }
         Ok(e)
     }
 
-    fn not(&mut self) -> Result<String, String> {
+    fn not(&mut self) -> Result<Expr, String> {
         if self.word("not") {
-            return Ok(format!("!{}", self.not()?));
+            return Ok(Expr::Not(Box::new(self.not()?)));
         }
-        self.cmp()
+        self.primary()
     }
 
-    fn cmp(&mut self) -> Result<String, String> {
-        let counted = self.peek_word("count");
-        let left = self.primary()?;
-        if let Some(Tok::Op(op)) = self.toks.get(self.at).cloned()
-            && op != "("
-            && op != ")"
-        {
-            if !counted {
-                return Err(format!("`{op}` compares a `count`"));
+    fn op(&mut self, what: &str) -> Result<Cmp, String> {
+        match self.toks.get(self.at) {
+            Some(Tok::Op(op)) if Cmp::parse(op).is_some() => {
+                self.at += 1;
+                Ok(Cmp::parse(op).unwrap_or(Cmp::Eq))
             }
-            self.at += 1;
-            let Some(Tok::Num(n)) = self.toks.get(self.at).cloned() else {
-                return Err(format!("`{op}` needs a number after it"));
-            };
-            self.at += 1;
-            return Ok(format!("({left} {op} {})", n.min(255)));
+            _ => Err(format!(
+                "`{what}` is compared (`<`, `<=`, `>`, `>=`, `==`, `!=`)"
+            )),
         }
-        if counted {
-            return Err("`count` is compared with a number (`count \"X\" >= 5`)".into());
-        }
-        Ok(left)
     }
 
-    fn primary(&mut self) -> Result<String, String> {
+    fn number(&mut self, after: &str) -> Result<f64, String> {
+        match self.toks.get(self.at).cloned() {
+            Some(Tok::Num(n)) => {
+                self.at += 1;
+                Ok(n as f64)
+            }
+            Some(Tok::Real(x)) => {
+                self.at += 1;
+                Ok(x)
+            }
+            _ => Err(format!("`{after}` needs a number after it")),
+        }
+    }
+
+    /// An ISO 8601 duration (`P18D`, `PT6H30M`), in ms.
+    fn duration(&mut self, after: &str) -> Result<f64, String> {
+        let bad = || format!("`{after}` needs an ISO 8601 duration after it (`P18D`, `PT6H`)");
+        let Some(Tok::Word(w)) = self.toks.get(self.at).cloned() else {
+            return Err(bad());
+        };
+        let d =
+            executive_model::timer::parse_duration(&w).map_err(|e| format!("{}: {e}", bad()))?;
+        self.at += 1;
+        Ok(d.approx_millis() as f64)
+    }
+
+    /// An amount of energy (`40 kWh`, `500 Wh`), in Wh.
+    fn energy(&mut self, after: &str) -> Result<f64, String> {
+        let n = self.number(after)?;
+        if self.word("kWh") {
+            Ok(n * 1000.0)
+        } else if self.word("Wh") {
+            Ok(n)
+        } else {
+            Err(format!(
+                "`{after}` needs a unit after the number (`Wh`, `kWh`)"
+            ))
+        }
+    }
+
+    fn primary(&mut self) -> Result<Expr, String> {
         let Some(t) = self.toks.get(self.at).cloned() else {
             return Err("the statement ends too early".into());
         };
@@ -367,23 +572,27 @@ impl Parser<'_> {
                     return Err("a parenthesis is not closed".into());
                 }
                 self.at += 1;
-                Ok(format!("({e})"))
+                Ok(e)
             }
             Tok::Word(w) => match w.as_str() {
                 "done" => {
                     let name = self.string("done")?;
                     let n = self.element(&name)?;
-                    Ok(self.atom(Atom::Done(n)))
+                    Ok(Expr::Atom(self.atom(Atom::Done(n))))
                 }
                 "count" => {
                     let name = self.string("count")?;
                     let n = self.element(&name)?;
-                    // Counting beyond the number compared with adds states, not answers.
-                    let bound = match self.toks.get(self.at + 1) {
-                        Some(Tok::Num(k)) => (*k).min(254) as u8 + 1,
-                        _ => 255,
+                    let op = self
+                        .op("count")
+                        .map_err(|_| "`count` is compared with a number (`count \"X\" >= 5`)")?;
+                    let Some(Tok::Num(k)) = self.toks.get(self.at).cloned() else {
+                        return Err(format!("`{}` needs a number after it", op.text()));
                     };
-                    Ok(self.atom(Atom::Count(n, bound)))
+                    self.at += 1;
+                    // Counting beyond the number compared with adds states, not answers.
+                    let bound = k.min(254) as u8 + 1;
+                    Ok(Expr::Count(self.atom(Atom::Count(n, bound)), op, k))
                 }
                 "running" => {
                     let name = self.string("running")?;
@@ -391,75 +600,149 @@ impl Parser<'_> {
                     if !self.g.node(n).is_activity() {
                         return Err(format!("\"{}\" is not an activity", self.g.node(n).id));
                     }
-                    Ok(self.atom(Atom::Running(n)))
+                    Ok(Expr::Atom(self.atom(Atom::Running(n))))
                 }
                 "signal" => {
                     let s = self.string("signal")?;
-                    if !self.g.signals.iter().any(|x| x.name == s || x.id == s) {
+                    let Some(sig) = self.g.signals.iter().find(|x| x.name == s || x.id == s) else {
                         return Err(format!("no signal is named \"{s}\""));
-                    }
-                    let name = self
-                        .g
-                        .signals
-                        .iter()
-                        .find(|x| x.name == s || x.id == s)
-                        .map(|x| x.name.clone())
-                        .unwrap_or(s);
-                    Ok(self.atom(Atom::Signal(name)))
+                    };
+                    let name = sig.name.clone();
+                    Ok(Expr::Atom(self.atom(Atom::Signal(name))))
                 }
                 "error" => {
                     let code = self.string("error")?;
-                    Ok(self.atom(Atom::Error(code)))
+                    Ok(Expr::Atom(self.atom(Atom::Error(code))))
                 }
-                "ended" | "failed" | "terminated" => Ok(w),
+                "time" => {
+                    let op = self.op("time")?;
+                    Ok(Expr::Quantity(
+                        Quantity::Time,
+                        op,
+                        self.duration(op.text())?,
+                    ))
+                }
+                "energy" => {
+                    let op = self.op("energy")?;
+                    Ok(Expr::Quantity(
+                        Quantity::Energy,
+                        op,
+                        self.energy(op.text())?,
+                    ))
+                }
+                "energy_left" => {
+                    let op = self.op("energy_left")?;
+                    let n = self.number(op.text())?;
+                    if matches!(self.toks.get(self.at), Some(Tok::Op(p)) if p == "%") {
+                        self.at += 1;
+                        return Ok(Expr::Quantity(Quantity::EnergyLeftPct, op, n));
+                    }
+                    self.at -= 1;
+                    let wh = self.energy(op.text()).map_err(|_| {
+                        "`energy_left` is compared with a percentage (`5 %`) or an energy (`2 kWh`)"
+                            .to_owned()
+                    })?;
+                    Ok(Expr::Quantity(Quantity::EnergyLeftWh, op, wh))
+                }
+                "ended" | "failed" | "terminated" => Ok(Expr::Word(w)),
                 other => Err(format!("`{other}` is not part of the requirement language")),
             },
             other => Err(format!("unexpected {other:?}")),
         }
     }
+
+    /// An expression with its suffixes: `with Q` (and Q, at that moment), `after D` (and
+    /// later than D). `within D` is the caller's.
+    fn body(&mut self) -> Result<Expr, String> {
+        let mut e = self.or()?;
+        loop {
+            if self.word("with") {
+                e = Expr::and(e, self.or()?);
+            } else if self.peek_word("after") && self.at + 1 < self.toks.len() {
+                self.at += 1;
+                let d = self.duration("after")?;
+                e = Expr::and(e, Expr::Quantity(Quantity::Time, Cmp::Gt, d));
+            } else {
+                return Ok(e);
+            }
+        }
+    }
+
+    /// `E within D`: E, no later than D.
+    fn within(&mut self, e: Expr) -> Result<(Expr, bool), String> {
+        if self.word("within") {
+            let d = self.duration("within")?;
+            return Ok((
+                Expr::and(e, Expr::Quantity(Quantity::Time, Cmp::Le, d)),
+                true,
+            ));
+        }
+        Ok((e, false))
+    }
+
+    fn form(&mut self) -> Result<Form, String> {
+        if self.word("eventually") {
+            let e = self.body()?;
+            return Ok(Form::Eventually(self.within(e)?.0));
+        }
+        if self.word("always") {
+            return Ok(Form::Always(self.body()?));
+        }
+        if self.word("never") {
+            return Ok(Form::Always(Expr::Not(Box::new(self.body()?))));
+        }
+        if self.word("after") {
+            let a = self.or()?;
+            if !(self.peek_word("eventually")
+                || self.peek_word("always")
+                || self.peek_word("never"))
+            {
+                return Err("`after A` is followed by `eventually`, `always` or `never`".into());
+            }
+            return Ok(Form::After(a, Box::new(self.form()?)));
+        }
+        let e = self.body()?;
+        let (e, within) = self.within(e)?;
+        if within {
+            return Ok(Form::Eventually(e));
+        }
+        if !self.word("when") {
+            return Err("a statement starts with `eventually`, `always`, `never` or `after`, or ends with `within …` or `when …`".into());
+        }
+        let c = if self.word("completed") {
+            None
+        } else {
+            Some(self.or()?)
+        };
+        Ok(Form::When(e, c))
+    }
 }
 
-/// Compiles one statement: the LTL formula (atoms as `@k`) and the atoms it reads.
-pub fn compile(check: &str, g: &ProcessGraph) -> Result<(String, Vec<Atom>), String> {
+/// Compiles one statement: its form, the LTL formula (atoms as `@k`; empty for a statement
+/// that reads time or energy, which Spin does not check) and the atoms it reads.
+pub fn compile(check: &str, g: &ProcessGraph) -> Result<(Form, String, Vec<Atom>), String> {
     let mut p = Parser {
         toks: lex(check)?,
         at: 0,
         g,
         atoms: Vec::new(),
     };
-    let formula = if p.word("eventually") {
-        format!("<> ({})", p.or()?)
-    } else if p.word("always") {
-        format!("[] ({})", p.or()?)
-    } else if p.word("never") {
-        format!("[] !({})", p.or()?)
-    } else if p.word("after") {
-        let a = p.or()?;
-        if p.word("eventually") {
-            format!("[] (({a}) -> <> ({}))", p.or()?)
-        } else if p.word("always") {
-            format!("[] (({a}) -> [] ({}))", p.or()?)
-        } else if p.word("never") {
-            format!("[] (({a}) -> [] !({}))", p.or()?)
-        } else {
-            return Err("`after A` is followed by `eventually`, `always` or `never`".into());
-        }
-    } else {
-        let e = p.or()?;
-        if !p.word("when") {
-            return Err("a statement starts with `eventually`, `always`, `never` or `after`, or ends with `when …`".into());
-        }
-        let c = if p.word("completed") {
-            "!failed".to_owned()
-        } else {
-            p.or()?
-        };
-        format!("[] ((ended && ({c})) -> ({e}))")
-    };
+    let form = p.form()?;
     if p.at < p.toks.len() {
         return Err(format!("unexpected {:?} after the statement", p.toks[p.at]));
     }
-    Ok((formula, p.atoms))
+    if form.timed() && !matches!(form, Form::Eventually(_) | Form::Always(_)) {
+        return Err(
+            "a statement about time or energy is `eventually …`, `always …`, `never …` or `… within D`"
+                .into(),
+        );
+    }
+    let ltl = if form.timed() {
+        String::new()
+    } else {
+        form.ltl()
+    };
+    Ok((form, ltl, p.atoms))
 }
 
 /// The atoms of several requirements, deduplicated, with each requirement's formula rewritten
@@ -467,7 +750,7 @@ pub fn compile(check: &str, g: &ProcessGraph) -> Result<(String, Vec<Atom>), Str
 pub fn shared_atoms(reqs: &[Requirement]) -> (Vec<Atom>, BTreeMap<String, String>) {
     let mut all: Vec<Atom> = Vec::new();
     let mut formulas = BTreeMap::new();
-    for r in reqs {
+    for r in reqs.iter().filter(|r| !r.formula.is_empty()) {
         let mut f = r.formula.clone();
         // Highest first, so `@1` does not eat the start of `@12`.
         for (k, a) in r.atoms.iter().enumerate().rev() {
@@ -493,6 +776,7 @@ pub fn claims(
     t: &crate::Translation,
 ) -> Vec<crate::Ltl> {
     reqs.iter()
+        .filter(|r| !r.formula.is_empty())
         .map(|r| {
             let mut formula = formulas[&r.name].clone();
             // Highest first, as in `shared_atoms`.

@@ -71,7 +71,7 @@ pub struct Outcome {
 }
 
 /// One step of a counterexample.
-#[derive(Clone, Debug, Serialize, PartialEq, Eq)]
+#[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct TraceStep {
     /// The marker as printed (`ExcavateCall/RemoveMaterial.start`).
     pub marker: String,
@@ -79,6 +79,9 @@ pub struct TraceStep {
     pub step: Option<Step>,
     /// The liveness counterexample's cycle starts here.
     pub cycle_start: bool,
+    /// Mission time and energy at this step (timed requirements' counterexamples).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub resources: Option<crate::timed::Resources>,
 }
 
 /// An LTL property for Spin.
@@ -223,6 +226,7 @@ fn replay(dir: &Path, trail: &str, t: &Translation) -> Result<Vec<TraceStep>, Sp
                 step: t.steps.get(&marker).cloned(),
                 marker,
                 cycle_start: std::mem::take(&mut cycle),
+                resources: None,
             });
         }
     }

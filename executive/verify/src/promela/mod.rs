@@ -168,6 +168,30 @@ pub(crate) fn outside(g: &ProcessGraph, n: NodeId) -> bool {
     }
 }
 
+/// Can `from` reach `to` along sequence flows and attached boundaries (same process)?
+pub(crate) fn reaches(g: &ProcessGraph, from: NodeId, to: NodeId) -> bool {
+    let mut seen = BTreeSet::new();
+    let mut stack = vec![from];
+    while let Some(n) = stack.pop() {
+        if n == to {
+            return true;
+        }
+        if !seen.insert(n) {
+            continue;
+        }
+        let node = g.node(n);
+        stack.extend(node.outgoing.iter().map(|f| g.flow(*f).target));
+        stack.extend(node.boundaries.iter().copied());
+        // Leaving a sub-process continues after it.
+        if let Scope::SubProcess(s) = node.scope
+            && matches!(node.kind, NodeKind::End(_))
+        {
+            stack.push(s);
+        }
+    }
+    false
+}
+
 /// A boundary event that interrupts its activity (every other node: `true`).
 pub(crate) fn interrupting(g: &ProcessGraph, b: NodeId) -> bool {
     !matches!(&g.node(b).kind, NodeKind::Boundary(be) if !be.interrupting)
@@ -421,28 +445,8 @@ impl<'g> Tr<'g> {
         }
     }
 
-    /// Can `from` reach `to` along sequence flows and attached boundaries (same process)?
     fn reaches(&self, from: NodeId, to: NodeId) -> bool {
-        let mut seen = BTreeSet::new();
-        let mut stack = vec![from];
-        while let Some(n) = stack.pop() {
-            if n == to {
-                return true;
-            }
-            if !seen.insert(n) {
-                continue;
-            }
-            let node = self.g.node(n);
-            stack.extend(node.outgoing.iter().map(|f| self.g.flow(*f).target));
-            stack.extend(node.boundaries.iter().copied());
-            // Leaving a sub-process continues after it.
-            if let Scope::SubProcess(s) = node.scope
-                && matches!(node.kind, NodeKind::End(_))
-            {
-                stack.push(s);
-            }
-        }
-        false
+        reaches(self.g, from, to)
     }
 
     /// Does any of `flows` lead back to `to`?

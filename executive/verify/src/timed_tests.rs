@@ -1,0 +1,287 @@
+//! The timed exploration on small missions: timers against durations, energy as idle draw plus
+//! activity draw, the battery running out, decisions read from the battery, hourly polling until
+//! the battery is low, and every VIOLATED verdict backed by one run that shows it.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use connector_api::cost::{Battery, Reading};
+use executive_model::ProcessGraph;
+
+use super::*;
+use crate::resources::{Costs, TaskCost};
+
+/// A process of `body`, each `<serviceTask id="X"/>` bound to resource `sys.X`.
+fn mission(body: &str) -> Arc<ProcessGraph> {
+    let mut body = body.to_owned();
+    let mut from = 0;
+    while let Some(k) = body[from..].find("<serviceTask id=\"") {
+        let at = from + k;
+        let end = body[at..]
+            .find("/>")
+            .map(|k| at + k)
+            .expect("an empty task");
+        let id = body[at + 17..end].trim_end_matches('"').to_owned();
+        let bound = format!(
+            r#"<serviceTask id="{id}"><extensionElements><trace:task resource="sys.{id}"/></extensionElements></serviceTask>"#
+        );
+        from = at + bound.len();
+        body.replace_range(at..end + 2, &bound);
+    }
+    let xml = format!(
+        r#"<?xml version="1.0" encoding="UTF-8"?>
+<definitions xmlns="http://www.omg.org/spec/BPMN/20100524/MODEL" xmlns:trace="urn:trace:bpmn:1.0" id="d" targetNamespace="urn:t">
+  <process id="p" isExecutable="true">{body}</process>
+</definitions>"#
+    );
+    let loaded = executive_model::load(xml.as_bytes());
+    Arc::new(
+        loaded
+            .graph
+            .unwrap_or_else(|| panic!("{:?}", loaded.diagnostics)),
+    )
+}
+
+/// Costs: `(task id, minutes min, minutes max, watts)`; a battery of `capacity` Wh drawing
+/// `idle` W.
+fn costs(g: &ProcessGraph, capacity: f64, idle: f64, tasks: &[(&str, f64, f64, f64)]) -> Costs {
+    Costs {
+        battery: Battery {
+            capacity_wh: capacity,
+            idle_w: idle,
+        },
+        tasks: tasks
+            .iter()
+            .map(|(id, lo, hi, w)| {
+                let node = g.node_by_id(id).expect("task");
+                let cost = TaskCost {
+                    duration_ms: (lo * 60_000.0, hi * 60_000.0),
+                    power_w: (*w, *w),
+                    ..TaskCost::open()
+                };
+                (node, cost)
+            })
+            .collect::<BTreeMap<_, _>>(),
+    }
+}
+
+fn verdicts(g: &Arc<ProcessGraph>, costs: &Costs, checks: &[&str]) -> (Timed, Vec<Verdict>) {
+    let mut text = String::new();
+    for (i, c) in checks.iter().enumerate() {
+        text.push_str(&format!(
+            "[[requirement]]\nname = \"r{i}\"\ncheck = '{c}'\n"
+        ));
+    }
+    let reqs = crate::requirements::parse(&text, "test.req.toml", g).expect("requirements");
+    let t = check(
+        Arc::clone(g),
+        costs,
+        &reqs.requirements,
+        TimedLimits::default(),
+    );
+    let v = t.properties.iter().map(|o| o.verdict.clone()).collect();
+    (t, v)
+}
+
+const TIMED_TASK: &str = r#"
+    <startEvent id="s"/>
+    <sequenceFlow id="f1" sourceRef="s" targetRef="A"/>
+    <serviceTask id="A"/>
+    <boundaryEvent id="T" attachedToRef="A">
+      <timerEventDefinition><timeDuration>PT1H</timeDuration></timerEventDefinition>
+    </boundaryEvent>
+    <sequenceFlow id="f2" sourceRef="A" targetRef="Done"/>
+    <endEvent id="Done"/>
+    <sequenceFlow id="f3" sourceRef="T" targetRef="Late"/>
+    <endEvent id="Late"/>"#;
+
+#[test]
+fn a_timer_fires_when_its_time_has_come() {
+    let g = mission(TIMED_TASK);
+    let check = [
+        "eventually done \"Done\" within P1D",
+        "never done \"Late\" after PT0S",
+    ];
+    // Always quicker than the timer: it never fires.
+    let quick = costs(&g, 1000.0, 1.0, &[("A", 30.0, 45.0, 0.0)]);
+    assert_eq!(
+        verdicts(&g, &quick, &check).1,
+        [Verdict::Holds, Verdict::Holds]
+    );
+    // Always slower: it always fires, at one hour.
+    let slow = costs(&g, 1000.0, 1.0, &[("A", 120.0, 120.0, 0.0)]);
+    let (t, v) = verdicts(&g, &slow, &check);
+    assert_eq!(v, [Verdict::Violated, Verdict::Violated]);
+    let steps = &t.properties[1].counterexample;
+    let last = steps.last().and_then(|s| s.resources).expect("timed steps");
+    assert_eq!(last.time_ms.hi, 3_600_000.0, "{steps:?}");
+    // Either: some run is late.
+    let either = costs(&g, 1000.0, 1.0, &[("A", 30.0, 120.0, 0.0)]);
+    assert_eq!(
+        verdicts(&g, &either, &check).1,
+        [Verdict::Violated, Verdict::Violated]
+    );
+}
+
+#[test]
+fn energy_is_the_idle_draw_plus_each_activity_s_draw() {
+    let g = mission(
+        r#"
+    <startEvent id="s"/>
+    <sequenceFlow id="f1" sourceRef="s" targetRef="A"/>
+    <serviceTask id="A"/>
+    <sequenceFlow id="f2" sourceRef="A" targetRef="B"/>
+    <serviceTask id="B"/>
+    <sequenceFlow id="f3" sourceRef="B" targetRef="e"/>
+    <endEvent id="e"/>"#,
+    );
+    // 3 h at 10 W idle, 1 h at 100 W, 2 h at 50 W: 230 Wh.
+    let c = costs(
+        &g,
+        1000.0,
+        10.0,
+        &[("A", 60.0, 60.0, 100.0), ("B", 120.0, 120.0, 50.0)],
+    );
+    let (t, v) = verdicts(
+        &g,
+        &c,
+        &[
+            "always energy <= 230 Wh",
+            "always energy <= 229 Wh",
+            "eventually ended within PT3H",
+        ],
+    );
+    assert_eq!(v, [Verdict::Holds, Verdict::Violated, Verdict::Holds]);
+    let end = t.end.expect("runs end");
+    assert!((end.energy_wh.lo - 230.0).abs() < 1e-6 && (end.energy_wh.hi - 230.0).abs() < 1e-6);
+    assert_eq!(end.time_ms.lo, 3.0 * 3_600_000.0);
+    let steps = &t.properties[1].counterexample;
+    let b = steps
+        .iter()
+        .find(|s| s.marker == "B.complete")
+        .and_then(|s| s.resources)
+        .expect("B completes in the counterexample");
+    let spent = b.activity_wh.expect("B's own energy");
+    assert!((spent.hi - 100.0).abs() < 1e-6, "{spent:?}");
+}
+
+#[test]
+fn the_battery_running_out_ends_the_run() {
+    let g = mission(TIMED_TASK);
+    // 100 Wh at 10 W lasts 10 h; A takes 20 h and its timer is an hour: the timer fires.
+    let c = costs(&g, 100.0, 10.0, &[("A", 1200.0, 1200.0, 0.0)]);
+    assert_eq!(
+        verdicts(&g, &c, &["eventually done \"Late\" within PT1H"]).1,
+        [Verdict::Holds]
+    );
+    // Drawing 200 W more, the battery is empty after half an hour: nothing ends.
+    let hungry = costs(&g, 100.0, 10.0, &[("A", 1200.0, 1200.0, 190.0)]);
+    let (t, v) = verdicts(&g, &hungry, &["eventually done \"Late\" within P1D"]);
+    assert_eq!(v, [Verdict::Violated]);
+    let steps = &t.properties[0].counterexample;
+    assert_eq!(
+        steps.last().map(|s| s.marker.as_str()),
+        Some("battery empty")
+    );
+    assert_eq!(
+        steps.last().and_then(|s| s.resources).map(|r| r.time_ms.hi),
+        Some(1_800_000.0)
+    );
+}
+
+/// An hourly monitor: wait an hour, read the battery, stop below 20 %, else wait again.
+const MONITOR: &str = r#"
+    <startEvent id="s"/>
+    <sequenceFlow id="f1" sourceRef="s" targetRef="Wait"/>
+    <intermediateCatchEvent id="Wait">
+      <timerEventDefinition><timeDuration>PT1H</timeDuration></timerEventDefinition>
+    </intermediateCatchEvent>
+    <sequenceFlow id="f2" sourceRef="Wait" targetRef="Read"/>
+    <serviceTask id="Read"/>
+    <sequenceFlow id="f3" sourceRef="Read" targetRef="Low"/>
+    <exclusiveGateway id="Low" default="ok"/>
+    <sequenceFlow id="low" sourceRef="Low" targetRef="Abort">
+      <conditionExpression>soc &lt; 20.0</conditionExpression>
+    </sequenceFlow>
+    <sequenceFlow id="ok" sourceRef="Low" targetRef="Wait"/>
+    <endEvent id="Abort"/>"#;
+
+fn monitor_costs(g: &ProcessGraph) -> Costs {
+    let mut c = costs(g, 1000.0, 100.0, &[("Read", 0.0, 0.0, 0.0)]);
+    if let Some(t) = c.tasks.values_mut().next() {
+        t.reads = vec![("soc".into(), Reading::SocPct)];
+    }
+    c
+}
+
+#[test]
+fn an_hourly_monitor_stops_when_its_reading_crosses_the_threshold() {
+    let g = mission(MONITOR);
+    let c = monitor_costs(&g);
+    // 100 W of 1000 Wh: the reading at 9 h is the first below 20 % (10 % left).
+    let (t, v) = verdicts(
+        &g,
+        &c,
+        &[
+            "eventually done \"Abort\" with energy_left >= 10 %",
+            "eventually done \"Abort\" with energy_left >= 11 %",
+            "eventually done \"Abort\" within PT8H",
+        ],
+    );
+    assert_eq!(v, [Verdict::Holds, Verdict::Violated, Verdict::Violated]);
+    // The energy at the end is exact to the hour the monitor polls at.
+    let end = t.end.expect("runs end");
+    assert_eq!((end.energy_wh.lo, end.energy_wh.hi), (800.0, 900.0));
+    // The counterexample is one run: nine readings, the last one low, at 9 h.
+    let run = &t.properties[1].counterexample;
+    let last = run.last().and_then(|s| s.resources).expect("timed");
+    assert_eq!(last.time_ms.hi, 9.0 * 3_600_000.0);
+    let reads = t.properties[1]
+        .counterexample
+        .iter()
+        .filter(|s| s.marker == "Read.complete")
+        .count();
+    assert_eq!(reads, 9);
+}
+
+#[test]
+fn a_reading_taken_before_a_draw_is_not_what_is_left_after_it() {
+    // The battery is read, then a 500 W hour, then the decision on the old reading: it says
+    // nothing about what is left now, but the energy is still known.
+    let g = mission(
+        r#"
+    <startEvent id="s"/>
+    <sequenceFlow id="f1" sourceRef="s" targetRef="Read"/>
+    <serviceTask id="Read"/>
+    <sequenceFlow id="f2" sourceRef="Read" targetRef="Dig"/>
+    <serviceTask id="Dig"/>
+    <sequenceFlow id="f3" sourceRef="Dig" targetRef="Low"/>
+    <exclusiveGateway id="Low" default="ok"/>
+    <sequenceFlow id="low" sourceRef="Low" targetRef="Abort">
+      <conditionExpression>soc &lt; 60.0</conditionExpression>
+    </sequenceFlow>
+    <sequenceFlow id="ok" sourceRef="Low" targetRef="Fine"/>
+    <endEvent id="Abort"/>
+    <endEvent id="Fine"/>"#,
+    );
+    let mut c = costs(
+        &g,
+        1000.0,
+        0.0,
+        &[("Read", 0.0, 0.0, 0.0), ("Dig", 60.0, 60.0, 500.0)],
+    );
+    for t in c.tasks.values_mut() {
+        if t.power_w.1 == 0.0 {
+            t.reads = vec![("soc".into(), Reading::SocPct)];
+        }
+    }
+    let (_, v) = verdicts(
+        &g,
+        &c,
+        &[
+            "never done \"Abort\" after PT0S",
+            "eventually done \"Fine\" with energy_left <= 50 %",
+        ],
+    );
+    assert_eq!(v, [Verdict::Holds, Verdict::Holds]);
+}
