@@ -20,6 +20,7 @@ mod ops;
 mod protocol;
 mod python;
 mod realworld;
+mod resources;
 mod run;
 mod studio;
 mod tidy;

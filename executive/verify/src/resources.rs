@@ -38,6 +38,14 @@ impl TaskCost {
         }
     }
 
+    /// Its power while it runs, W, whatever its outcome will be: the least and the greatest of
+    /// success and every failure's own.
+    pub fn power_envelope(&self) -> (f64, f64) {
+        self.errors.values().fold(self.power_w, |(lo, hi), e| {
+            (lo.min(e.power_w.0), hi.max(e.power_w.1))
+        })
+    }
+
     /// The cost of the outcome: a failure with `code` (its own bounds if declared), or success.
     pub fn outcome(&self, code: Option<&str>) -> &TaskCost {
         code.and_then(|c| self.errors.get(c)).unwrap_or(self)

@@ -201,11 +201,19 @@ impl Read {
 /// Narrows the energy used by what each reading says it was then. `None`: nothing is left.
 fn remember(cx: &Ctx, c: &mut Node) -> Option<()> {
     let idle = cx.costs.battery.idle_w;
+    let running = c
+        .running
+        .values()
+        .fold(Span::point(0.0), |s, r| s.plus(r.spent));
     for (var, r) in &c.readings {
         let (lo, hi) = c.zone.bounds(c.clock(&Clock::Read(var.clone())));
         let then = r.used(cx.capacity());
-        c.energy.lo = c.energy.lo.max(then.lo + idle * lo / HOUR_MS);
-        c.energy.hi = c.energy.hi.min(then.hi + r.peak * hi / HOUR_MS);
+        // Used now lies in these bounds; what the running activities drew is apart.
+        c.energy.lo = c.energy.lo.max(then.lo + idle * lo / HOUR_MS - running.hi);
+        c.energy.hi = c
+            .energy
+            .hi
+            .min(then.hi + r.peak * hi / HOUR_MS - running.lo);
     }
     if c.energy.lo > c.energy.hi + 1e-6 {
         return None;
@@ -251,7 +259,8 @@ struct Node {
     /// The clocks' zone, clock `i + 1` measuring `clocks[i]` (kept in [`Clock`] order).
     zone: Zone,
     clocks: Vec<Clock>,
-    /// Energy used so far, Wh.
+    /// Energy used so far by the idle draw and the activities that ended, Wh (the running
+    /// ones' is theirs until they end: see [`Node::total`]).
     energy: Span,
     running: BTreeMap<TaskKey, Running>,
     timers: BTreeMap<TimerKey, Timer>,
@@ -272,6 +281,14 @@ impl Node {
     /// The zone index of a clock (0, the zero clock, if it has none).
     fn clock(&self, c: &Clock) -> usize {
         self.clocks.iter().position(|x| x == c).map_or(0, |i| i + 1)
+    }
+
+    /// Energy used so far, Wh: the idle draw, the activities that ended and what the running
+    /// ones have drawn.
+    fn total(&self) -> Span {
+        self.running
+            .values()
+            .fold(self.energy, |e, r| e.plus(r.spent))
     }
 
     /// Mission time now, ms.
@@ -323,6 +340,8 @@ struct Ctx<'a> {
     pick: Option<bool>,
     /// Beyond this mission time (the greatest a requirement names), times are all alike.
     horizon: f64,
+    /// Following one observed run: its results carry their data and the engine decides.
+    data: bool,
 }
 
 /// What can happen next: its label, the input (`None`: the battery runs out), when, and its
@@ -350,9 +369,12 @@ enum When {
 impl Ctx<'_> {
     fn engine(&self, state: State) -> Engine {
         let mut e = Engine::restore(Arc::clone(self.g), state);
-        let game = e.game();
-        game.decide = true;
-        game.hold = self.hold.clone();
+        // Following a run with its data is running the engine as the executive does.
+        if !self.data {
+            let game = e.game();
+            game.decide = true;
+            game.hold = self.hold.clone();
+        }
         e
     }
 
@@ -373,7 +395,7 @@ impl Ctx<'_> {
         n.running
             .values()
             .fold(Span::point(self.costs.battery.idle_w), |r, t| {
-                r.plus(self.power(t.cost.power_w))
+                r.plus(self.power(t.cost.power_envelope()))
             })
     }
 }
@@ -432,7 +454,7 @@ pub fn check(
             if let Form::Always(expr) = &r.form
                 && eval(&cx, &n, expr, lasting, &r.atoms) != Tri::Yes
             {
-                suspects[k].push((at, n.energy.hi));
+                suspects[k].push((at, n.total().hi));
             }
         }
         let running = n.state.instances.values().any(|i| i.outcome.is_none());
@@ -440,7 +462,7 @@ pub fn check(
             // A run ends here: the mission is over, stuck, or the battery is empty.
             let res = Resources {
                 time_ms: n.t(),
-                energy_wh: n.energy,
+                energy_wh: n.total(),
                 activity_wh: None,
             };
             out.end = Some(match out.end {
@@ -453,7 +475,7 @@ pub fn check(
             });
             for (k, r) in reqs.iter().enumerate() {
                 if matches!(r.form, Form::Eventually(_)) && n.reached[k] != Tri::Yes {
-                    suspects[k].push((at, n.energy.hi));
+                    suspects[k].push((at, n.total().hi));
                 }
             }
             continue;
@@ -589,6 +611,170 @@ fn descends(nodes: &[Node], mut from: usize, o: usize) -> bool {
     true
 }
 
+/// One step of a run observed outside the verifier (a flight): its label as the exploration
+/// names steps (`Task.complete`, `Task.fail[CODE]`, `Timer.fire`), when it happened (mission
+/// time since the start, ms), the result it carried, and the energy used by then if a reading
+/// says.
+#[derive(Clone, Debug)]
+pub struct Observed {
+    /// The step.
+    pub label: String,
+    /// A task's result or a ground answer (the data the run's decisions read).
+    pub output: Vars,
+    /// When, ms since the start.
+    pub at_ms: f64,
+    /// Energy used by then, Wh, when the step reads the battery.
+    pub energy_wh: Option<f64>,
+}
+
+/// What the verifier bounds for one observed step, given the run before it.
+#[derive(Clone, Debug, Serialize)]
+pub struct Bound {
+    /// The step.
+    pub label: String,
+    /// When it could have come, ms since the start.
+    pub window_ms: Span,
+    /// When it came.
+    pub at_ms: f64,
+    /// Energy used by then, Wh (every activity so far anywhere within its declared power).
+    pub energy_wh: Span,
+    /// The most the activities still running have drawn so far, and those that ended at this
+    /// same moment, Wh: a system that charges an activity's energy when it ends reads up to
+    /// this much less.
+    pub in_flight_wh: f64,
+    /// The energy used by then as the run read it, if it did.
+    pub measured_wh: Option<f64>,
+}
+
+/// Follows one observed run through the engine with the costs: for each step, the window in
+/// which the verifier says it could come and the energy it says was used by then. The run's
+/// data goes to the engine, which makes the run's decisions itself (so loops over data run as
+/// often as they did). `Err` names the first step the model and costs do not allow (a step not
+/// possible then, or not at that time): a disagreement between the costs and the system. A run
+/// that goes on after its battery is certainly empty (a simulator that does not stop there) is
+/// followed up to that point.
+pub fn follow(g: Arc<ProcessGraph>, costs: &Costs, run: &[Observed]) -> Result<Vec<Bound>, String> {
+    let limits = TimedLimits {
+        loops: u8::MAX,
+        max_states: 0,
+    };
+    let mut cx = context(&g, costs, &[], limits);
+    // One run keeps its exact times, and its data.
+    cx.horizon = f64::INFINITY;
+    cx.data = true;
+    let mut n = start(&cx, &[])?;
+    let mut out = Vec::new();
+    // What activities ending at the current moment spent (their order against a reading at the
+    // same moment is the system's).
+    let mut moment = (0.0, 0.0);
+    for (i, o) in run.iter().enumerate() {
+        let now = n.t().lo;
+        let mut offered: Vec<Next> = successors(&cx, &n);
+        // A code no boundary names is offered as the one a catch-all catches.
+        let code = o
+            .label
+            .split_once(".fail[")
+            .map(|(task, c)| (task.to_owned(), c.trim_end_matches(']').to_owned()));
+        let found = offered.iter().position(|x| x.label == o.label).or_else(|| {
+            let (task, _) = code.as_ref()?;
+            let any = format!("{task}.fail[UNNAMED_FAILURE]");
+            offered.iter().position(|x| x.label == any)
+        });
+        let Some(x) = found else {
+            let names: Vec<&str> = offered.iter().map(|x| x.label.as_str()).collect();
+            let tokens: Vec<String> = n
+                .state
+                .tokens
+                .values()
+                .map(|t| format!("{} {:?}", g.node(t.node).id, t.at))
+                .collect();
+            let incidents: Vec<&String> = n
+                .state
+                .instances
+                .values()
+                .flat_map(|i| i.incidents.iter().map(|(_, why)| why))
+                .collect();
+            return Err(format!(
+                "step {} `{}` at {} ms is not possible then; possible: {names:?}; tokens at \
+                 {tokens:?}; incidents {incidents:?}",
+                i + 1,
+                o.label,
+                o.at_ms
+            ));
+        };
+        let mut x = offered.swap_remove(x);
+        if let (Some(Event::TaskFailed { code: c, .. }), Some((_, real))) = (&mut x.event, &code) {
+            c.clone_from(real);
+        }
+        if let Some(Event::TaskCompleted { task, .. }) = x.event {
+            // The result's data; a ground decision is an answer.
+            let user = n
+                .state
+                .tokens
+                .values()
+                .any(|t| matches!(t.at, At::UserTask(k) if k == task));
+            x.event = Some(if user {
+                Event::UserTaskAnswered {
+                    task,
+                    answer: o.output.clone(),
+                    operator: "follow".into(),
+                }
+            } else {
+                Event::TaskCompleted {
+                    task,
+                    output: o.output.clone(),
+                }
+            });
+        }
+        let x = &x;
+        let Some((mut z, wait)) = elapse(&cx, &n, &x.when) else {
+            return Err(format!("step {} `{}` cannot come next", i + 1, o.label));
+        };
+        let (lo, hi) = z.bounds(wait);
+        let window = Span {
+            lo: now + lo,
+            hi: now + hi,
+        };
+        let d = o.at_ms - now;
+        if d > death(&cx, &n).hi + 1.0 {
+            break;
+        }
+        // Mission time is kept in ms: a millisecond either way is rounding.
+        if d < lo - 1.0 || d > hi + 1.0 {
+            return Err(format!(
+                "step {} `{}` came at {} ms, outside {:.0}..{:.0} ms",
+                i + 1,
+                o.label,
+                o.at_ms,
+                window.lo,
+                window.hi
+            ));
+        }
+        let d = d.clamp(lo, hi);
+        z.at_most(wait, d);
+        z.at_least(wait, d);
+        if !z.close() {
+            return Err(format!("step {} `{}`: no time fits", i + 1, o.label));
+        }
+        let c = take(&cx, &n, x, z, wait)
+            .ok_or_else(|| format!("step {} `{}` cannot be taken then", i + 1, o.label))?;
+        if o.at_ms != moment.0 {
+            moment = (o.at_ms, 0.0);
+        }
+        moment.1 += c.via.as_ref().and_then(|v| v.spent).map_or(0.0, |s| s.hi);
+        out.push(Bound {
+            label: o.label.clone(),
+            window_ms: window,
+            at_ms: o.at_ms,
+            energy_wh: c.total(),
+            in_flight_wh: c.running.values().map(|r| r.spent.hi).sum::<f64>() + moment.1,
+            measured_wh: o.energy_wh,
+        });
+        n = c;
+    }
+    Ok(out)
+}
+
 /// Joins of one state after which its energy is widened.
 const WIDEN: u32 = 3;
 
@@ -645,6 +831,7 @@ fn context<'a>(
             .filter(|(q, _)| *q == Quantity::Time)
             .map(|(_, x)| x + 1.0)
             .fold(0.0, f64::max),
+        data: false,
     }
 }
 
@@ -981,8 +1168,8 @@ fn bounded(cx: &Ctx, node: NodeId, flows: &[executive_model::FlowId]) -> bool {
 fn death(cx: &Ctx, n: &Node) -> Span {
     let rate = cx.rate(n);
     let left = Span {
-        lo: (cx.capacity() - n.energy.hi).max(0.0),
-        hi: (cx.capacity() - n.energy.lo).max(0.0),
+        lo: (cx.capacity() - n.total().hi).max(0.0),
+        hi: (cx.capacity() - n.total().lo).max(0.0),
     };
     let over = |wh: f64, w: f64| {
         if w > 0.0 {
@@ -1050,11 +1237,11 @@ fn take(cx: &Ctx, n: &Node, x: &Next, mut z: Zone, wait: usize) -> Option<Node> 
     let mut c = n.clone();
     c.zone = z;
     let rate = cx.rate(n);
-    c.energy = n.energy.plus(wh(d, rate));
+    c.energy = n.energy.plus(wh(d, Span::point(cx.costs.battery.idle_w)));
     c.energy.lo = c.energy.lo.min(cx.capacity());
     c.energy.hi = c.energy.hi.min(cx.capacity());
     for r in c.running.values_mut() {
-        r.spent = r.spent.plus(wh(d, cx.power(r.cost.power_w)));
+        r.spent = r.spent.plus(wh(d, cx.power(r.cost.power_envelope())));
     }
     for r in c.readings.values_mut() {
         r.peak = r.peak.max(rate.hi);
@@ -1062,16 +1249,22 @@ fn take(cx: &Ctx, n: &Node, x: &Next, mut z: Zone, wait: usize) -> Option<Node> 
     remember(cx, &mut c)?;
     let Some(event) = x.event.clone() else {
         c.energy = Span::point(cx.capacity());
+        for r in c.running.values_mut() {
+            r.spent = Span::point(0.0);
+        }
         c.dead = true;
         return Some(c);
     };
     let mut e = cx.engine(n.state.clone());
     let seq = n.state.last_seq + 1;
-    let (ending, failing) = match &event {
-        Event::TaskCompleted { task, .. } => (Some(*task), false),
-        Event::TaskFailed { task, .. } => (Some(*task), true),
-        _ => (None, false),
+    let (ending, code) = match &event {
+        Event::TaskCompleted { task, .. } | Event::UserTaskAnswered { task, .. } => {
+            (Some(*task), None)
+        }
+        Event::TaskFailed { task, code, .. } => (Some(*task), Some(code.clone())),
+        _ => (None, None),
     };
+    let failing = code.is_some();
     let (branch, asserted) = match &event {
         Event::BranchTaken { token, flows } => match n.state.tokens.get(token) {
             Some(tk) => (
@@ -1096,8 +1289,9 @@ fn take(cx: &Ctx, n: &Node, x: &Next, mut z: Zone, wait: usize) -> Option<Node> 
         .ok()?;
     let after = e.state().clone();
     // A failure nothing catches ends the mission as failed: tasks fail only with codes some
-    // boundary catches (as in the Spin translation).
+    // boundary catches (as in the Spin translation); a run followed fails as it did.
     if failing
+        && !cx.data
         && after
             .instances
             .values()
@@ -1112,9 +1306,14 @@ fn take(cx: &Ctx, n: &Node, x: &Next, mut z: Zone, wait: usize) -> Option<Node> 
     if let Some(key) = ending
         && let Some(r) = c.running.remove(&key)
     {
+        // Ended, its outcome is known: its energy is the time it ran at that outcome's power.
+        let (lo, hi) = c.zone.bounds(c.clock(&Clock::Task(r.node, key)));
+        let power = cx.power(r.cost.outcome(code.as_deref()).power_w);
+        let own = wh(Span { lo, hi }, power);
+        c.energy = c.energy.plus(own);
         c.stop_clock(&Clock::Task(r.node, key));
-        spent = Some(r.spent);
-        let energy = c.energy;
+        spent = Some(own);
+        let energy = c.total();
         let cap = cx.capacity();
         for (var, reading) in &r.cost.reads {
             let value = match reading {
@@ -1318,7 +1517,7 @@ fn count(cx: &Ctx, c: &mut Node, node: NodeId) {
 
 /// Brings the clocks in line with the engine state: tasks that started now run from now,
 /// timers armed now count from now, and what the engine dropped is gone (a cancelled
-/// activity's energy so far is already counted).
+/// activity's energy so far stays used, at most).
 fn settle(cx: &Ctx, c: &mut Node) {
     let mut running = BTreeMap::new();
     let tokens: Vec<(TaskKey, NodeId)> = c
@@ -1352,7 +1551,13 @@ fn settle(cx: &Ctx, c: &mut Node) {
         };
         running.insert(k, r);
     }
+    // Cancelled: what they drew until then stays used, or less (a system may stop charging a
+    // cancelled activity before the cancel reaches it).
     for (k, r) in std::mem::take(&mut c.running) {
+        c.energy = c.energy.plus(Span {
+            lo: 0.0,
+            hi: r.spent.hi,
+        });
         c.stop_clock(&Clock::Task(r.node, k));
     }
     c.running = running;
@@ -1405,8 +1610,8 @@ fn observe(cx: &Ctx, reqs: &[&Requirement], c: &mut Node) {
 fn quantity(cx: &Ctx, n: &Node, q: Quantity, lasting: f64) -> Span {
     let cap = cx.capacity();
     let energy = Span {
-        lo: n.energy.lo,
-        hi: (n.energy.hi + cx.rate(n).hi * lasting / HOUR_MS).min(cap),
+        lo: n.total().lo,
+        hi: (n.total().hi + cx.rate(n).hi * lasting / HOUR_MS).min(cap),
     };
     match q {
         Quantity::Time => Span {
@@ -1528,7 +1733,7 @@ fn step(cx: &Ctx, n: &Node, label: &str, node: Option<NodeId>) -> TraceStep {
         cycle_start: false,
         resources: Some(Resources {
             time_ms: n.t(),
-            energy_wh: n.energy,
+            energy_wh: n.total(),
             activity_wh: n.via.as_ref().and_then(|v| v.spent),
         }),
     }
