@@ -296,6 +296,8 @@ pub fn verify_loaded(job: Job) -> Result<Report, VerifyError> {
     let dir = job.dir;
     let limits = Limits {
         depth: job.depth,
+        // Each further repetition per cycle multiplies the states: millions from two on.
+        deep: job.loops > 1,
         ..Limits::default()
     };
     let checked = executive_verify::check(&t, &ltls, &dir, limits)?;

@@ -176,6 +176,70 @@ fn main() {
         .max()
         .unwrap_or(0);
     let n = native(load(&europa));
+    // The same at the deeper bound (`trace verify --loops 2`): optimised pan, larger hash table.
+    let t0 = Instant::now();
+    let t2 = executive_verify::translate(&g, Bounds { loops: 2 }, &atoms, &loaded.variables)
+        .expect("translates");
+    let ltls2 = executive_verify::requirements::claims(&reqs, &formulas, &t2);
+    let deep = Limits {
+        deep: true,
+        ..Limits::default()
+    };
+    let checked2 =
+        executive_verify::check(&t2, &ltls2, &work.join("europa-loops2"), deep).expect("spin runs");
+    let spin2_s = t0.elapsed().as_secs_f64();
+    let holding2 = checked2
+        .properties
+        .iter()
+        .filter(|o| o.verdict == executive_verify::Verdict::Holds)
+        .count();
+    let most2 = checked2
+        .properties
+        .iter()
+        .map(|o| o.states)
+        .max()
+        .unwrap_or(0);
+    // Time and energy: the timed exploration with the lander's declared costs.
+    let costs = {
+        let text = std::fs::read_to_string(root.join("deploy/connectors.toml")).expect("routes");
+        let config: connector_api::ConnectorsConfig = toml::from_str(&text).expect("routes");
+        let lander: connector_api::Catalogue = serde_json::from_str(
+            &std::fs::read_to_string(root.join("deploy/catalogues/lander_sim.json"))
+                .expect("catalogue"),
+        )
+        .expect("catalogue");
+        let cats: Vec<Option<connector_api::Catalogue>> = config
+            .connectors
+            .iter()
+            .map(|c| (c.server() == lander.server).then(|| lander.clone()))
+            .collect();
+        executive_verify::resources::costs(&g, &config, &cats).expect("costs")
+    };
+    let timed = |loops: u8| {
+        let t0 = Instant::now();
+        let t = executive_verify::timed::check(
+            Arc::new(load(&europa)),
+            &costs,
+            &reqs,
+            executive_verify::timed::TimedLimits {
+                loops,
+                ..Default::default()
+            },
+        );
+        let held = t
+            .properties
+            .iter()
+            .filter(|o| o.verdict == executive_verify::Verdict::Holds)
+            .count();
+        (
+            t0.elapsed().as_secs_f64(),
+            t.states,
+            held,
+            t.properties.len(),
+        )
+    };
+    let (timed1_s, timed1_states, timed1_held, timed_n) = timed(1);
+    let (timed2_s, timed2_states, timed2_held, _) = timed(2);
     println!(
         "Europa BSM-1 with its requirements ({} properties):",
         checked.properties.len()
@@ -187,6 +251,13 @@ fn main() {
     println!(
         "  native {:>6.2} s, {} states; {}",
         n.seconds, n.states, n.verdicts
+    );
+    println!(
+        "  Spin --loops 2 {spin2_s:>6.2} s wall, largest search {most2} states; {holding2} of {} hold",
+        checked2.properties.len()
+    );
+    println!(
+        "  time and energy ({timed_n} requirements): timed exploration {timed1_s:.2} s, {timed1_states} states, {timed1_held} hold; --loops 2 {timed2_s:.2} s, {timed2_states} states, {timed2_held} hold"
     );
     println!("\nScaling: concurrent excavation sub-processes (built-in properties):");
     println!("  R | Spin states | Spin s | native states | native s | Spin/native time");

@@ -102,6 +102,9 @@ pub struct Limits {
     pub depth: u64,
     /// `-w`: 2^bits hash table slots.
     pub hash_bits: u32,
+    /// Expect millions of states (a deeper loop bound): compile pan with `-O2` (its compile
+    /// costs seconds, repaid several times over on a large search) and a larger hash table.
+    pub deep: bool,
 }
 
 impl Default for Limits {
@@ -109,7 +112,15 @@ impl Default for Limits {
         Limits {
             depth: 1_000_000,
             hash_bits: 22,
+            deep: false,
         }
+    }
+}
+
+impl Limits {
+    /// The C compiler's optimisation flag for pan.
+    fn opt(&self) -> &'static str {
+        if self.deep { "-O2" } else { "-O0" }
     }
 }
 
@@ -168,7 +179,14 @@ struct PanRun {
 
 fn pan(dir: &Path, binary: &str, args: &[&str], limits: Limits) -> Result<PanRun, SpinError> {
     let depth = format!("-m{}", limits.depth);
-    let bits = format!("-w{}", limits.hash_bits);
+    let bits = format!(
+        "-w{}",
+        if limits.deep {
+            limits.hash_bits.max(26)
+        } else {
+            limits.hash_bits
+        }
+    );
     let mut all = vec![depth.as_str(), "-b", bits.as_str()];
     all.extend_from_slice(args);
     let t = Instant::now();
@@ -336,23 +354,155 @@ pub fn check(
         });
     }
     ltls.extend(requirements.iter().cloned());
+    // The safety claims (no `<>`: a violation is a finite run) are searched together, as their
+    // conjunction, without pan's search for acceptance cycles; each alone only if it fails.
+    let safeties: Vec<&Ltl> = ltls.iter().filter(|l| safe_claim(l)).collect();
     let mut ltl_model = t.ltl_model();
     for l in &ltls {
         ltl_model.push_str(&format!("ltl {} {{ {} }}\n", l.name, l.formula));
     }
+    if safeties.len() > 1 {
+        let all: Vec<String> = safeties
+            .iter()
+            .map(|l| format!("({})", l.formula))
+            .collect();
+        ltl_model.push_str(&format!("ltl {ALL_SAFETY} {{ {} }}\n", all.join(" && ")));
+    }
     write(&sdir.join("mission.pml"), &t.promela)?;
     write(&ldir.join("mission.pml"), &ltl_model)?;
-    // The two searches are independent: each gets its own core. `-O0`: pan.c compiles in a
-    // fifth of the time of `-O2`, which wins for the state spaces bounded models have.
+    must(&ldir, "spin", &["-a", "mission.pml"])?;
+    must(
+        &ldir,
+        "gcc",
+        &[limits.opt(), "-DVECTORSZ=4096", "-o", "pan", "pan.c"],
+    )?;
+    // The searches are independent: two workers share them, one starting with the safety
+    // search (`-O0` by default: pan.c compiles in a fifth of the time of `-O2`, which wins for
+    // the state spaces of bounded models; `Limits::deep` says when it does not).
+    let mut jobs: Vec<Job> = Vec::new();
+    if safeties.len() > 1 {
+        jobs.push(Job::AllSafety);
+    } else {
+        jobs.extend(
+            ltls.iter()
+                .filter(|l| safe_claim(l))
+                .cloned()
+                .map(Job::Claim),
+        );
+    }
+    jobs.extend(
+        ltls.iter()
+            .filter(|l| !safe_claim(l))
+            .cloned()
+            .map(Job::Claim),
+    );
+    let queue = std::sync::Mutex::new(jobs.into_iter().enumerate().collect::<Vec<_>>());
+    let worker = |w: usize| -> Result<Vec<(usize, Vec<Outcome>)>, SpinError> {
+        let wdir = ldir.join(format!("w{w}"));
+        std::fs::create_dir_all(&wdir).map_err(|e| SpinError::Io(e.to_string()))?;
+        for f in ["mission.pml", "pan"] {
+            std::fs::copy(ldir.join(f), wdir.join(f))
+                .map_err(|e| SpinError::Io(format!("{f}: {e}")))?;
+        }
+        let mut done = Vec::new();
+        loop {
+            let next = {
+                let mut q = queue
+                    .lock()
+                    .map_err(|_| SpinError::Io("a worker died".into()))?;
+                if q.is_empty() {
+                    break;
+                }
+                q.remove(0)
+            };
+            let (k, job) = next;
+            done.push((
+                k,
+                run_job(t, &job, &safeties, &wdir, ldir.as_path(), limits)?,
+            ));
+        }
+        Ok(done)
+    };
     let (safety, claims) = std::thread::scope(|scope| {
-        let safety = scope.spawn(|| safety_search(t, &sdir, limits));
-        let claims = claims_search(t, &ltls, &ldir, limits);
-        (safety.join(), claims)
+        let other = scope.spawn(|| {
+            let safety = safety_search(t, &sdir, limits);
+            (safety, worker(1))
+        });
+        let mine = worker(0);
+        let (safety, theirs) = other.join().unwrap_or_else(|_| {
+            (
+                Err(SpinError::Io("a search panicked".into())),
+                Ok(Vec::new()),
+            )
+        });
+        let mut all = mine.and_then(|mut a| {
+            a.extend(theirs?);
+            Ok(a)
+        });
+        if let Ok(a) = &mut all {
+            a.sort_by_key(|(k, _)| *k);
+        }
+        (safety, all)
     });
-    let (mut properties, ends) =
-        safety.map_err(|_| SpinError::Io("the safety search panicked".into()))??;
-    properties.extend(claims?);
+    let (mut properties, ends) = safety?;
+    let found: Vec<Outcome> = claims?.into_iter().flat_map(|(_, o)| o).collect();
+    // In the order the claims were given.
+    for l in &ltls {
+        if let Some(o) = found.iter().find(|o| o.name == l.name) {
+            properties.push(o.clone());
+        }
+    }
     Ok(Checked { properties, ends })
+}
+
+/// The name of the conjunction of the safety claims.
+const ALL_SAFETY: &str = "all_safety_claims";
+
+/// A claim without `<>`: a safety property (a violation is a finite run).
+fn safe_claim(l: &Ltl) -> bool {
+    !l.formula.contains("<>")
+}
+
+/// One search a claims worker makes.
+enum Job {
+    /// Every safety claim at once.
+    AllSafety,
+    /// One claim.
+    Claim(Ltl),
+}
+
+/// Runs one job in worker directory `wdir`; its outcomes (the conjunction's: one per safety
+/// claim, each searched alone when the conjunction fails).
+fn run_job(
+    t: &Translation,
+    job: &Job,
+    safeties: &[&Ltl],
+    wdir: &Path,
+    ldir: &Path,
+    limits: Limits,
+) -> Result<Vec<Outcome>, SpinError> {
+    match job {
+        Job::Claim(l) => Ok(vec![claim(t, l, wdir, ldir, limits)?]),
+        Job::AllSafety => {
+            let r = pan(wdir, "pan", &["-N", ALL_SAFETY], limits)?;
+            write(&ldir.join(format!("{ALL_SAFETY}.out")), &r.text)?;
+            if r.errors == 0 || r.incomplete.is_some() {
+                return Ok(safeties
+                    .iter()
+                    .map(|l| {
+                        let mut o = outcome(&l.name, &l.description, &r, false);
+                        o.detail = Some("searched with the other safety claims at once".into());
+                        o
+                    })
+                    .collect());
+            }
+            let _ = std::fs::remove_file(wdir.join("mission.pml.trail"));
+            safeties
+                .iter()
+                .map(|l| claim(t, l, wdir, ldir, limits))
+                .collect()
+        }
+    }
 }
 
 /// What Spin found.
@@ -393,7 +543,7 @@ fn safety_search(
         sdir,
         "gcc",
         &[
-            "-O0",
+            limits.opt(),
             "-DVECTORSZ=4096",
             "-DSAFETY",
             "-DNOCLAIM",
@@ -452,37 +602,33 @@ fn safety_search(
     Ok((out, ends))
 }
 
-/// One search per LTL claim.
-fn claims_search(
+/// One claim's search in worker directory `wdir` (its output and trail kept in `ldir`).
+fn claim(
     t: &Translation,
-    ltls: &[Ltl],
+    l: &Ltl,
+    wdir: &Path,
     ldir: &Path,
     limits: Limits,
-) -> Result<Vec<Outcome>, SpinError> {
-    must(ldir, "spin", &["-a", "mission.pml"])?;
-    must(
-        ldir,
-        "gcc",
-        &["-O0", "-DVECTORSZ=4096", "-o", "pan", "pan.c"],
-    )?;
-    let mut out = Vec::new();
-    for l in ltls {
-        let r = pan(ldir, "pan", &["-a", "-N", &l.name], limits)?;
-        write(&ldir.join(format!("{}.out", l.name)), &r.text)?;
-        let violated = r.errors > 0 && r.incomplete.is_none();
-        let mut o = outcome(&l.name, &l.description, &r, violated);
-        if violated {
-            o.detail = Some(if r.text.contains("acceptance cycle") {
-                "a run that never satisfies it (acceptance cycle)".to_owned()
-            } else {
-                "a run that breaks it".to_owned()
-            });
-            let trail = format!("{}.trail", l.name);
-            std::fs::rename(ldir.join("mission.pml.trail"), ldir.join(&trail))
-                .map_err(|e| SpinError::Io(e.to_string()))?;
-            o.counterexample = replay(ldir, &trail, t)?;
-        }
-        out.push(o);
+) -> Result<Outcome, SpinError> {
+    let args: &[&str] = if safe_claim(l) {
+        &["-N", &l.name]
+    } else {
+        &["-a", "-N", &l.name]
+    };
+    let r = pan(wdir, "pan", args, limits)?;
+    write(&ldir.join(format!("{}.out", l.name)), &r.text)?;
+    let violated = r.errors > 0 && r.incomplete.is_none();
+    let mut o = outcome(&l.name, &l.description, &r, violated);
+    if violated {
+        o.detail = Some(if r.text.contains("acceptance cycle") {
+            "a run that never satisfies it (acceptance cycle)".to_owned()
+        } else {
+            "a run that breaks it".to_owned()
+        });
+        let trail = format!("{}.trail", l.name);
+        std::fs::rename(wdir.join("mission.pml.trail"), ldir.join(&trail))
+            .map_err(|e| SpinError::Io(e.to_string()))?;
+        o.counterexample = replay(ldir, &trail, t)?;
     }
-    Ok(out)
+    Ok(o)
 }
