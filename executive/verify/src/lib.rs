@@ -9,8 +9,13 @@
 //! [`explore`] checks the same properties on the executive's own engine, with no translation,
 //! so the two can be compared (the differential test).
 //!
+//! Requirements on mission time and energy are checked by [`timed`]: the engine explored with a
+//! clock zone (difference-bound matrices, `zone.rs`) and energy bounds per state, against the
+//! costs the systems' catalogues declare ([`resources`]); why this method, there.
+//!
 //! Spin is an external tool (Debian `spin`, plus a C compiler): it is what the TRACE lineage
 //! specifies as the LTL oracle. Dependencies: `executive-model` (the validated graph),
+//! `connector-api` (the catalogues' costs), `tracing` (what the timed exploration decides),
 //! `executive-engine` (explored natively in token-game mode),
 //! `serde`/`serde_json` (the JSON report and counterexamples), `toml` (the requirements file,
 //! like the other configuration files), `thiserror`.

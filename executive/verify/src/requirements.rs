@@ -658,8 +658,7 @@ impl Parser<'_> {
         loop {
             if self.word("with") {
                 e = Expr::and(e, self.or()?);
-            } else if self.peek_word("after") && self.at + 1 < self.toks.len() {
-                self.at += 1;
+            } else if self.word("after") {
                 let d = self.duration("after")?;
                 e = Expr::and(e, Expr::Quantity(Quantity::Time, Cmp::Gt, d));
             } else {

@@ -3,34 +3,43 @@
 //! ([`crate::resources`]).
 //!
 //! **Method.** The engine runs in token-game mode as in [`crate::explore`], and every state
-//! carries intervals: the mission time of its last event, the energy the finished activities
-//! used, and for everything pending the window in which it can happen — a task between its
-//! start plus its least and its start plus its greatest duration, a timer at its deadline (which
-//! inherits the uncertainty of when it was armed), a ground answer or a message at any time, the
-//! battery running out between the earliest and the latest moment the draws allow. An event can
-//! come next only if it can happen before everything else pending must have happened; taking it
-//! narrows the time to that overlap. So a timer fires when its time has come given the elapsed
-//! time, not whenever, and a mission ends when its battery is empty (the battery is never
-//! recharged). A condition that compares a battery reading with a number (`battery_soc_pct <
-//! 30.0`) is decided from the reading's bounds when both ends agree, a condition over script
-//! data the engine holds is evaluated, and every other condition is a free choice; a free choice
-//! that continues a cycle (a branch or a caught failure leading back) is bounded per scope
-//! activation, as in the Spin translation (`--loops`), while cycles driven by time (a monitor
-//! polling every hour) run until time or energy ends them.
+//! carries a clock zone — a difference-bound matrix over mission time, each running task, each
+//! armed timer and the age of each battery reading (`crate::zone`) — and bounds on the energy
+//! used. A step can come next only while nothing pending has passed its latest moment: a task
+//! ends between its least and greatest duration (for the outcome it has), a timer fires exactly
+//! when due, a ground answer or a message comes any time, the battery runs out between the
+//! earliest and latest moment the draws allow. So a timer fires when its time has come, not
+//! whenever, and a mission ends when its battery is empty (it is never recharged). Energy grows
+//! with the idle draw and each running task's power envelope; when a task ends, its outcome's own
+//! power counts. A condition comparing a battery reading with a number (`battery_soc_pct < 30.0`)
+//! is decided from the reading's bounds when both ends agree, and narrows the reading when the
+//! run takes a branch — which, through the reading's age, bounds the energy used from then on; a
+//! condition over script data the engine holds is evaluated; every other condition is a free
+//! choice. A free choice that continues a cycle (a branch or a caught failure leading back) is
+//! bounded per scope activation as in the Spin translation (`--loops`); cycles driven by time (a
+//! monitor polling every hour) run until time or energy ends them.
 //!
-//! This is an interval abstraction of a priced timed automaton (the model UPPAAL CORA checks)
-//! explored path by path: intervals are kept per path, never widened, and states whose
-//! intervals lie inside those of an equal state already seen are dropped. It was chosen over
-//! Spin with bounded counters (time in minutes over weeks of mission makes PROMELA's state
-//! vectors and search depth explode) and over zones (difference-bound matrices relate clocks
-//! exactly, but energy is a cost over them, which zones alone do not bound): it reuses the
-//! engine's real semantics (boundaries, sub-processes, signals) with no translation, its bounds
-//! are sound (every real run lies inside the intervals of the path it takes), and the price is
-//! the usual direction of an over-approximation — a counterexample's order of events may need
-//! times the intervals allow one by one but not together. A verdict is `holds` only when no
-//! state can violate the requirement; `VIOLATED` when a path certainly violates it (the worst
-//! such run by energy is the counterexample); otherwise, or when the state bound is hit,
-//! `incomplete`.
+//! States with the same engine shape and the same observations are joined (the smallest zone
+//! and bounds holding both) and explored again, mission time beyond the largest a requirement
+//! names is extrapolated (exact for the requirements, as in timed automata), and energy that
+//! keeps growing in a cycle climbs a ladder of twentieths of the capacity: the search is finite
+//! and small (Europa: a few hundred states). The bounds are sound — every real run within the
+//! declared costs lies inside the bounds of the states it passes — so a requirement **holds**
+//! when no state can violate it. A state that may violate it is not enough for **VIOLATED**:
+//! the way to it is replayed as one run, each step at one moment and every activity at its
+//! greatest (then least) power and duration, guided by the way's choices, and only a run that
+//! violates the requirement is reported, as the counterexample, with the time and energy of each
+//! step. Otherwise the verdict is **incomplete** and says why.
+//!
+//! Why this and not the alternatives: Spin with bounded counters would put minutes of mission
+//! time over weeks into PROMELA's state vector, multiplying the states by the times; a priced
+//! timed automaton checker (UPPAAL CORA, PRISM's priced models) would need a translation to keep
+//! in step with the engine, the same drift the differential test watches for in Spin's. Here the
+//! engine's own semantics (boundaries, sub-processes, signals, terminate) are explored with no
+//! translation, and the zone keeps timers exact where intervals per clock would not (a timer
+//! armed when a reading was taken fires exactly one period after it). The price is that joined
+//! states relate energy to time only through the readings, so a property that needs that
+//! relation elsewhere can stay incomplete.
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::sync::Arc;

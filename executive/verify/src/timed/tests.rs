@@ -285,3 +285,43 @@ fn a_reading_taken_before_a_draw_is_not_what_is_left_after_it() {
     );
     assert_eq!(v, [Verdict::Holds, Verdict::Holds]);
 }
+
+#[test]
+fn the_requirement_language_reads_quantities_and_names_what_is_wrong() {
+    let g = mission(TIMED_TASK);
+    let parse = |check: &str| {
+        let text = format!("[[requirement]]\nname = \"r\"\ncheck = '{check}'\n");
+        crate::requirements::parse(&text, "t.req.toml", &g).map(|l| l.requirements[0].clone())
+    };
+    for ok in [
+        "always energy <= 40 kWh",
+        "never running \"A\" after P18D",
+        "eventually done \"Done\" with energy_left >= 5 %",
+        "done \"Done\" within PT6H",
+        "always energy_left > 2.5 kWh or ended",
+    ] {
+        let r = parse(ok).unwrap_or_else(|e| panic!("{ok}: {e}"));
+        assert!(
+            r.form.timed() && r.formula.is_empty(),
+            "{ok}: checked by the timed exploration"
+        );
+    }
+    // Statements without quantities still go to Spin, as LTL.
+    assert_eq!(
+        parse("never done \"Late\"").expect("ltl").formula,
+        "[] !(@0)"
+    );
+    for (bad, says) in [
+        ("always energy <= 40", "unit"),
+        ("never running \"A\" after", "ISO 8601"),
+        ("done \"Done\" within soon", "ISO 8601"),
+        (
+            "after done \"A\" eventually time > PT1H",
+            "a statement about time or energy",
+        ),
+        ("always energy_left >= 5 parsecs", "percentage"),
+    ] {
+        let why = parse(bad).expect_err(bad).to_string();
+        assert!(why.contains(says), "{bad}: {why}");
+    }
+}
