@@ -97,7 +97,7 @@ pub(super) fn replay(
             }
         }
         // The guide's next choice that can come now (looking a little ahead), else what is
-        // due first (a completion before a failure, the default branch first).
+        // due first.
         let ahead = labels.len().min(guide + 40);
         let wanted = (guide..ahead).find_map(|i| {
             options
