@@ -681,3 +681,50 @@ fn timers_armed_together_fire_shortest_first() {
         serde_json::json!(["long"])
     );
 }
+
+/// A process drawn across the page with link events: `goto` jumps to the catch named `name`.
+fn links(name: &str) -> String {
+    format!(
+        r#"<?xml version="1.0" encoding="UTF-8"?>
+<definitions xmlns="http://www.omg.org/spec/BPMN/20100524/MODEL" id="d" targetNamespace="urn:t">
+  <process id="p" isExecutable="true">
+    <startEvent id="s"/>
+    <task id="survey" name="Survey"/>
+    <intermediateThrowEvent id="goto"><linkEventDefinition name="{name}"/></intermediateThrowEvent>
+    <intermediateCatchEvent id="dig_here"><linkEventDefinition name="to_dig"/></intermediateCatchEvent>
+    <task id="dig" name="Dig"/>
+    <endEvent id="e"/>
+    <sequenceFlow id="f1" sourceRef="s" targetRef="survey"/>
+    <sequenceFlow id="f2" sourceRef="survey" targetRef="goto"/>
+    <sequenceFlow id="f3" sourceRef="dig_here" targetRef="dig"/>
+    <sequenceFlow id="f4" sourceRef="dig" targetRef="e"/>
+  </process>
+</definitions>"#
+    )
+}
+
+#[test]
+fn link_events_continue_at_their_catch_in_spin_as_in_the_engine() {
+    // Linked: the token goes on at Dig and the mission ends; nothing refused.
+    let (code, props) = verify("links", &links("to_dig"));
+    let v = verdicts(&props);
+    assert_eq!(code, 0, "{props:#?}");
+    assert!(v.values().all(|v| *v == "holds"), "{v:?}");
+    let text = links("to_dig");
+    let g = std::sync::Arc::new(
+        executive_model::load(text.as_bytes())
+            .graph
+            .expect("a linked model is valid"),
+    );
+    let native = executive_verify::explore(std::sync::Arc::clone(&g), 10_000);
+    assert!(native.deadlock.is_none() && native.dead_activities.is_empty());
+    assert_eq!(native.ends.iter().collect::<Vec<_>>(), ["e"]);
+    let t = executive_verify::translate(
+        &g,
+        executive_verify::Bounds::default(),
+        &[],
+        &Default::default(),
+    )
+    .expect("links are translated");
+    assert!(t.promela.contains("@@BPMN goto"), "the throw is a step");
+}

@@ -177,6 +177,8 @@ struct PanRun {
     incomplete: Option<String>,
 }
 
+/// Runs the `pan` binary at `binary` (a path, absolute when `dir` is not its folder) in `dir`,
+/// where it writes its trails.
 fn pan(dir: &Path, binary: &str, args: &[&str], limits: Limits) -> Result<PanRun, SpinError> {
     let depth = format!("-m{}", limits.depth);
     let bits = format!(
@@ -190,7 +192,7 @@ fn pan(dir: &Path, binary: &str, args: &[&str], limits: Limits) -> Result<PanRun
     let mut all = vec![depth.as_str(), "-b", bits.as_str()];
     all.extend_from_slice(args);
     let t = Instant::now();
-    let (_, text) = run(dir, &format!("./{binary}"), &all)?;
+    let (_, text) = run(dir, binary, &all)?;
     let seconds = t.elapsed().as_secs_f64();
     let errors = text
         .lines()
@@ -397,13 +399,16 @@ pub fn check(
             .map(Job::Claim),
     );
     let queue = std::sync::Mutex::new(jobs.into_iter().enumerate().collect::<Vec<_>>());
+    // Each worker runs the one binary in its own folder, where pan writes its trail. (Not a
+    // copy of the binary: a file this process holds open for writing cannot be executed by a
+    // child forked meanwhile — `Text file busy`.)
+    let binary = std::path::absolute(ldir.join("pan"))
+        .map_err(|e| SpinError::Io(e.to_string()))?
+        .to_string_lossy()
+        .into_owned();
     let worker = |w: usize| -> Result<Vec<(usize, Vec<Outcome>)>, SpinError> {
         let wdir = ldir.join(format!("w{w}"));
         std::fs::create_dir_all(&wdir).map_err(|e| SpinError::Io(e.to_string()))?;
-        for f in ["mission.pml", "pan"] {
-            std::fs::copy(ldir.join(f), wdir.join(f))
-                .map_err(|e| SpinError::Io(format!("{f}: {e}")))?;
-        }
         let mut done = Vec::new();
         loop {
             let next = {
@@ -418,7 +423,7 @@ pub fn check(
             let (k, job) = next;
             done.push((
                 k,
-                run_job(t, &job, &safeties, &wdir, ldir.as_path(), limits)?,
+                run_job(t, &job, &safeties, &binary, &wdir, ldir.as_path(), limits)?,
             ));
         }
         Ok(done)
@@ -477,14 +482,15 @@ fn run_job(
     t: &Translation,
     job: &Job,
     safeties: &[&Ltl],
+    binary: &str,
     wdir: &Path,
     ldir: &Path,
     limits: Limits,
 ) -> Result<Vec<Outcome>, SpinError> {
     match job {
-        Job::Claim(l) => Ok(vec![claim(t, l, wdir, ldir, limits)?]),
+        Job::Claim(l) => Ok(vec![claim(t, l, binary, wdir, ldir, limits)?]),
         Job::AllSafety => {
-            let r = pan(wdir, "pan", &["-N", ALL_SAFETY], limits)?;
+            let r = pan(wdir, binary, &["-N", ALL_SAFETY], limits)?;
             write(&ldir.join(format!("{ALL_SAFETY}.out")), &r.text)?;
             if r.errors == 0 || r.incomplete.is_some() {
                 return Ok(safeties
@@ -499,7 +505,7 @@ fn run_job(
             let _ = std::fs::remove_file(wdir.join("mission.pml.trail"));
             safeties
                 .iter()
-                .map(|l| claim(t, l, wdir, ldir, limits))
+                .map(|l| claim(t, l, binary, wdir, ldir, limits))
                 .collect()
         }
     }
@@ -554,7 +560,7 @@ fn safety_search(
     )?;
 
     let mut out = Vec::new();
-    let r = pan(sdir, "pan", &["-c0", "-e"], limits)?;
+    let r = pan(sdir, "./pan", &["-c0", "-e"], limits)?;
     write(&sdir.join("pan.out"), &r.text)?;
     let errors = errors_found(&r.text);
     let first = |what: &str| errors.iter().find(|(k, _)| k.starts_with(what));
@@ -606,6 +612,7 @@ fn safety_search(
 fn claim(
     t: &Translation,
     l: &Ltl,
+    binary: &str,
     wdir: &Path,
     ldir: &Path,
     limits: Limits,
@@ -615,7 +622,7 @@ fn claim(
     } else {
         &["-a", "-N", &l.name]
     };
-    let r = pan(wdir, "pan", args, limits)?;
+    let r = pan(wdir, binary, args, limits)?;
     write(&ldir.join(format!("{}.out", l.name)), &r.text)?;
     let violated = r.errors > 0 && r.incomplete.is_none();
     let mut o = outcome(&l.name, &l.description, &r, violated);

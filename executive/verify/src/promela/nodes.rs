@@ -73,6 +73,19 @@ impl Tr<'_> {
         out
     }
 
+    /// The link catch event named `name` in the scope of `throw` (the engine's choice: the
+    /// first in the scope).
+    fn link_catch(&self, throw: NodeId, name: &str) -> Option<NodeId> {
+        self.g
+            .scope_nodes(self.g.node(throw).scope)
+            .iter()
+            .copied()
+            .find(|m| {
+                matches!(&self.g.node(*m).kind, NodeKind::Catch(ce)
+                    if ce.triggers.iter().any(|d| matches!(d, EventDefinition::Link(l) if l == name)))
+            })
+    }
+
     pub(super) fn node(&mut self, c: usize, n: NodeId) {
         let node = self.g.node(n);
         let (ins, outs) = (node.incoming.clone(), node.outgoing.clone());
@@ -88,11 +101,24 @@ impl Tr<'_> {
                 }
             }
             NodeKind::Throw(defs) => {
+                // A link throw: the token goes on at the link catch event of the same name in
+                // the same scope, as the engine moves it (none: the token stays, as the engine's
+                // incident leaves it).
+                let link = defs.iter().find_map(|d| match d {
+                    EventDefinition::Link(name) => Some(self.link_catch(n, name)),
+                    _ => None,
+                });
+                if let Some(None) = link {
+                    return;
+                }
                 for f in ins {
                     let m = self.marker(c, n, "");
                     let mut alt = Alt::default();
                     self.take(c, f, &mut alt);
-                    if self.throw(c, n, defs, &mut alt) {
+                    if let Some(Some(target)) = link {
+                        let on = self.g.node(target).outgoing.clone();
+                        self.put_all(c, &on, &mut alt);
+                    } else if self.throw(c, n, defs, &mut alt) {
                         self.put_all(c, &outs, &mut alt);
                     }
                     self.push(&m, alt);

@@ -36,7 +36,7 @@ impl Tr<'_> {
                     .map(|d| no(&format!("{} on an end event is not translated", d.element_name()))),
                 NodeKind::Throw(defs) => defs
                     .iter()
-                    .find(|d| matches!(d, EventDefinition::Compensate { .. } | EventDefinition::Link(_)))
+                    .find(|d| matches!(d, EventDefinition::Compensate { .. }))
                     .map(|d| no(&format!("{} on a throw event is not translated", d.element_name()))),
                 NodeKind::Catch(c) if c.parallel_multiple => Some(no(
                     "parallel-multiple catch events (every trigger needed) are not translated",
@@ -44,7 +44,7 @@ impl Tr<'_> {
                 NodeKind::Catch(c) => c
                     .triggers
                     .iter()
-                    .find(|d| matches!(d, EventDefinition::Link(_) | EventDefinition::Error { .. } | EventDefinition::Escalation(_) | EventDefinition::Compensate { .. }))
+                    .find(|d| matches!(d, EventDefinition::Error { .. } | EventDefinition::Escalation(_) | EventDefinition::Compensate { .. }))
                     .map(|d| no(&format!("{} on a catch event is not translated", d.element_name()))),
                 NodeKind::Boundary(b) => {
                     if b.parallel_multiple {
