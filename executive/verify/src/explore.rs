@@ -103,6 +103,9 @@ pub(crate) fn shape(g: &ProcessGraph, s: &State) -> String {
     format!("{tokens:?}{waits:?}{outcomes:?}")
 }
 
+/// The code the exploration fails a task with to stand for every code no boundary names.
+pub(crate) const UNNAMED: &str = "UNNAMED_FAILURE";
+
 /// The error codes a failing task might raise: one per code some boundary catches, plus one no
 /// boundary names (for catch-all boundaries).
 pub(crate) fn codes(g: &ProcessGraph) -> Vec<String> {
@@ -127,7 +130,7 @@ pub(crate) fn codes(g: &ProcessGraph) -> Vec<String> {
         }
     }
     if catch_all {
-        out.insert("UNNAMED_FAILURE".to_owned());
+        out.insert(UNNAMED.to_owned());
     }
     out.into_iter().collect()
 }

@@ -25,6 +25,9 @@ pub struct TaskCost {
     pub reads: Vec<(String, Reading)>,
     /// What a failure with a given code costs instead.
     pub errors: BTreeMap<String, TaskCost>,
+    /// The error codes it can fail with: those its action declares and the protocol's (`None`:
+    /// not known, any).
+    pub codes: Option<std::collections::BTreeSet<String>>,
 }
 
 impl TaskCost {
@@ -35,6 +38,7 @@ impl TaskCost {
             power_w: (0.0, 0.0),
             reads: Vec::new(),
             errors: BTreeMap::new(),
+            codes: None,
         }
     }
 
@@ -158,7 +162,24 @@ pub fn costs(
             .collect();
         match resolve(cost, field) {
             Ok(c) => {
-                tasks.insert(id, TaskCost { reads, ..c });
+                let codes = spec
+                    .errors
+                    .keys()
+                    .cloned()
+                    .chain(
+                        connector_api::wire::codes::ALL
+                            .iter()
+                            .map(|c| (*c).to_owned()),
+                    )
+                    .collect();
+                tasks.insert(
+                    id,
+                    TaskCost {
+                        reads,
+                        codes: Some(codes),
+                        ..c
+                    },
+                );
             }
             Err(e) => problems.push(format!(
                 "task `{}` (action `{}`): {e}",
@@ -188,5 +209,6 @@ fn resolve(
         power_w: cost.power_w.range(field)?,
         reads: Vec::new(),
         errors,
+        codes: None,
     })
 }

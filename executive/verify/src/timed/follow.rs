@@ -68,7 +68,7 @@ pub fn follow(g: Arc<ProcessGraph>, costs: &Costs, run: &[Observed]) -> Result<V
             .map(|(task, c)| (task.to_owned(), c.trim_end_matches(']').to_owned()));
         let found = offered.iter().position(|x| x.label == o.label).or_else(|| {
             let (task, _) = code.as_ref()?;
-            let any = format!("{task}.fail[UNNAMED_FAILURE]");
+            let any = format!("{task}.fail[{}]", crate::explore::UNNAMED);
             offered.iter().position(|x| x.label == any)
         });
         let Some(x) = found else {

@@ -74,7 +74,13 @@ pub(super) fn successors(cx: &Ctx, n: &Node) -> Vec<Next> {
             node: Some(r.node),
         });
         if matches!(tok.at, At::Task(_)) {
-            for c in &cx.codes {
+            // The codes its action can fail with (a code no boundary names stands for the rest,
+            // the protocol's among them, which a catch-all catches).
+            let codes = cx.codes.iter().filter(|c| {
+                c.as_str() == crate::explore::UNNAMED
+                    || r.cost.codes.as_ref().is_none_or(|k| k.contains(*c))
+            });
+            for c in codes {
                 out.push(Next {
                     label: format!("{id}.fail[{c}]"),
                     event: Some(Event::TaskFailed {
