@@ -296,8 +296,18 @@ pub(super) fn layout(n: &Node) -> Vec<(u8, u32, &str)> {
 /// Whether `a` (seen) covers `b` (the same layout): every clock valuation, energy and reading
 /// of `b` is one of `a`'s.
 pub(super) fn covers(a: &Node, b: &Node) -> bool {
+    let spent = |n: &Node| -> Vec<Span> {
+        n.clocks
+            .iter()
+            .filter_map(|k| match k {
+                Clock::Task(_, key) => n.running.get(key).map(|r| r.spent),
+                _ => None,
+            })
+            .collect()
+    };
     a.zone.includes(&b.zone)
         && a.energy.contains(&b.energy)
+        && spent(a).iter().zip(spent(b)).all(|(x, y)| x.contains(&y))
         && a.readings.len() == b.readings.len()
         && a.readings
             .values()
