@@ -350,20 +350,7 @@ fn trace_verify_gives_time_and_energy_verdicts_and_a_counterexample_the_timeline
             .iter()
             .any(|v| v["kind"] == "completed" && v["energy_wh"].is_array())
     );
-    let page = dir.join("flawed.html");
-    let out = Command::new(bin("trace"))
-        .arg("timeline")
-        .arg(&record)
-        .arg("-o")
-        .arg(&page)
-        .output()
-        .expect("trace timeline runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let html = std::fs::read_to_string(&page).expect("page");
+    let html = crate::timeline::render(&record, &dir.join("flawed.html"));
     assert!(
         html.contains("energy_used_wh") && html.contains(" Wh"),
         "the page shows energy"

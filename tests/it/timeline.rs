@@ -24,17 +24,13 @@ const RECORD: &str = r#"{"v":1,"kind":"entered","seq":1,"idx":0,"mission_ms":0,"
 {"v":1,"kind":"left","seq":5,"idx":2,"mission_ms":14000000,"token":2,"element":{"id":"Exc","name":"Excavate","type":"callActivity"}}
 "#;
 
-#[test]
-fn the_timeline_renders_in_headless_chromium() {
-    let dir = tempdir("timeline");
-    let record = dir.join("record.jsonl");
-    std::fs::write(&record, RECORD).expect("record");
-    let page = dir.join("timeline.html");
+/// `trace timeline RECORD -o PAGE`, which must succeed; the page.
+pub(crate) fn render(record: &std::path::Path, page: &std::path::Path) -> String {
     let out = Command::new(bin("trace"))
         .arg("timeline")
-        .arg(&record)
+        .arg(record)
         .arg("-o")
-        .arg(&page)
+        .arg(page)
         .output()
         .expect("trace timeline runs");
     assert!(
@@ -42,7 +38,16 @@ fn the_timeline_renders_in_headless_chromium() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let html = std::fs::read_to_string(&page).expect("page");
+    std::fs::read_to_string(page).expect("page")
+}
+
+#[test]
+fn the_timeline_renders_in_headless_chromium() {
+    let dir = tempdir("timeline");
+    let record = dir.join("record.jsonl");
+    std::fs::write(&record, RECORD).expect("record");
+    let page = dir.join("timeline.html");
+    let html = render(&record, &page);
     assert!(
         !html.contains("<script src") && !html.contains("<link") && !html.contains("url(http"),
         "the page must not fetch anything"

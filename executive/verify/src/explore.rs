@@ -16,7 +16,7 @@ use executive_engine::{
     Action, At, Engine, Entry, Event, Input, On, Outcome, State, TaskKey, Vars,
 };
 use executive_model::{
-    Called, EventDefinition, GatewayKind, NodeId, NodeKind, ProcessGraph, TaskKind,
+    Called, EventDefinition, FlowId, GatewayKind, NodeId, NodeKind, ProcessGraph, TaskKind,
 };
 use serde::Serialize;
 
@@ -135,6 +135,29 @@ pub(crate) fn codes(g: &ProcessGraph) -> Vec<String> {
     out.into_iter().collect()
 }
 
+/// The choices a diverging gateway offers: one flow at an exclusive gateway, any non-empty set
+/// of its first six flows otherwise.
+pub(crate) fn branches(g: &ProcessGraph, gateway: NodeId) -> Vec<Vec<FlowId>> {
+    let n = g.node(gateway);
+    let exclusive = matches!(&n.kind, NodeKind::Gateway(gw) if gw.kind == GatewayKind::Exclusive);
+    let count = n.outgoing.len().min(6);
+    (1u32..(1 << count))
+        .filter(|mask| !exclusive || mask.count_ones() == 1)
+        .map(|mask| {
+            (0..count)
+                .filter(|k| mask & (1 << k) != 0)
+                .map(|k| n.outgoing[k])
+                .collect()
+        })
+        .collect()
+}
+
+/// How a step that takes `flows` at `gateway` is named (`Gateway.take[f1+f2]`).
+pub(crate) fn take_label(g: &ProcessGraph, gateway: NodeId, flows: &[FlowId]) -> String {
+    let names: Vec<&str> = flows.iter().map(|f| g.flow(*f).id.as_str()).collect();
+    format!("{}.take[{}]", g.node(gateway).id, names.join("+"))
+}
+
 /// What the outside can do in a state.
 fn inputs(g: &ProcessGraph, s: &State, codes: &[String]) -> Vec<(String, Event)> {
     let mut out = Vec::new();
@@ -165,21 +188,9 @@ fn inputs(g: &ProcessGraph, s: &State, codes: &[String]) -> Vec<(String, Event)>
                 }
             }
             At::Deciding => {
-                let n = g.node(t.node);
-                let exclusive =
-                    matches!(&n.kind, NodeKind::Gateway(gw) if gw.kind == GatewayKind::Exclusive);
-                let count = n.outgoing.len().min(6);
-                for mask in 1u32..(1 << count) {
-                    if exclusive && mask.count_ones() != 1 {
-                        continue;
-                    }
-                    let flows: Vec<_> = (0..count)
-                        .filter(|k| mask & (1 << k) != 0)
-                        .map(|k| n.outgoing[k])
-                        .collect();
-                    let names: Vec<&str> = flows.iter().map(|f| g.flow(*f).id.as_str()).collect();
+                for flows in branches(g, t.node) {
                     out.push((
-                        format!("{label}.take[{}]", names.join("+")),
+                        take_label(g, t.node, &flows),
                         Event::BranchTaken { token: *id, flows },
                     ));
                 }

@@ -26,14 +26,8 @@ pub(super) fn quantity(cx: &Ctx, n: &Node, q: Quantity, lasting: f64) -> Span {
             hi: n.t().hi + lasting,
         },
         Quantity::Energy => energy,
-        Quantity::EnergyLeftWh => Span {
-            lo: cap - energy.hi,
-            hi: cap - energy.lo,
-        },
-        Quantity::EnergyLeftPct => Span {
-            lo: 100.0 * (cap - energy.hi) / cap,
-            hi: 100.0 * (cap - energy.lo) / cap,
-        },
+        Quantity::EnergyLeftWh => reading(cap, energy, Reading::EnergyWh),
+        Quantity::EnergyLeftPct => reading(cap, energy, Reading::SocPct),
     }
 }
 

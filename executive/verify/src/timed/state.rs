@@ -71,6 +71,22 @@ impl Read {
     }
 }
 
+/// What a battery reading of `kind` says when `used` Wh of `cap` are used: the energy left, Wh,
+/// or the state of charge, %.
+pub(super) fn reading(cap: f64, used: Span, kind: Reading) -> Span {
+    let left = Span {
+        lo: cap - used.hi,
+        hi: cap - used.lo,
+    };
+    match kind {
+        Reading::EnergyWh => left,
+        Reading::SocPct => Span {
+            lo: 100.0 * left.lo / cap,
+            hi: 100.0 * left.hi / cap,
+        },
+    }
+}
+
 /// Narrows the energy used by what each reading says it was then. `None`: nothing is left.
 pub(super) fn remember(cx: &Ctx, c: &mut Node) -> Option<()> {
     let idle = cx.costs.battery.idle_w;

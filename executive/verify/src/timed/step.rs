@@ -18,19 +18,8 @@ pub(super) fn successors(cx: &Ctx, n: &Node) -> Vec<Next> {
         if !matches!(t.at, At::Deciding) {
             continue;
         }
-        let node = g.node(t.node);
-        let exclusive =
-            matches!(&node.kind, NodeKind::Gateway(gw) if gw.kind == GatewayKind::Exclusive);
-        let count = node.outgoing.len().min(6);
         let decided = decide(cx, n, t.node, t.scope);
-        for mask in 1u32..(1 << count) {
-            if exclusive && mask.count_ones() != 1 {
-                continue;
-            }
-            let flows: Vec<_> = (0..count)
-                .filter(|k| mask & (1 << k) != 0)
-                .map(|k| node.outgoing[k])
-                .collect();
+        for flows in crate::explore::branches(g, t.node) {
             if let Some(d) = &decided
                 && *d != flows
             {
@@ -43,9 +32,8 @@ pub(super) fn successors(cx: &Ctx, n: &Node) -> Vec<Next> {
             {
                 continue;
             }
-            let names: Vec<&str> = flows.iter().map(|f| g.flow(*f).id.as_str()).collect();
             out.push(Next {
-                label: format!("{}.take[{}]", node.id, names.join("+")),
+                label: crate::explore::take_label(g, t.node, &flows),
                 event: Some(Event::BranchTaken { token: *tid, flows }),
                 when: When::Now,
                 node: Some(t.node),
@@ -150,9 +138,10 @@ pub(super) fn bounded(cx: &Ctx, node: NodeId, flows: &[executive_model::FlowId])
 /// left.
 pub(super) fn death(cx: &Ctx, n: &Node) -> Span {
     let rate = cx.rate(n);
+    let left = reading(cx.capacity(), n.total(), Reading::EnergyWh);
     let left = Span {
-        lo: (cx.capacity() - n.total().hi).max(0.0),
-        hi: (cx.capacity() - n.total().lo).max(0.0),
+        lo: left.lo.max(0.0),
+        hi: left.hi.max(0.0),
     };
     let over = |wh: f64, w: f64| {
         if w > 0.0 {
@@ -297,25 +286,15 @@ pub(super) fn take(cx: &Ctx, n: &Node, x: &Next, mut z: Zone, wait: usize) -> Op
         c.stop_clock(&Clock::Task(r.node, key));
         spent = Some(own);
         let energy = c.total();
-        let cap = cx.capacity();
-        for (var, reading) in &r.cost.reads {
-            let value = match reading {
-                Reading::EnergyWh => Span {
-                    lo: cap - energy.hi,
-                    hi: cap - energy.lo,
-                },
-                Reading::SocPct => Span {
-                    lo: 100.0 * (cap - energy.hi) / cap,
-                    hi: 100.0 * (cap - energy.lo) / cap,
-                },
-            };
+        for (var, kind) in &r.cost.reads {
+            let value = reading(cx.capacity(), energy, *kind);
             c.stop_clock(&Clock::Read(var.clone()));
             c.start_clock(Clock::Read(var.clone()));
             c.readings.insert(
                 var.clone(),
                 Read {
                     value,
-                    kind: *reading,
+                    kind: *kind,
                     peak: 0.0,
                 },
             );
@@ -344,7 +323,7 @@ pub(super) fn take(cx: &Ctx, n: &Node, x: &Next, mut z: Zone, wait: usize) -> Op
                     .node(*node)
                     .outgoing
                     .iter()
-                    .any(|f| crate::promela::reaches(cx.g, cx.g.flow(*f).target, b.attached_to))
+                    .any(|f| back(cx, b.attached_to, *f))
             {
                 let scope = after
                     .tokens
@@ -403,12 +382,10 @@ pub(super) fn decide(
             .iter()
             .filter(|v| n.readings.contains_key(*v))
             .collect();
-        // A reading is compared with one threshold (monotone), or the choice stays free.
-        let comparisons = ["<", ">", "=="]
-            .iter()
-            .map(|op| cond.text.matches(op).count())
-            .sum::<usize>();
-        if readings.len() > 1 || (readings.len() == 1 && comparisons != 1) {
+        // A reading decides only a condition comparing it with a number (monotone, and what
+        // `refine` narrows by); in any other condition the choice stays free.
+        let simple = comparison(&cond.text).is_some_and(|(var, _, _)| readings == [&var]);
+        if readings.len() > 1 || (readings.len() == 1 && !simple) {
             return None;
         }
         let at = |x: Option<f64>| -> Option<bool> {

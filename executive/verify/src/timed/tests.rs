@@ -206,11 +206,17 @@ const MONITOR: &str = r#"
     <sequenceFlow id="ok" sourceRef="Low" targetRef="Wait"/>
     <endEvent id="Abort"/>"#;
 
-fn monitor_costs(g: &ProcessGraph) -> Costs {
-    let mut c = costs(g, 1000.0, 100.0, &[("Read", 0.0, 0.0, 0.0)]);
-    if let Some(t) = c.tasks.values_mut().next() {
+/// Task `Read` writes the state of charge to variable `soc`.
+fn reads_soc(g: &ProcessGraph, c: &mut Costs) {
+    let read = g.node_by_id("Read").expect("Read");
+    if let Some(t) = c.tasks.get_mut(&read) {
         t.reads = vec![("soc".into(), Reading::SocPct)];
     }
+}
+
+fn monitor_costs(g: &ProcessGraph) -> Costs {
+    let mut c = costs(g, 1000.0, 100.0, &[("Read", 0.0, 0.0, 0.0)]);
+    reads_soc(g, &mut c);
     c
 }
 
@@ -270,11 +276,7 @@ fn a_reading_taken_before_a_draw_is_not_what_is_left_after_it() {
         0.0,
         &[("Read", 0.0, 0.0, 0.0), ("Dig", 60.0, 60.0, 500.0)],
     );
-    for t in c.tasks.values_mut() {
-        if t.power_w.1 == 0.0 {
-            t.reads = vec![("soc".into(), Reading::SocPct)];
-        }
-    }
+    reads_soc(&g, &mut c);
     let (_, v) = verdicts(
         &g,
         &c,
