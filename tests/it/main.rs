@@ -5,6 +5,7 @@
 mod cli;
 mod conformance;
 mod connectors;
+mod constructs;
 mod crash;
 mod durability;
 mod engine;

@@ -1347,6 +1347,17 @@ impl Run<'_> {
                 if let Some(sc) = self.s.scopes.get_mut(&child) {
                     sc.compensable = inner;
                 }
+                if self.trace_moves
+                    && let Some(instance) = self.s.scopes.get(&scope).map(|s| s.instance)
+                {
+                    self.record(
+                        instance,
+                        Entry::Entered {
+                            node: esp,
+                            token: et,
+                        },
+                    );
+                }
                 self.spawn(child, start, None);
                 et
             }

@@ -106,26 +106,27 @@ pub(crate) fn shape(g: &ProcessGraph, s: &State) -> String {
 /// The code the exploration fails a task with to stand for every code no boundary names.
 pub(crate) const UNNAMED: &str = "UNNAMED_FAILURE";
 
-/// The error codes a failing task might raise: one per code some boundary catches, plus one no
-/// boundary names (for catch-all boundaries).
+/// The error codes a failing task might raise: one per code some boundary or event
+/// sub-process catches, plus one none names (for catch-alls).
 pub(crate) fn codes(g: &ProcessGraph) -> Vec<String> {
     let mut out = BTreeSet::new();
     let mut catch_all = false;
     for n in &g.nodes {
-        if let NodeKind::Boundary(b) = &n.kind {
-            for t in &b.triggers {
-                match t {
-                    EventDefinition::Error { error: Some(e), .. } => {
-                        match &g.errors[e.index()].code {
-                            Some(c) => {
-                                out.insert(c.clone());
-                            }
-                            None => catch_all = true,
-                        }
-                    }
-                    EventDefinition::Error { error: None, .. } => catch_all = true,
-                    _ => {}
+        // Boundary events, and the error starts of event sub-processes.
+        let triggers = match &n.kind {
+            NodeKind::Boundary(b) => &b.triggers,
+            NodeKind::Start(s) => &s.triggers,
+            _ => continue,
+        };
+        for t in triggers {
+            match t {
+                // An error without a code is matched by its id, as the engine matches it.
+                EventDefinition::Error { error: Some(e), .. } => {
+                    let e = &g.errors[e.index()];
+                    out.insert(e.code.clone().unwrap_or_else(|| e.id.clone()));
                 }
+                EventDefinition::Error { error: None, .. } => catch_all = true,
+                _ => {}
             }
         }
     }

@@ -254,9 +254,10 @@ fn replay(dir: &Path, trail: &str, t: &Translation) -> Result<Vec<TraceStep>, Sp
 }
 
 /// The steps no run takes, from pan's list of unreached statements (by PROMELA line: every
-/// step is written on a line of its own).
+/// step is written on a line of its own; a step written on several lines — an activity entered
+/// along several flows — is unreached only if all of them are).
 fn unreached(text: &str, t: &Translation) -> std::collections::BTreeSet<String> {
-    let mut unreached = std::collections::BTreeSet::new();
+    let mut lines = std::collections::BTreeSet::new();
     let mut in_mission = false;
     for line in text.lines() {
         if line.starts_with("unreached in ") {
@@ -273,12 +274,23 @@ fn unreached(text: &str, t: &Translation) -> std::collections::BTreeSet<String> 
             .and_then(|n| n.parse::<usize>().ok());
         if in_mission
             && takes
-            && let Some(m) = number.and_then(|n| t.lines.get(&n))
+            && let Some(n) = number.filter(|n| t.lines.contains_key(n))
         {
-            unreached.insert(m.clone());
+            lines.insert(n);
         }
     }
-    unreached
+    let reached: std::collections::BTreeSet<&String> = t
+        .lines
+        .iter()
+        .filter(|(n, _)| !lines.contains(*n))
+        .map(|(_, m)| m)
+        .collect();
+    lines
+        .iter()
+        .filter_map(|n| t.lines.get(n))
+        .filter(|m| !reached.contains(m))
+        .cloned()
+        .collect()
 }
 
 /// The activities no run starts.

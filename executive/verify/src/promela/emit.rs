@@ -40,6 +40,14 @@ impl Tr<'_> {
                 parts.push(format!("!(act[{a}] && {})", self.idle_inside(bc, s)));
             }
         }
+        // Whatever was asked for is entered first.
+        let mut pends: Vec<&usize> = self.pend_ix.values().collect();
+        pends.sort();
+        parts.extend(pends.iter().map(|k| format!("pend[{k}] == 0")));
+        // A compensation waiter whose handlers are done goes on first.
+        for (a, idle) in &self.waiters {
+            parts.push(format!("!(act[{a}] && {idle})"));
+        }
         if parts.is_empty() {
             "true".to_owned()
         } else {
@@ -64,8 +72,15 @@ impl Tr<'_> {
         for (i, a) in self.act_names.iter().enumerate() {
             let _ = writeln!(p, "/*   {i:>4} {a} */");
         }
-        let _ = writeln!(p, "byte tok[{nf}];\nbool act[{na}];\nbyte reps[{nc}];");
+        let _ = writeln!(p, "byte tok[{nf}];\nbyte act[{na}];\nbyte reps[{nc}];");
         let _ = writeln!(p, "bool heard, lost, unsafe, failed, terminated, ended;");
+        let _ = writeln!(
+            p,
+            "bool comp[{}];\nbyte starts[{}];\nbyte pend[{}];",
+            self.comp_names.len().max(1),
+            self.start_ix.len().max(1),
+            self.pend_ix.len().max(1)
+        );
         let _ = writeln!(p, "bool unheard[{}];", signal_slots(self.g));
         p.push_str(&crate::data::declarations(&self.vars));
         // The executive starts the primary processes one after another, each running until it
@@ -113,6 +128,7 @@ impl Tr<'_> {
             .map(|i| format!("tok[{i}] == 0"))
             .collect();
         idle.extend((0..self.act_names.len()).map(|i| format!("!act[{i}]")));
+        idle.extend((0..self.pend_ix.len()).map(|k| format!("pend[{k}] == 0")));
         let idle = if idle.is_empty() {
             "true".to_owned()
         } else {
@@ -123,6 +139,7 @@ impl Tr<'_> {
             .map(|i| format!("tok[{i}] = 0"))
             .collect();
         clear.extend((0..self.act_names.len()).map(|i| format!("act[{i}] = 0")));
+        clear.extend((0..self.pend_ix.len()).map(|k| format!("pend[{k}] = 0")));
         let _ = writeln!(
             p,
             "#define CLEAR_ALL {}",

@@ -47,44 +47,131 @@ impl Tr<'_> {
             .collect()
     }
 
-    /// The boundary that catches a throw from node `n` in context `c`: the innermost enclosing
-    /// activity (sub-process, or call activity in a calling context) with a matching boundary.
-    pub(super) fn catcher(
+    /// Everything that may catch a throw from node `n` in context `c`, innermost first, as the
+    /// engine looks: at each enclosing scope its event sub-processes (not those beside the
+    /// thrower's own event sub-process), then the boundary events of the activity that holds
+    /// the scope (a sub-process, or the call activity of a called process). Each with its level.
+    pub(super) fn catchers(
         &self,
         c: usize,
         n: NodeId,
-        matches: &dyn Fn(&BoundaryEvent) -> bool,
-    ) -> Option<(usize, NodeId, NodeId)> {
+        matches: &dyn Fn(&[EventDefinition]) -> bool,
+    ) -> Vec<(usize, Catch)> {
+        let mut out = Vec::new();
         let (mut c, mut scope) = (c, self.g.node(n).scope);
-        loop {
+        let mut beside = false;
+        for level in 0.. {
+            if !beside {
+                for start in self.event_sub_starts(scope) {
+                    if let NodeKind::Start(st) = &self.g.node(start).kind
+                        && matches(&st.triggers)
+                    {
+                        out.push((level, Catch::EventSub { c, start }));
+                    }
+                }
+            }
             let holder = match scope {
                 Scope::SubProcess(s) => {
                     scope = self.g.node(s).scope;
                     s
                 }
                 Scope::Process(_) => {
-                    let (pc, call) = self.ctxs[c].call?;
+                    let Some((pc, call)) = self.ctxs[c].call else {
+                        break;
+                    };
                     c = pc;
                     scope = self.g.node(call).scope;
                     call
                 }
             };
+            beside = is_event_sub(self.g, holder);
             for b in &self.g.node(holder).boundaries {
                 if let NodeKind::Boundary(be) = &self.g.node(*b).kind
-                    && matches(be)
+                    && matches(&be.triggers)
                 {
-                    return Some((c, holder, *b));
+                    out.push((level, Catch::Boundary { c, holder, b: *b }));
                 }
             }
+        }
+        out
+    }
+
+    /// What catches a throw from `n`: the innermost catcher, a specific one before a catch-all
+    /// at the same level (the engine's choice).
+    pub(super) fn catcher(
+        &self,
+        c: usize,
+        n: NodeId,
+        matches: &dyn Fn(&[EventDefinition]) -> bool,
+    ) -> Option<Catch> {
+        let all = self.catchers(c, n, matches);
+        let level = all.first()?.0;
+        let here = all.iter().filter(|(l, _)| *l == level).map(|(_, x)| *x);
+        let specific = here.clone().find(|x| {
+            self.triggers(x.node()).iter().any(|d| {
+                matches!(
+                    d,
+                    EventDefinition::Error { error: Some(_), .. }
+                        | EventDefinition::Escalation(Some(_))
+                )
+            })
+        });
+        specific.or_else(|| here.clone().next())
+    }
+
+    /// The error catchers (innermost first) that some code reaches: a code is caught by the
+    /// first catcher of it, a specific one before a catch-all of the same level, so a catcher
+    /// behind one that catches the same code, or behind a catch-all, never fires.
+    pub(super) fn reachable(&self, mut chain: Vec<(usize, Catch)>) -> Vec<Catch> {
+        // The code an error catcher catches (`None`: any).
+        let code = |x: &Catch| -> Option<String> {
+            self.triggers(x.node()).iter().find_map(|t| match t {
+                EventDefinition::Error { error: Some(e), .. } => {
+                    let e = &self.g.errors[e.index()];
+                    Some(e.code.clone().unwrap_or_else(|| e.id.clone()))
+                }
+                _ => None,
+            })
+        };
+        chain.sort_by_key(|(level, x)| (*level, code(x).is_none()));
+        let mut out = Vec::new();
+        let mut caught = BTreeSet::new();
+        let mut all = false;
+        for (_, x) in chain {
+            if all {
+                break;
+            }
+            match code(&x) {
+                Some(k) => {
+                    if caught.insert(k) {
+                        out.push(x);
+                    }
+                }
+                None => {
+                    // A catch-all takes every code not caught before it.
+                    all = true;
+                    out.push(x);
+                }
+            }
+        }
+        out
+    }
+
+    /// The event definitions of a catching node (a boundary or a start event).
+    pub(super) fn triggers(&self, n: NodeId) -> &[EventDefinition] {
+        match &self.g.node(n).kind {
+            NodeKind::Boundary(be) => &be.triggers,
+            NodeKind::Start(st) => &st.triggers,
+            _ => &[],
         }
     }
 
     pub(super) fn error_matches(
         &self,
         thrown: Option<executive_model::ErrorId>,
-        be: &BoundaryEvent,
+        triggers: &[EventDefinition],
     ) -> bool {
-        be.triggers.iter().any(|t| match t {
+        triggers.iter().any(|t| match t {
             EventDefinition::Error { error: None, .. } => true,
             EventDefinition::Error { error: Some(e), .. } => thrown.is_some_and(|x| {
                 x == *e
@@ -98,9 +185,9 @@ impl Tr<'_> {
     pub(super) fn escalation_matches(
         &self,
         thrown: Option<executive_model::EscalationId>,
-        be: &BoundaryEvent,
+        triggers: &[EventDefinition],
     ) -> bool {
-        be.triggers.iter().any(|t| match t {
+        triggers.iter().any(|t| match t {
             EventDefinition::Escalation(None) => true,
             EventDefinition::Escalation(Some(e)) => thrown.is_some_and(|x| {
                 x == *e
@@ -111,8 +198,17 @@ impl Tr<'_> {
         })
     }
 
-    /// A caught throw: the catching activity is cancelled and its boundary fires.
-    pub(super) fn caught(&mut self, c: usize, holder: NodeId, b: NodeId, alt: &mut Alt) {
+    /// A caught throw: by a boundary (the catching activity is cancelled if it interrupts, and
+    /// the boundary fires) or by an event sub-process (which starts).
+    pub(super) fn caught(&mut self, catch: Catch, alt: &mut Alt) {
+        match catch {
+            Catch::Boundary { c, holder, b } => self.boundary_fires(c, holder, b, alt),
+            Catch::EventSub { c, start } => self.start_event_sub(c, start, alt),
+        }
+    }
+
+    /// A boundary event fires: an interrupting one cancels its activity.
+    pub(super) fn boundary_fires(&mut self, c: usize, holder: NodeId, b: NodeId, alt: &mut Alt) {
         // A non-interrupting boundary starts its path beside the activity, which runs on.
         if interrupting(self.g, b) {
             self.cancel(c, holder, alt);
@@ -166,10 +262,13 @@ impl Tr<'_> {
                             ));
                         }
                     }
+                    NodeKind::Start(st) if st.triggers.iter().any(same) => {
+                        listeners += usize::from(self.signal_start(c, n, alt));
+                    }
                     NodeKind::Boundary(be) if be.triggers.iter().any(same) => {
                         let holder = be.attached_to;
                         let mut fire = Alt::default();
-                        self.caught(c, holder, n, &mut fire);
+                        self.boundary_fires(c, holder, n, &mut fire);
                         listeners += 1;
                         alt.effect.push(format!(
                             "if :: act[{}] -> {}; heard = 1 :: else -> skip fi",
@@ -223,31 +322,33 @@ impl Tr<'_> {
                     let e = *error;
                     let code = e.and_then(|e| self.g.errors[e.index()].code.clone());
                     alt.effect.extend(self.error_observed(code.as_deref()));
-                    match self.catcher(c, n, &|be| self.error_matches(e, be)) {
-                        Some((cc, holder, b)) => self.caught(cc, holder, b, alt),
+                    match self.catcher(c, n, &|t| self.error_matches(e, t)) {
+                        Some(catch) => self.caught(catch, alt),
                         None => alt.effect.push("failed = 1; CLEAR_ALL".to_owned()),
                     }
                     go_on = false;
                 }
                 EventDefinition::Escalation(e) => {
                     let e = *e;
-                    if let Some((cc, holder, b)) =
-                        self.catcher(c, n, &|be| self.escalation_matches(e, be))
-                    {
-                        go_on &= !interrupting(self.g, b);
-                        self.caught(cc, holder, b, alt);
+                    if let Some(catch) = self.catcher(c, n, &|t| self.escalation_matches(e, t)) {
+                        go_on &= !catch.interrupting(self.g);
+                        self.caught(catch, alt);
                     }
+                }
+                EventDefinition::Compensate { activity, wait } => {
+                    go_on &= !self.compensation_thrown(c, n, *activity, *wait, alt);
+                }
+                EventDefinition::Cancel => {
+                    self.cancelled(c, n, alt);
+                    go_on = false;
                 }
                 EventDefinition::Terminate => {
                     let scope = match self.g.node(n).scope {
                         Scope::SubProcess(s) => Some(s),
                         Scope::Process(_) => None,
                     };
-                    let (flows, acts, _) = self.contents(c, scope);
-                    alt.effect
-                        .extend(flows.iter().map(|f| format!("tok[{f}] = 0")));
-                    alt.effect
-                        .extend(acts.iter().map(|a| format!("act[{a}] = 0")));
+                    let inside = self.contents(c, scope);
+                    self.clear(&inside, alt);
                     if scope.is_none() && self.ctxs[c].call.is_none() {
                         alt.effect.push("terminated = 1".to_owned());
                     }

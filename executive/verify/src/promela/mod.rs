@@ -1,11 +1,16 @@
 //! BPMN → PROMELA: one global token marking (`tok[]` per sequence flow, `act[]` per running
-//! activity or armed event-based gateway) and one guarded atomic step per BPMN transition, each
-//! starting with a `@@BPMN <element>` marker so a Spin trail reads back as BPMN steps
-//! (`../shared/design/verification.md` §2, scheme A).
+//! activity — a count for a parallel multi-instance task —, armed event-based gateway or waiting
+//! compensation throw) and one guarded atomic step per BPMN transition, each starting with a
+//! `@@BPMN <element>` marker so a Spin trail reads back as BPMN steps
+//! (`../shared/design/verification.md` §2, scheme A). Besides: `comp[]` marks completed
+//! compensable activities, `pend[]` an event sub-process or compensation handler asked for and
+//! not yet entered (entering is its own step, so a dead one is seen as dead), `starts[]` counts
+//! the instances of processes started by an event (`eventsubs.rs`, `compensation.rs`).
 //!
 //! Abstractions: conditions are nondeterministic choices; timers, messages and conditional events
-//! may fire whenever they are armed; a service task may fail with any error some boundary around
-//! it catches. Every choice that continues a cycle (a gateway branch or a boundary that leads back
+//! may fire whenever they are armed; a service task may fail with any error some catcher around
+//! it catches (a catcher behind one that takes the same code, or behind a catch-all, never
+//! fires). Every choice that continues a cycle (a gateway branch or a boundary that leads back
 //! to where it came from) is bounded per scope activation, so every run is finite. Called
 //! processes are inlined per call site. What the translation does not cover is refused with the
 //! element named — never dropped.
@@ -14,15 +19,17 @@ use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::fmt::Write;
 
 use executive_model::{
-    BoundaryEvent, Called, EventDefinition, FlowId, GatewayKind, Looping, NodeId, NodeKind,
-    ProcessGraph, ProcessId, Scope, SubProcessKind, TaskKind,
+    Called, EventDefinition, FlowId, GatewayKind, Looping, NodeId, NodeKind, ProcessGraph,
+    ProcessId, Scope, SubProcessKind, TaskKind,
 };
 use serde::Serialize;
 
 use crate::requirements::Atom;
 
+mod compensation;
 mod emit;
 mod events;
+mod eventsubs;
 mod nodes;
 mod refusals;
 
@@ -94,6 +101,49 @@ impl Translation {
     }
 }
 
+/// What lies inside a scope: its flows, activity slots, cycle counters and compensation marks.
+#[derive(Default)]
+struct Inside {
+    flows: Vec<usize>,
+    acts: Vec<usize>,
+    cnts: Vec<usize>,
+    comps: Vec<usize>,
+    pends: Vec<usize>,
+}
+
+/// What catches a throw: a boundary event of an enclosing activity, or an event sub-process of
+/// an enclosing scope (named by its start event).
+#[derive(Clone, Copy, Debug)]
+enum Catch {
+    Boundary { c: usize, holder: NodeId, b: NodeId },
+    EventSub { c: usize, start: NodeId },
+}
+
+impl Catch {
+    /// The catching node: the boundary event, or the event sub-process's start event.
+    fn node(&self) -> NodeId {
+        match self {
+            Catch::Boundary { b, .. } => *b,
+            Catch::EventSub { start, .. } => *start,
+        }
+    }
+
+    /// The catch stops what was caught (the activity, or the scope's other work).
+    fn interrupting(&self, g: &ProcessGraph) -> bool {
+        match self {
+            Catch::Boundary { b, .. } => interrupting(g, *b),
+            Catch::EventSub { start, .. } => {
+                !matches!(&g.node(*start).kind, NodeKind::Start(st) if !st.interrupting)
+            }
+        }
+    }
+}
+
+/// `n` is an event sub-process.
+pub(crate) fn is_event_sub(g: &ProcessGraph, n: NodeId) -> bool {
+    matches!(&g.node(n).kind, NodeKind::SubProcess(sp) if matches!(sp.kind, SubProcessKind::Event))
+}
+
 /// A calling context: a primary process, or a called process inlined at one call site.
 struct Ctx {
     process: ProcessId,
@@ -122,6 +172,17 @@ struct Tr<'g> {
     act_names: Vec<String>,
     cnt_ix: HashMap<(usize, NodeId), usize>,
     cnt_names: Vec<String>,
+    /// Completed compensable activities (`comp[]`), per context.
+    comp_ix: HashMap<(usize, NodeId), usize>,
+    comp_names: Vec<String>,
+    /// Processes started by a message, signal or condition: how often each start fired
+    /// (`starts[]`).
+    start_ix: HashMap<(usize, NodeId), usize>,
+    /// Activities entered when something asks (`pend[]`): compensation handlers by their node,
+    /// event sub-processes by their start event.
+    pend_ix: HashMap<(usize, NodeId), usize>,
+    /// Compensation waiters: the waiter's slot and the handlers it waits for (all idle).
+    waiters: Vec<(usize, String)>,
     alts: Vec<String>,
     steps: BTreeMap<String, Step>,
     refusals: Vec<Refusal>,
@@ -133,13 +194,38 @@ struct Tr<'g> {
     vars: crate::data::Variables,
 }
 
+/// Most parallel instances of one task the translation runs at once: a literal cardinality
+/// above it is cut to it (the instances of a task differ only in when each completes, and three
+/// already interleave every way two completions can with the rest).
+const MAX_INSTANCES: u64 = 3;
+
+impl Tr<'_> {
+    /// How many instances a parallel multi-instance activity starts: its literal cardinality
+    /// (at most [`MAX_INSTANCES`]), else any number from one to the loop bound plus one, as a
+    /// sequential one repeats.
+    fn instances(&self, mi: &executive_model::MultiInstance) -> u64 {
+        match mi
+            .cardinality
+            .as_ref()
+            .map(|e| e.text.trim().parse::<u64>())
+        {
+            Some(Ok(n)) if mi.input_collection.is_none() => n.min(MAX_INSTANCES),
+            _ => u64::from(self.bounds.loops) + 1,
+        }
+    }
+}
+
 /// The length of a node's timer, when it is a fixed duration.
 pub(crate) fn fixed_duration(node: &executive_model::Node) -> Option<u64> {
-    let defs: &[EventDefinition] = match &node.kind {
-        NodeKind::Boundary(b) => &b.triggers,
-        NodeKind::Catch(c) => &c.triggers,
-        _ => return None,
-    };
+    match &node.kind {
+        NodeKind::Boundary(b) => fixed_duration_of(&b.triggers),
+        NodeKind::Catch(c) => fixed_duration_of(&c.triggers),
+        _ => None,
+    }
+}
+
+/// The length of a timer among `defs`, when it is a fixed duration.
+pub(crate) fn fixed_duration_of(defs: &[EventDefinition]) -> Option<u64> {
     defs.iter().find_map(|d| match d {
         EventDefinition::Timer(t) => match &t.value {
             executive_model::timer::TimerValue::Fixed(
@@ -221,6 +307,11 @@ pub fn translate(
         act_names: Vec::new(),
         cnt_ix: HashMap::new(),
         cnt_names: Vec::new(),
+        comp_ix: HashMap::new(),
+        comp_names: Vec::new(),
+        start_ix: HashMap::new(),
+        pend_ix: HashMap::new(),
+        waiters: Vec::new(),
         alts: Vec::new(),
         steps: BTreeMap::new(),
         refusals: Vec::new(),
@@ -324,6 +415,13 @@ impl<'g> Tr<'g> {
                 let slot = match &node.kind {
                     NodeKind::Task(_) | NodeKind::SubProcess(_) | NodeKind::CallActivity(_) => true,
                     NodeKind::Gateway(gw) => matches!(gw.kind, GatewayKind::EventBased { .. }),
+                    // A compensation throw or a cancel end waits for the handlers it started.
+                    NodeKind::Throw(defs) | NodeKind::End(defs) => defs.iter().any(|d| {
+                        matches!(
+                            d,
+                            EventDefinition::Compensate { .. } | EventDefinition::Cancel
+                        )
+                    }),
                     _ => false,
                 };
                 if slot {
@@ -339,6 +437,28 @@ impl<'g> Tr<'g> {
                     self.cnt_ix.insert((c, n), self.cnt_names.len());
                     self.cnt_names
                         .push(format!("{}{}", self.ctxs[c].path, node.id));
+                }
+                if self.compensable(n) {
+                    self.comp_ix.insert((c, n), self.comp_names.len());
+                    self.comp_names
+                        .push(format!("{}{}", self.ctxs[c].path, node.id));
+                }
+                let handler = (node.for_compensation && !is_event_sub(self.g, n))
+                    || self
+                        .g
+                        .nodes
+                        .iter()
+                        .any(|m| m.compensation_handler == Some(n));
+                let asked = handler
+                    || matches!(node.scope, Scope::SubProcess(e) if is_event_sub(self.g, e))
+                        && matches!(node.kind, NodeKind::Start(_));
+                if asked {
+                    let k = self.pend_ix.len();
+                    self.pend_ix.insert((c, n), k);
+                }
+                if self.ctxs[c].call.is_none() && self.event_start(n) {
+                    let k = self.start_ix.len();
+                    self.start_ix.insert((c, n), k);
                 }
             }
         }
@@ -469,32 +589,40 @@ impl<'g> Tr<'g> {
 
     /// Flows, activity slots and counters inside sub-process `s` (or everything of context
     /// `c` when `s` is `None`), including called processes inlined there.
-    fn contents(&self, c: usize, s: Option<NodeId>) -> (Vec<usize>, Vec<usize>, Vec<usize>) {
-        let (mut flows, mut acts, mut cnts) = (Vec::new(), Vec::new(), Vec::new());
+    fn contents(&self, c: usize, s: Option<NodeId>) -> Inside {
+        let mut inside = Inside::default();
         for n in self.nodes(c) {
             if s.is_some_and(|s| !self.within(n, s)) {
                 continue;
             }
             let node = self.g.node(n);
             for f in &node.outgoing {
-                flows.push(self.f(c, *f));
+                inside.flows.push(self.f(c, *f));
             }
             if let Some(a) = self.act_ix.get(&(c, n)) {
-                acts.push(*a);
+                inside.acts.push(*a);
             }
             if let Some(k) = self.cnt_ix.get(&(c, n)) {
-                cnts.push(*k);
+                inside.cnts.push(*k);
+            }
+            if let Some(k) = self.comp_ix.get(&(c, n)) {
+                inside.comps.push(*k);
+            }
+            if let Some(k) = self.pend_ix.get(&(c, n)) {
+                inside.pends.push(*k);
             }
             if matches!(node.kind, NodeKind::CallActivity(_))
                 && let Some(cc) = self.child(c, n)
             {
-                let (f2, a2, k2) = self.contents(cc, None);
-                flows.extend(f2);
-                acts.extend(a2);
-                cnts.extend(k2);
+                let more = self.contents(cc, None);
+                inside.flows.extend(more.flows);
+                inside.acts.extend(more.acts);
+                inside.cnts.extend(more.cnts);
+                inside.comps.extend(more.comps);
+                inside.pends.extend(more.pends);
             }
         }
-        (flows, acts, cnts)
+        inside
     }
 
     fn child(&self, c: usize, call: NodeId) -> Option<usize> {
@@ -508,19 +636,31 @@ impl<'g> Tr<'g> {
             NodeKind::CallActivity(_) => self.child(c, activity).map(|cc| self.contents(cc, None)),
             _ => None,
         };
-        if let Some((flows, acts, _)) = inner {
-            alt.effect
-                .extend(flows.iter().map(|f| format!("tok[{f}] = 0")));
-            alt.effect
-                .extend(acts.iter().map(|a| format!("act[{a}] = 0")));
+        if let Some(inside) = inner {
+            self.clear(&inside, alt);
         }
         alt.effect.push(format!("act[{}] = 0", self.a(c, activity)));
     }
 
+    /// Zeroes the flows and activity slots of `inside`.
+    fn clear(&self, inside: &Inside, alt: &mut Alt) {
+        alt.effect
+            .extend(inside.flows.iter().map(|f| format!("tok[{f}] = 0")));
+        alt.effect
+            .extend(inside.acts.iter().map(|a| format!("act[{a}] = 0")));
+        alt.effect
+            .extend(inside.pends.iter().map(|k| format!("pend[{k}] = 0")));
+    }
+
     fn idle_inside(&self, c: usize, s: Option<NodeId>) -> String {
-        let (flows, acts, _) = self.contents(c, s);
-        let mut parts: Vec<String> = flows.iter().map(|f| format!("tok[{f}] == 0")).collect();
-        parts.extend(acts.iter().map(|a| format!("!act[{a}]")));
+        let inside = self.contents(c, s);
+        let mut parts: Vec<String> = inside
+            .flows
+            .iter()
+            .map(|f| format!("tok[{f}] == 0"))
+            .collect();
+        parts.extend(inside.acts.iter().map(|a| format!("!act[{a}]")));
+        parts.extend(inside.pends.iter().map(|k| format!("pend[{k}] == 0")));
         if parts.is_empty() {
             "true".to_owned()
         } else {
@@ -528,11 +668,18 @@ impl<'g> Tr<'g> {
         }
     }
 
+    /// Counters and compensation marks inside a scope reset, as a new activation of it starts.
+    fn reset(&self, c: usize, s: Option<NodeId>, alt: &mut Alt) {
+        let inside = self.contents(c, s);
+        alt.effect
+            .extend(inside.cnts.iter().map(|k| format!("reps[{k}] = 0")));
+        alt.effect
+            .extend(inside.comps.iter().map(|k| format!("comp[{k}] = 0")));
+    }
+
     /// Starts a scope's body: counters reset, none starts' outgoing flows marked.
     fn start_body(&mut self, c: usize, s: Option<NodeId>, alt: &mut Alt) {
-        let (_, _, cnts) = self.contents(c, s);
-        alt.effect
-            .extend(cnts.iter().map(|k| format!("reps[{k}] = 0")));
+        self.reset(c, s, alt);
         let starts: Vec<NodeId> = self
             .nodes(c)
             .into_iter()

@@ -90,7 +90,8 @@ impl Tr<'_> {
         let node = self.g.node(n);
         let (ins, outs) = (node.incoming.clone(), node.outgoing.clone());
         match &node.kind {
-            NodeKind::Start(_) | NodeKind::Boundary(_) => {}
+            NodeKind::Start(_) => self.message_start(c, n),
+            NodeKind::Boundary(_) => {}
             NodeKind::End(defs) => {
                 for f in ins {
                     let m = self.marker(c, n, "end");
@@ -99,6 +100,7 @@ impl Tr<'_> {
                     self.throw(c, n, defs, &mut alt);
                     self.push(&m, alt);
                 }
+                self.resume(c, n);
             }
             NodeKind::Throw(defs) => {
                 // A link throw: the token goes on at the link catch event of the same name in
@@ -118,11 +120,18 @@ impl Tr<'_> {
                     if let Some(Some(target)) = link {
                         let on = self.g.node(target).outgoing.clone();
                         self.put_all(c, &on, &mut alt);
-                    } else if self.throw(c, n, defs, &mut alt) {
-                        self.put_all(c, &outs, &mut alt);
+                    } else {
+                        // The token moves on before what the throw does takes effect: a
+                        // signal that interrupts the thrower's own scope withdraws it too.
+                        let mut thrown = Alt::default();
+                        if self.throw(c, n, defs, &mut thrown) {
+                            self.put_all(c, &outs, &mut alt);
+                        }
+                        alt.effect.extend(thrown.effect);
                     }
                     self.push(&m, alt);
                 }
+                self.resume(c, n);
             }
             NodeKind::Catch(ce) => {
                 let signal_only = ce
@@ -164,7 +173,10 @@ impl Tr<'_> {
             }
             NodeKind::Gateway(gw) => self.gateway(c, n, gw.kind, &ins, &outs),
             NodeKind::Task(_) | NodeKind::SubProcess(_) | NodeKind::CallActivity(_) => {
-                self.activity(c, n, &ins, &outs)
+                self.activity(c, n, &ins, &outs);
+                if is_event_sub(self.g, n) {
+                    self.event_sub(c, n);
+                }
             }
         }
     }
@@ -327,6 +339,13 @@ impl Tr<'_> {
     }
 
     pub(super) fn activity(&mut self, c: usize, n: NodeId, ins: &[FlowId], outs: &[FlowId]) {
+        /// How an activity is entered: along an incoming flow, or asked for (`pend[k]`) — a
+        /// compensation handler by itself, an event sub-process at the start event that fired.
+        #[derive(Clone, Copy)]
+        enum Entry {
+            Flow(FlowId),
+            Asked(usize, NodeId),
+        }
         let node = self.g.node(n);
         let a = self.a(c, n);
         let (body, child): (Option<Option<NodeId>>, Option<usize>) = match &node.kind {
@@ -341,39 +360,70 @@ impl Tr<'_> {
             _ => (None, None),
         };
         let body_ctx = child.unwrap_or(c);
+        let mi = match &node.looping {
+            Some(Looping::MultiInstance(mi)) => Some(mi.as_ref()),
+            _ => None,
+        };
+        // Parallel instances of a task: `act[a]` counts the instances still running.
+        let parallel = mi.filter(|mi| !mi.sequential).map(|mi| self.instances(mi));
+        // The instances may end before all have completed (a completion condition, or a
+        // complex behaviour that stops them).
+        let early = mi.is_some_and(|mi| {
+            mi.completion.is_some() || mi.behavior == executive_model::MiBehavior::Complex
+        });
+        // Completing instances throw the activity's behaviour event to its signal boundaries.
+        let behaviour: Vec<NodeId> = match mi {
+            Some(mi) if mi.behavior != executive_model::MiBehavior::All => node
+                .boundaries
+                .iter()
+                .copied()
+                .filter(|b| {
+                    matches!(&self.g.node(*b).kind, NodeKind::Boundary(be)
+                    if be.triggers.iter().any(|t| matches!(t, EventDefinition::Signal(_))))
+                })
+                .collect(),
+            _ => Vec::new(),
+        };
         let fails = match &node.kind {
             NodeKind::Task(t) => !matches!(t.kind, TaskKind::User | TaskKind::Script),
             NodeKind::CallActivity(_) => outside(self.g, n),
             _ => false,
         };
+        // A failure may be caught by any error catcher: the activity's own boundaries, then
+        // those around it (each may be the one that catches some code).
         let mut catchers = Vec::new();
         if fails {
+            let any_error = |t: &[EventDefinition]| {
+                t.iter().any(|d| matches!(d, EventDefinition::Error { .. }))
+            };
             for b in &node.boundaries {
                 if let NodeKind::Boundary(be) = &self.g.node(*b).kind
-                    && be
-                        .triggers
-                        .iter()
-                        .any(|t| matches!(t, EventDefinition::Error { .. }))
+                    && any_error(&be.triggers)
                 {
-                    catchers.push((c, n, *b));
+                    catchers.push((
+                        0,
+                        Catch::Boundary {
+                            c,
+                            holder: n,
+                            b: *b,
+                        },
+                    ));
                 }
             }
-            let mut probe = (c, n);
-            while let Some(found) = self.catcher(probe.0, probe.1, &|be| {
-                be.triggers
-                    .iter()
-                    .any(|t| matches!(t, EventDefinition::Error { .. }))
-            }) {
-                catchers.push(found);
-                probe = (found.0, found.1);
-            }
+            catchers.extend(
+                self.catchers(c, n, &any_error)
+                    .into_iter()
+                    .map(|(l, x)| (l + 1, x)),
+            );
         }
+        let catchers = self.reachable(catchers);
         // A task nothing can interrupt is one step (start and completion folded: fewer
         // interleavings, the same reachable markings between steps).
         if body.is_none()
             && node.boundaries.is_empty()
             && node.looping.is_none()
             && catchers.is_empty()
+            && !self.pend_ix.contains_key(&(c, n))
             && !self.observe.contains(&Atom::Running(n))
         {
             self.folded.insert(n);
@@ -385,18 +435,55 @@ impl Tr<'_> {
                 };
                 self.take(c, *f, &mut alt);
                 alt.effect.extend(self.data_effects(n));
+                alt.effect.extend(self.completed(c, n));
                 self.put_all(c, outs, &mut alt);
                 self.push(&m, alt);
             }
             return;
         }
-        // Start (or activate).
-        for f in ins {
+        // Start (or activate): along an incoming flow, or when asked for (a compensation
+        // handler; an event sub-process, at the start event that fired).
+        let mut entries: Vec<Entry> = ins.iter().map(|f| Entry::Flow(*f)).collect();
+        if let Some(k) = self.pend_ix.get(&(c, n)) {
+            entries.push(Entry::Asked(*k, n));
+        }
+        if let NodeKind::SubProcess(sp) = &node.kind
+            && is_event_sub(self.g, n)
+        {
+            for s in &sp.nodes {
+                if matches!(self.g.node(*s).kind, NodeKind::Start(_))
+                    && let Some(k) = self.pend_ix.get(&(c, *s))
+                {
+                    entries.push(Entry::Asked(*k, *s));
+                }
+            }
+        }
+        for entry in entries {
             let phase = if body.is_some() { "activate" } else { "start" };
             let m = self.marker(c, n, phase);
             let mut alt = Alt::default();
-            self.take(c, *f, &mut alt);
-            alt.effect.push(format!("act[{a}] = 1"));
+            match entry {
+                Entry::Flow(f) => self.take(c, f, &mut alt),
+                Entry::Asked(k, _) => {
+                    alt.guard.push(format!("pend[{k}] > 0"));
+                    alt.effect.push(format!("pend[{k}]--"));
+                }
+            }
+            match parallel {
+                // No instance at all: the activity completes at once.
+                Some(0) => {
+                    alt.effect.extend(self.data_effects(n));
+                    self.put_all(c, outs, &mut alt);
+                    self.push(&m, alt);
+                    continue;
+                }
+                Some(k) if k > 1 => {
+                    let choose: Vec<String> =
+                        (1..=k).map(|i| format!(":: act[{a}] = {i}")).collect();
+                    alt.effect.push(format!("if {} fi", choose.join(" ")));
+                }
+                _ => alt.effect.push(format!("act[{a}] = 1")),
+            }
             alt.effect.extend(self.listening(n));
             // A loop's bodies are counted per start of the loop.
             if node.looping.is_some()
@@ -412,8 +499,15 @@ impl Tr<'_> {
                     alt.effect.push(format!("reps[{k}] = 0"));
                 }
             }
-            if let Some(scope) = body {
-                self.start_body(body_ctx, scope, &mut alt);
+            match (body, entry) {
+                // An event sub-process starts at the start event that fired.
+                (Some(scope), Entry::Asked(_, start)) if start != n => {
+                    self.reset(body_ctx, scope, &mut alt);
+                    let on = self.g.node(start).outgoing.clone();
+                    self.put_all(body_ctx, &on, &mut alt);
+                }
+                (Some(scope), _) => self.start_body(body_ctx, scope, &mut alt),
+                _ => {}
             }
             self.push(&m, alt);
         }
@@ -422,7 +516,17 @@ impl Tr<'_> {
             Some(scope) => format!("act[{a}] && {}", self.idle_inside(body_ctx, scope)),
             None => format!("act[{a}]"),
         };
-        if node.looping.is_some() {
+        if parallel.is_some() {
+            // One instance of several completes; the last one completes the activity.
+            let m = self.marker(c, n, "complete-instance");
+            let mut alt = Alt {
+                outside: outside(self.g, n),
+                ..Alt::default()
+            };
+            alt.guard.push(format!("act[{a}] > 1"));
+            alt.effect.push(format!("act[{a}]--"));
+            self.push(&m, alt);
+        } else if node.looping.is_some() {
             let m = self.marker(c, n, "repeat");
             let mut alt = Alt {
                 outside: body.is_none() && outside(self.g, n),
@@ -453,11 +557,15 @@ impl Tr<'_> {
                 }),
                 _ => false,
             })
+            .chain(behaviour.iter().copied())
             .collect();
         let back = |t: &Self, b: NodeId, to: NodeId| t.leads_back(&t.g.node(b).outgoing, to);
         let completes_back = self.leads_back(outs, n);
         let exit = !completes_back
-            || catchers.iter().any(|(_, h, b)| !back(self, *b, *h))
+            || catchers.iter().any(|x| match x {
+                Catch::Boundary { holder, b, .. } => !back(self, *b, *holder),
+                Catch::EventSub { .. } => true,
+            })
             || spontaneous
                 .iter()
                 .any(|b| interrupting(self.g, *b) && !back(self, *b, n));
@@ -472,35 +580,42 @@ impl Tr<'_> {
             self.bound(c, n, &mut alt);
         }
         alt.guard.push(done_guard);
+        if parallel.is_some() && !early {
+            alt.guard.push(format!("act[{a}] == 1"));
+        }
         alt.effect.push(format!("act[{a}] = 0"));
         alt.effect.extend(self.data_effects(n));
+        alt.effect.extend(self.completed(c, n));
         self.put_all(c, outs, &mut alt);
         self.push(&m, alt);
         // A system's failure, caught by a boundary here or around.
         {
-            for (cc, holder, b) in catchers {
+            for catch in catchers {
+                let b = catch.node();
                 let m = self.marker(c, n, &format!("fail[{}]", self.g.node(b).id));
                 let mut alt = Alt {
                     outside: true,
                     ..Alt::default()
                 };
                 alt.guard.push(format!("act[{a}]"));
-                if back(self, b, holder) {
+                if let Catch::Boundary { c: cc, holder, b } = catch
+                    && back(self, b, holder)
+                {
                     self.bound(cc, b, &mut alt);
                 }
                 alt.effect.push(format!("act[{a}] = 0"));
-                let code = match &self.g.node(b).kind {
-                    NodeKind::Boundary(be) => be.triggers.iter().find_map(|t| match t {
+                let code = self
+                    .triggers(b)
+                    .iter()
+                    .find_map(|t| match t {
                         EventDefinition::Error { error, .. } => {
                             Some(error.and_then(|e| self.g.errors[e.index()].code.clone()))
                         }
                         _ => None,
-                    }),
-                    _ => None,
-                }
-                .flatten();
+                    })
+                    .flatten();
                 alt.effect.extend(self.error_observed(code.as_deref()));
-                self.caught(cc, holder, b, &mut alt);
+                self.caught(catch, &mut alt);
                 self.push(&m, alt);
             }
         }
@@ -509,7 +624,7 @@ impl Tr<'_> {
         // activity never fires once a shorter interrupting one has ended the activity.
         let shortest = spontaneous
             .iter()
-            .filter(|b| interrupting(self.g, **b))
+            .filter(|b| interrupting(self.g, **b) && !behaviour.contains(b))
             .filter_map(|b| fixed_duration(self.g.node(*b)))
             .min();
         for b in spontaneous {
@@ -524,7 +639,7 @@ impl Tr<'_> {
                 ..Alt::default()
             };
             alt.guard.push(format!("act[{a}]"));
-            if interrupting(self.g, b) {
+            if interrupting(self.g, b) && !behaviour.contains(&b) {
                 if back(self, b, n) {
                     self.bound(c, b, &mut alt);
                 }
@@ -532,9 +647,14 @@ impl Tr<'_> {
             } else if let Some(k) = self.cnt_ix.get(&(c, b)).copied() {
                 // Beside the running activity: a duration timer once per activation, anything
                 // else (messages, conditions, cycles) a bounded number of times.
-                let once = fixed_duration(self.g.node(b)).is_some();
+                // A behaviour event: `One` once, `None` and `Complex` once per instance.
+                let once = fixed_duration(self.g.node(b)).is_some()
+                    || (behaviour.contains(&b)
+                        && mi.is_some_and(|mi| mi.behavior == executive_model::MiBehavior::One));
                 let limit = if once {
                     1
+                } else if behaviour.contains(&b) {
+                    parallel.map_or(u32::from(self.bounds.loops) + 1, |k| k as u32)
                 } else {
                     u32::from(self.bounds.loops) + 1
                 };

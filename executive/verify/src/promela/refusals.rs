@@ -5,39 +5,43 @@ use super::*;
 impl Tr<'_> {
     pub(super) fn refuse_unsupported(&mut self) {
         let g = self.g;
-        for n in g.nodes.iter() {
+        let primaries = g.primary_processes();
+        for (i, n) in g.nodes.iter().enumerate() {
+            let id = NodeId(i as u32);
             let no = |r: &str| refusal(&n.id, r);
             let bad = match &n.kind {
                 NodeKind::Start(s) => {
-                    let in_event_sub = matches!(n.scope, Scope::SubProcess(p)
-                        if matches!(&g.node(p).kind, NodeKind::SubProcess(sp) if matches!(sp.kind, SubProcessKind::Event)));
-                    if in_event_sub {
-                        None // refused with its event sub-process
-                    } else if s
-                        .triggers
-                        .iter()
-                        .any(|t| !matches!(t, EventDefinition::Timer(_)))
-                    {
-                        Some(no("start events triggered by messages, signals or conditions are not translated (a none or timer start is)"))
-                    } else {
+                    let in_event_sub = matches!(n.scope, Scope::SubProcess(p) if is_event_sub(g, p));
+                    let primary = matches!(n.scope, Scope::Process(p) if primaries.contains(&p));
+                    let by_event = s.triggers.iter().all(|t| {
+                        matches!(
+                            t,
+                            EventDefinition::Timer(_)
+                                | EventDefinition::Message(_)
+                                | EventDefinition::Signal(_)
+                                | EventDefinition::Conditional(_)
+                        )
+                    });
+                    let timed = s.triggers.iter().all(|t| matches!(t, EventDefinition::Timer(_)));
+                    if s.parallel_multiple {
+                        Some(no("parallel-multiple start events (every trigger needed) are not translated"))
+                    } else if in_event_sub || timed || (primary && by_event) {
                         None
+                    } else {
+                        Some(no("a start event of a called process or sub-process triggered by an event is not translated (a process's message, signal, condition or timer start is)"))
                     }
                 }
-                NodeKind::End(defs) => defs
-                    .iter()
-                    .find(|d| {
-                        matches!(
-                            d,
-                            EventDefinition::Cancel
-                                | EventDefinition::Compensate { .. }
-                                | EventDefinition::Link(_)
-                        )
-                    })
-                    .map(|d| no(&format!("{} on an end event is not translated", d.element_name()))),
-                NodeKind::Throw(defs) => defs
-                    .iter()
-                    .find(|d| matches!(d, EventDefinition::Compensate { .. }))
-                    .map(|d| no(&format!("{} on a throw event is not translated", d.element_name()))),
+                NodeKind::End(defs) => {
+                    if defs.iter().any(|d| matches!(d, EventDefinition::Cancel))
+                        && self.transaction_of(id).is_none()
+                    {
+                        Some(no("a cancel end event outside a transaction cannot execute"))
+                    } else {
+                        defs.iter()
+                            .find(|d| matches!(d, EventDefinition::Link(_)))
+                            .map(|d| no(&format!("{} on an end event is not translated", d.element_name())))
+                    }
+                }
                 NodeKind::Catch(c) if c.parallel_multiple => Some(no(
                     "parallel-multiple catch events (every trigger needed) are not translated",
                 )),
@@ -46,16 +50,8 @@ impl Tr<'_> {
                     .iter()
                     .find(|d| matches!(d, EventDefinition::Error { .. } | EventDefinition::Escalation(_) | EventDefinition::Compensate { .. }))
                     .map(|d| no(&format!("{} on a catch event is not translated", d.element_name()))),
-                NodeKind::Boundary(b) => {
-                    if b.parallel_multiple {
-                        Some(no("parallel-multiple boundary events are not translated"))
-                    } else if b.triggers.iter().any(|d| {
-                        matches!(d, EventDefinition::Compensate { .. } | EventDefinition::Cancel)
-                    }) {
-                        Some(no("compensation and cancel boundaries are not translated"))
-                    } else {
-                        None
-                    }
+                NodeKind::Boundary(b) if b.parallel_multiple => {
+                    Some(no("parallel-multiple boundary events are not translated"))
                 }
                 NodeKind::Gateway(gw) => match gw.kind {
                     GatewayKind::Complex => Some(no("complex gateways are not translated")),
@@ -84,10 +80,8 @@ impl Tr<'_> {
                     _ => None,
                 },
                 NodeKind::SubProcess(s) => match s.kind {
-                    SubProcessKind::Embedded => None,
-                    SubProcessKind::Event => Some(no("event sub-processes are not translated yet")),
-                    SubProcessKind::Transaction => Some(no("transactions are not translated")),
                     SubProcessKind::AdHoc { .. } => Some(no("ad-hoc sub-processes are not translated")),
+                    _ => None,
                 },
                 NodeKind::CallActivity(c) if c.called.is_none() => {
                     Some(no("the called element is not in the model"))
@@ -99,23 +93,16 @@ impl Tr<'_> {
                 continue;
             }
             if n.is_activity() {
-                if n.for_compensation || n.compensation_handler.is_some() {
-                    self.refusals.push(no("compensation is not translated"));
-                } else if n.start_quantity != 1 || n.completion_quantity != 1 {
+                if n.start_quantity != 1 || n.completion_quantity != 1 {
                     self.refusals.push(no(
                         "start or completion quantities other than 1 are not translated",
                     ));
                 } else if let Some(Looping::MultiInstance(mi)) = &n.looping
-                    && mi.behavior != executive_model::MiBehavior::All
-                {
-                    self.refusals.push(no(
-                        "multi-instance behaviours that throw events (None, One, Complex) are not translated",
-                    ));
-                } else if let Some(Looping::MultiInstance(mi)) = &n.looping
                     && !mi.sequential
+                    && !matches!(n.kind, NodeKind::Task(_))
                 {
                     self.refusals.push(no(
-                        "parallel multi-instance is not translated (sequential is, as a bounded loop)",
+                        "parallel multi-instance of a sub-process or call activity is not translated (of a task it is; a sequential one is, as a bounded loop)",
                     ));
                 } else if n.outgoing.iter().any(|f| g.flow(*f).condition.is_some()) {
                     self.refusals.push(no(
@@ -123,7 +110,7 @@ impl Tr<'_> {
                     ));
                 }
                 if let NodeKind::SubProcess(s) = &n.kind
-                    && matches!(s.kind, SubProcessKind::Embedded)
+                    && matches!(s.kind, SubProcessKind::Embedded | SubProcessKind::Transaction)
                     && !s.nodes.iter().any(|m| {
                         matches!(&g.node(*m).kind, NodeKind::Start(st) if st.triggers.is_empty())
                     })
@@ -138,14 +125,6 @@ impl Tr<'_> {
             {
                 self.refusals
                     .push(no("instantiating receive tasks are not translated"));
-            }
-        }
-        for c in &self.g.collaborations {
-            if let Some(m) = c.message_flows.first() {
-                self.refusals.push(refusal(
-                    &m.id,
-                    "message flows between pools are not translated yet",
-                ));
             }
         }
     }

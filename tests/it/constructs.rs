@@ -1,0 +1,293 @@
+//! The Spin translation of event sub-processes, compensation, transactions with cancel, message
+//! flows between pools and parallel multi-instance: per construct a mission model on which Spin
+//! and the engine agree exactly, and a flawed variant both find the flaw in.
+
+use crate::protocol::tempdir;
+use crate::verify::{Compared, Comparison, compare};
+
+const HEAD: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
+<definitions xmlns="http://www.omg.org/spec/BPMN/20100524/MODEL" xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance" xmlns:trace="urn:trace:bpmn:1.0" id="d" targetNamespace="urn:constructs">
+  <error id="JAM" errorCode="JAM"/>
+  <message id="STATUS" name="status"/>
+  <message id="SAMPLE" name="sample"/>
+  <signal id="RESULT" name="result"/>"#;
+
+/// Loads `body` (inside `definitions`) and compares Spin with the engine on it; the model must
+/// translate and explore, and Spin must miss nothing the engine does.
+fn compared(name: &str, body: &str) -> Comparison {
+    let text = format!("{HEAD}\n{body}\n</definitions>");
+    let loaded = executive_model::load(text.as_bytes());
+    let graph = loaded
+        .graph
+        .unwrap_or_else(|| panic!("{name}: invalid: {:?}", loaded.diagnostics));
+    match compare(graph, &tempdir(&format!("constructs-{name}"))) {
+        Compared::Refused(why) => panic!("{name}: not translated: {why}"),
+        Compared::NeedsData => panic!("{name}: the engine could not be explored"),
+        Compared::Done(c) => {
+            assert!(c.unsound.is_empty(), "{name}: {:?}", c.unsound);
+            c
+        }
+    }
+}
+
+/// Exact agreement: the same deadlocks, unsafe runs, dead activities and end events.
+fn agree(name: &str, body: &str) -> Comparison {
+    let c = compared(name, body);
+    assert!(
+        c.how.is_empty(),
+        "{name}: Spin and the engine differ: {:?}",
+        c.how
+    );
+    c
+}
+
+fn set(items: &[&str]) -> std::collections::BTreeSet<String> {
+    items.iter().map(|s| (*s).to_owned()).collect()
+}
+
+/// Excavation in a sub-process: a jam (error JAM) of the drill is caught by the sub-process's
+/// error event sub-process, which wins over the sub-process's own JAM boundary (`give_up`, dead
+/// unless the event sub-process is removed; clearing is a ground decision, which cannot fail
+/// and so throw a jam of its own to the boundary); a status request (message, non-interrupting) is
+/// answered beside the work, at once (an activity there would pile up one held instance per
+/// request in the engine's exploration, which has no bound on requests); a one-hour deadline
+/// (timer, interrupting) stows the arm.
+fn excavation(with_event_sub: bool) -> String {
+    let on_jam = if with_event_sub {
+        r#"<subProcess id="on_jam" name="On jam" triggeredByEvent="true">
+        <startEvent id="jam"><errorEventDefinition errorRef="JAM"/></startEvent>
+        <userTask id="clear" name="Approve jam clearing"/>
+        <endEvent id="cleared"/>
+        <sequenceFlow id="j1" sourceRef="jam" targetRef="clear"/>
+        <sequenceFlow id="j2" sourceRef="clear" targetRef="cleared"/>
+      </subProcess>"#
+    } else {
+        ""
+    };
+    format!(
+        r#"<process id="p" isExecutable="true">
+    <startEvent id="s"/>
+    <subProcess id="excavate" name="Excavate">
+      <startEvent id="es"/>
+      <serviceTask id="drill" name="Drill"><extensionElements><trace:task resource="arm"/></extensionElements></serviceTask>
+      <endEvent id="drilled"/>
+      <sequenceFlow id="e1" sourceRef="es" targetRef="drill"/>
+      <sequenceFlow id="e2" sourceRef="drill" targetRef="drilled"/>
+      {on_jam}
+      <subProcess id="on_status" name="On status request" triggeredByEvent="true">
+        <startEvent id="status" isInterrupting="false"><messageEventDefinition messageRef="STATUS"/></startEvent>
+        <intermediateThrowEvent id="report" name="Status reported"/>
+        <endEvent id="reported"/>
+        <sequenceFlow id="r1" sourceRef="status" targetRef="report"/>
+        <sequenceFlow id="r2" sourceRef="report" targetRef="reported"/>
+      </subProcess>
+    </subProcess>
+    <boundaryEvent id="jammed" attachedToRef="excavate"><errorEventDefinition errorRef="JAM"/></boundaryEvent>
+    <task id="give_up" name="Give up"/>
+    <endEvent id="done"/>
+    <endEvent id="gave_up"/>
+    <subProcess id="on_deadline" name="On deadline" triggeredByEvent="true">
+      <startEvent id="deadline"><timerEventDefinition><timeDuration xsi:type="tFormalExpression">PT1H</timeDuration></timerEventDefinition></startEvent>
+      <task id="stow" name="Stow arm"/>
+      <endEvent id="stowed"/>
+      <sequenceFlow id="d1" sourceRef="deadline" targetRef="stow"/>
+      <sequenceFlow id="d2" sourceRef="stow" targetRef="stowed"/>
+    </subProcess>
+    <sequenceFlow id="f1" sourceRef="s" targetRef="excavate"/>
+    <sequenceFlow id="f2" sourceRef="excavate" targetRef="done"/>
+    <sequenceFlow id="f3" sourceRef="jammed" targetRef="give_up"/>
+    <sequenceFlow id="f4" sourceRef="give_up" targetRef="gave_up"/>
+  </process>"#
+    )
+}
+
+#[test]
+fn event_sub_processes_catch_errors_first_and_start_on_messages_and_timers() {
+    let c = agree("event-subs", &excavation(true));
+    // The jam goes to the event sub-process, never to the boundary behind it.
+    assert_eq!(c.dead, set(&["give_up"]));
+    assert_eq!(
+        c.ends,
+        set(&["cleared", "done", "drilled", "reported", "stowed"])
+    );
+    assert!(!c.deadlock && !c.unsafe_run);
+    // Without the event sub-process the boundary catches the jam.
+    let c = agree("event-subs-boundary", &excavation(false));
+    assert!(c.dead.is_empty(), "{:?}", c.dead);
+    assert!(c.ends.contains("gave_up"));
+}
+
+/// Drilling with a compensation handler (refill the hole); a bad core rolls back by throwing
+/// compensation. `throw_first` throws it before drilling: nothing has completed, so the
+/// handler never runs.
+fn drilling(throw_first: bool) -> String {
+    let (a, b) = if throw_first {
+        ("rollback", "drill")
+    } else {
+        ("drill", "rollback")
+    };
+    format!(
+        r#"<process id="p" isExecutable="true">
+    <startEvent id="s"/>
+    <serviceTask id="drill" name="Drill"><extensionElements><trace:task resource="arm"/></extensionElements></serviceTask>
+    <boundaryEvent id="undo" attachedToRef="drill"><compensateEventDefinition/></boundaryEvent>
+    <serviceTask id="refill" name="Refill hole" isForCompensation="true"><extensionElements><trace:task resource="arm"/></extensionElements></serviceTask>
+    <association id="a1" associationDirection="One" sourceRef="undo" targetRef="refill"/>
+    <intermediateThrowEvent id="rollback" name="Roll back"><compensateEventDefinition/></intermediateThrowEvent>
+    <task id="stow" name="Stow"/>
+    <endEvent id="done"/>
+    <sequenceFlow id="f1" sourceRef="s" targetRef="{a}"/>
+    <sequenceFlow id="f2" sourceRef="{a}" targetRef="{b}"/>
+    <sequenceFlow id="f3" sourceRef="{b}" targetRef="stow"/>
+    <sequenceFlow id="f4" sourceRef="stow" targetRef="done"/>
+  </process>"#
+    )
+}
+
+#[test]
+fn compensation_runs_the_handlers_of_completed_activities_only() {
+    let c = agree("compensation", &drilling(false));
+    assert!(c.dead.is_empty(), "the handler runs: {:?}", c.dead);
+    let c = agree("compensation-early", &drilling(true));
+    assert_eq!(
+        c.dead,
+        set(&["refill"]),
+        "nothing completed yet to compensate"
+    );
+}
+
+/// A transaction: drill (compensated by refilling), then keep the sample or cancel. The cancel
+/// boundary reports the cancellation; both paths meet at `join` (a parallel join deadlocks: only
+/// one of them ever comes).
+fn sampling(join: &str) -> String {
+    format!(
+        r#"<process id="p" isExecutable="true">
+    <startEvent id="s"/>
+    <transaction id="sample" name="Take sample">
+      <startEvent id="ts"/>
+      <serviceTask id="drill" name="Drill"><extensionElements><trace:task resource="arm"/></extensionElements></serviceTask>
+      <boundaryEvent id="undo" attachedToRef="drill"><compensateEventDefinition/></boundaryEvent>
+      <serviceTask id="refill" name="Refill hole" isForCompensation="true"><extensionElements><trace:task resource="arm"/></extensionElements></serviceTask>
+      <association id="a1" associationDirection="One" sourceRef="undo" targetRef="refill"/>
+      <exclusiveGateway id="check" name="Sample good?" default="keep"/>
+      <endEvent id="kept"/>
+      <endEvent id="discard"><cancelEventDefinition/></endEvent>
+      <sequenceFlow id="t1" sourceRef="ts" targetRef="drill"/>
+      <sequenceFlow id="t2" sourceRef="drill" targetRef="check"/>
+      <sequenceFlow id="keep" sourceRef="check" targetRef="kept"/>
+      <sequenceFlow id="bad" sourceRef="check" targetRef="discard"><conditionExpression xsi:type="tFormalExpression">bad</conditionExpression></sequenceFlow>
+    </transaction>
+    <boundaryEvent id="cancelled" attachedToRef="sample"><cancelEventDefinition/></boundaryEvent>
+    <task id="report" name="Report cancellation"/>
+    <{join} id="join"/>
+    <endEvent id="done"/>
+    <sequenceFlow id="f1" sourceRef="s" targetRef="sample"/>
+    <sequenceFlow id="f2" sourceRef="sample" targetRef="join"/>
+    <sequenceFlow id="f3" sourceRef="cancelled" targetRef="report"/>
+    <sequenceFlow id="f4" sourceRef="report" targetRef="join"/>
+    <sequenceFlow id="f5" sourceRef="join" targetRef="done"/>
+  </process>"#
+    )
+}
+
+#[test]
+fn a_cancelled_transaction_compensates_then_takes_its_cancel_boundary() {
+    let c = agree("transaction", &sampling("exclusiveGateway"));
+    assert!(c.dead.is_empty(), "refill and report run: {:?}", c.dead);
+    assert!(!c.deadlock);
+    assert_eq!(c.ends, set(&["discard", "done", "kept"]));
+    let c = agree("transaction-join", &sampling("parallelGateway"));
+    assert!(c.deadlock, "kept and cancelled never both come");
+}
+
+/// Two pools: the lander collects a sample and sends it; the orbiter's process starts on the
+/// message (its start event is where the message flow ends) and relays it.
+const POOLS: &str = r#"<collaboration id="c">
+    <participant id="lander_pool" name="Lander" processRef="lander"/>
+    <participant id="orbiter_pool" name="Orbiter" processRef="orbiter"/>
+    <messageFlow id="m1" sourceRef="send" targetRef="wake"/>
+  </collaboration>
+  <process id="lander" isExecutable="true">
+    <startEvent id="s"/>
+    <task id="collect" name="Collect sample"/>
+    <sendTask id="send" name="Send sample" messageRef="SAMPLE"/>
+    <endEvent id="sent"/>
+    <sequenceFlow id="l1" sourceRef="s" targetRef="collect"/>
+    <sequenceFlow id="l2" sourceRef="collect" targetRef="send"/>
+    <sequenceFlow id="l3" sourceRef="send" targetRef="sent"/>
+  </process>
+  <process id="orbiter" isExecutable="true">
+    <startEvent id="wake"><messageEventDefinition messageRef="SAMPLE"/></startEvent>
+    <task id="relay" name="Relay to Earth"/>
+    <endEvent id="relayed"/>
+    <sequenceFlow id="o1" sourceRef="wake" targetRef="relay"/>
+    <sequenceFlow id="o2" sourceRef="relay" targetRef="relayed"/>
+  </process>"#;
+
+#[test]
+fn message_flows_between_pools_start_the_receiving_process() {
+    let c = agree("pools", POOLS);
+    assert!(c.dead.is_empty(), "the orbiter relays: {:?}", c.dead);
+    assert_eq!(c.ends, set(&["relayed", "sent"]));
+    // Without the orbiter's process, the lander's message leaves the model: the lander still
+    // ends, and the translation takes it.
+    let lander_only = POOLS
+        .split("<process id=\"orbiter\"")
+        .next()
+        .unwrap_or_default()
+        .replace(
+            r#"<messageFlow id="m1" sourceRef="send" targetRef="wake"/>"#,
+            r#"<messageFlow id="m1" sourceRef="send" targetRef="orbiter_pool"/>"#,
+        )
+        .replace(r#"processRef="orbiter""#, "");
+    let c = agree("pools-lander", &lander_only);
+    assert_eq!(c.ends, set(&["sent"]));
+}
+
+/// Three parallel analyses of a sample; the first result (behaviour `One`) notifies the ground
+/// through the activity's signal boundary without stopping the others. `collide` sends both the
+/// notification and the analyses into one task through an exclusive merge, so two tokens can
+/// meet there.
+fn analyses(collide: bool) -> String {
+    let (after_notify, notified) = if collide {
+        ("archive", "")
+    } else {
+        ("notified", r#"<endEvent id="notified"/>"#)
+    };
+    format!(
+        r#"<process id="p" isExecutable="true">
+    <startEvent id="s"/>
+    <serviceTask id="analyze" name="Analyze sample">
+      <extensionElements><trace:task resource="lab"/></extensionElements>
+      <multiInstanceLoopCharacteristics isSequential="false" behavior="One" oneBehaviorEventRef="first">
+        <loopCardinality xsi:type="tFormalExpression">3</loopCardinality>
+      </multiInstanceLoopCharacteristics>
+    </serviceTask>
+    <boundaryEvent id="first_result" attachedToRef="analyze" cancelActivity="false"><signalEventDefinition id="first" signalRef="RESULT"/></boundaryEvent>
+    <task id="notify" name="Notify ground"/>
+    <exclusiveGateway id="archive"/>
+    <task id="store" name="Archive"/>
+    <endEvent id="done"/>
+    {notified}
+    <sequenceFlow id="f1" sourceRef="s" targetRef="analyze"/>
+    <sequenceFlow id="f2" sourceRef="analyze" targetRef="archive"/>
+    <sequenceFlow id="f3" sourceRef="first_result" targetRef="notify"/>
+    <sequenceFlow id="f4" sourceRef="notify" targetRef="{after_notify}"/>
+    <sequenceFlow id="f5" sourceRef="archive" targetRef="store"/>
+    <sequenceFlow id="f6" sourceRef="store" targetRef="done"/>
+  </process>"#
+    )
+}
+
+#[test]
+fn parallel_instances_complete_together_and_throw_their_behaviour_event() {
+    let c = agree("multi-instance", &analyses(false));
+    assert!(c.dead.is_empty(), "{:?}", c.dead);
+    assert_eq!(c.ends, set(&["done", "notified"]));
+    assert!(!c.unsafe_run);
+    let c = agree("multi-instance-merge", &analyses(true));
+    assert!(
+        c.unsafe_run,
+        "the notification can reach the merge while the analyses' token is there"
+    );
+}
