@@ -291,3 +291,69 @@ fn parallel_instances_complete_together_and_throw_their_behaviour_event() {
         "the notification can reach the merge while the analyses' token is there"
     );
 }
+
+/// Two sites surveyed by a parallel multi-instance sub-process (drive, then image; a stuck
+/// drive is caught inside the body and the site skipped). `signal_inside` makes the body
+/// broadcast "result" and wait for it: instances that hear each other are refused, named.
+fn survey(signal_inside: bool) -> String {
+    let (after_image, extra) = if signal_inside {
+        (
+            "tell",
+            r#"<intermediateThrowEvent id="tell"><signalEventDefinition signalRef="RESULT"/></intermediateThrowEvent>
+      <intermediateCatchEvent id="hear"><signalEventDefinition signalRef="RESULT"/></intermediateCatchEvent>
+      <sequenceFlow id="b5" sourceRef="tell" targetRef="hear"/>
+      <sequenceFlow id="b6" sourceRef="hear" targetRef="imaged"/>"#,
+        )
+    } else {
+        ("imaged", "")
+    };
+    format!(
+        r#"<process id="p" isExecutable="true">
+    <startEvent id="s"/>
+    <subProcess id="sites" name="Survey sites">
+      <multiInstanceLoopCharacteristics isSequential="false">
+        <loopCardinality xsi:type="tFormalExpression">2</loopCardinality>
+      </multiInstanceLoopCharacteristics>
+      <startEvent id="bs"/>
+      <serviceTask id="drive" name="Drive to site"><extensionElements><trace:task resource="rover"/></extensionElements></serviceTask>
+      <boundaryEvent id="stuck" attachedToRef="drive"><errorEventDefinition errorRef="JAM"/></boundaryEvent>
+      <serviceTask id="image" name="Image site"><extensionElements><trace:task resource="camera"/></extensionElements></serviceTask>
+      <endEvent id="imaged"/>
+      <endEvent id="skipped"/>
+      <sequenceFlow id="b1" sourceRef="bs" targetRef="drive"/>
+      <sequenceFlow id="b2" sourceRef="drive" targetRef="image"/>
+      <sequenceFlow id="b3" sourceRef="image" targetRef="{after_image}"/>
+      <sequenceFlow id="b4" sourceRef="stuck" targetRef="skipped"/>
+      {extra}
+    </subProcess>
+    <endEvent id="done"/>
+    <sequenceFlow id="f1" sourceRef="s" targetRef="sites"/>
+    <sequenceFlow id="f2" sourceRef="sites" targetRef="done"/>
+  </process>"#
+    )
+}
+
+#[test]
+fn a_parallel_multi_instance_sub_process_runs_its_bodies_and_completes() {
+    let c = agree("multi-instance-body", &survey(false));
+    assert!(c.dead.is_empty() && !c.deadlock && !c.unsafe_run);
+    assert_eq!(c.ends, set(&["done", "imaged", "skipped"]));
+    let text = format!("{HEAD}\n{}\n</definitions>", survey(true));
+    let graph = executive_model::load(text.as_bytes())
+        .graph
+        .expect("a valid model");
+    let refused = executive_verify::translate(
+        &graph,
+        executive_verify::Bounds::default(),
+        &[],
+        &Default::default(),
+    )
+    .expect_err("instances that signal each other are refused");
+    assert_eq!(refused.len(), 1, "{refused:?}");
+    assert_eq!(refused[0].element, "sites");
+    assert!(
+        refused[0].reason.contains("signal"),
+        "{}",
+        refused[0].reason
+    );
+}

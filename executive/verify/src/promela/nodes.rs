@@ -365,7 +365,11 @@ impl Tr<'_> {
             _ => None,
         };
         // Parallel instances of a task: `act[a]` counts the instances still running.
-        let parallel = mi.filter(|mi| !mi.sequential).map(|mi| self.instances(mi));
+        // (The bodies of a parallel sub-process or called process run one after another, as
+        // a sequential loop: each instance's marking is the one body's.)
+        let parallel = mi
+            .filter(|mi| !mi.sequential && body.is_none())
+            .map(|mi| self.instances(mi));
         // The instances may end before all have completed (a completion condition, or a
         // complex behaviour that stops them).
         let early = mi.is_some_and(|mi| {

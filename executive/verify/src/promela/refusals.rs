@@ -99,10 +99,10 @@ impl Tr<'_> {
                     ));
                 } else if let Some(Looping::MultiInstance(mi)) = &n.looping
                     && !mi.sequential
-                    && !matches!(n.kind, NodeKind::Task(_))
+                    && self.signals_itself(id)
                 {
                     self.refusals.push(no(
-                        "parallel multi-instance of a sub-process or call activity is not translated (of a task it is; a sequential one is, as a bounded loop)",
+                        "a parallel multi-instance body that throws a signal it also catches is not translated (the translation runs the bodies of a parallel multi-instance sub-process or call one after another, so one instance would not hear another)",
                     ));
                 } else if n.outgoing.iter().any(|f| g.flow(*f).condition.is_some()) {
                     self.refusals.push(no(
@@ -127,6 +127,45 @@ impl Tr<'_> {
                     .push(no("instantiating receive tasks are not translated"));
             }
         }
+    }
+
+    /// The body of activity `n` (a sub-process, or the process a call activity calls) throws a
+    /// signal that something in it also catches.
+    fn signals_itself(&self, n: NodeId) -> bool {
+        let g = self.g;
+        let called = match &g.node(n).kind {
+            NodeKind::CallActivity(ca) => match &ca.called {
+                Some(Called::Process(p)) => Some(*p),
+                _ => return false,
+            },
+            NodeKind::SubProcess(_) => None,
+            _ => return false,
+        };
+        let inside = |m: NodeId| match called {
+            Some(p) => g.process_of(m) == p,
+            None => self.within(m, n),
+        };
+        let (mut thrown, mut caught) = (BTreeSet::new(), BTreeSet::new());
+        for (i, node) in g.nodes.iter().enumerate() {
+            if !inside(NodeId(i as u32)) {
+                continue;
+            }
+            let (defs, set) = match &node.kind {
+                NodeKind::Throw(d) | NodeKind::End(d) => (d, &mut thrown),
+                NodeKind::Catch(ce) => (&ce.triggers, &mut caught),
+                NodeKind::Boundary(be) => (&be.triggers, &mut caught),
+                NodeKind::Start(st) => (&st.triggers, &mut caught),
+                _ => continue,
+            };
+            for d in defs {
+                if let EventDefinition::Signal(s) = d {
+                    set.insert(s.map(|s| s.index()));
+                }
+            }
+        }
+        thrown
+            .iter()
+            .any(|s| s.is_none() || caught.contains(s) || caught.contains(&None))
     }
 
     // ----- names and slots -----
