@@ -791,3 +791,71 @@ fn an_activity_entered_along_only_one_of_its_flows_is_not_dead() {
     let dead = &props["no_dead_activities"];
     assert_eq!(dead["verdict"], "holds", "{dead:#}");
 }
+
+/// `eventually` requirements where every run ends are decided on the end of each run (a safety
+/// search), and still by pan's search for acceptance cycles where some run does not end.
+#[test]
+fn eventually_is_decided_on_the_end_of_runs_only_when_every_run_ends() {
+    let dir = tempdir("verify-at-end");
+    let run = |join: &str| {
+        let file = dir.join(format!("tools-{join}.bpmn"));
+        std::fs::write(&file, choice(join)).expect("model");
+        std::fs::write(
+            dir.join(format!("tools-{join}.req.toml")),
+            r#"
+[[requirement]]
+name = "drills"
+check = 'eventually done "Drill"'
+[[requirement]]
+name = "uses_a_tool"
+check = 'eventually (done "Drill" or done "Scoop")'
+[[requirement]]
+name = "drill_then_tool_done"
+check = 'after done "Drill" eventually done "Tool done"'
+"#,
+        )
+        .expect("requirements");
+        let out = Command::new(bin("trace"))
+            .arg("verify")
+            .arg(&file)
+            .arg("--json")
+            .output()
+            .expect("trace verify runs");
+        let report: Value = serde_json::from_slice(&out.stdout).expect("a JSON report");
+        report["properties"]
+            .as_array()
+            .expect("properties")
+            .iter()
+            .map(|p| (p["name"].as_str().expect("name").to_owned(), p.clone()))
+            .collect::<BTreeMap<String, Value>>()
+    };
+    let at_end = |p: &Value| {
+        p["detail"]
+            .as_str()
+            .is_some_and(|d| d.contains("decided on the end of every run"))
+    };
+    // An exclusive merge: every run ends.
+    let props = run("exclusiveGateway");
+    assert_eq!(props["completes"]["verdict"], "holds");
+    assert_eq!(props["drills"]["verdict"], "violated", "the Scoop run");
+    assert!(at_end(&props["drills"]), "{:#}", props["drills"]);
+    assert!(
+        steps(&props["drills"]).iter().any(|s| s == "b.run"),
+        "the counterexample scoops: {:?}",
+        steps(&props["drills"])
+    );
+    for name in ["uses_a_tool", "drill_then_tool_done"] {
+        assert_eq!(props[name]["verdict"], "holds", "{name}");
+        assert!(at_end(&props[name]), "{name}: {:#}", props[name]);
+    }
+    // A parallel join: a run gets stuck, so the claims get their own searches.
+    let props = run("parallelGateway");
+    assert_eq!(props["completes"]["verdict"], "violated");
+    assert_eq!(props["drills"]["verdict"], "violated");
+    assert_eq!(props["uses_a_tool"]["verdict"], "holds");
+    assert_eq!(
+        props["drill_then_tool_done"]["verdict"], "violated",
+        "the join never completes"
+    );
+    assert!(props.values().all(|p| !at_end(p)), "{props:#?}");
+}

@@ -373,6 +373,19 @@ impl Expr {
         }
     }
 
+    /// Once true, true for the rest of the run: made with `and`/`or` (no `not`) of atoms that
+    /// are only ever set (`done`, `signal`, `error`; `count` at least a number; `ended`,
+    /// `failed`, `terminated`). `running` comes and goes.
+    fn monotone(&self, atoms: &[Atom]) -> bool {
+        match self {
+            Expr::Atom(k) => !matches!(atoms.get(*k), Some(Atom::Running(_)) | None),
+            Expr::Count(_, op, _) => matches!(op, Cmp::Ge | Cmp::Gt),
+            Expr::Word(_) => true,
+            Expr::Quantity(..) | Expr::Not(_) => false,
+            Expr::And(a, b) | Expr::Or(a, b) => a.monotone(atoms) && b.monotone(atoms),
+        }
+    }
+
     /// The LTL text, atoms as `@k`.
     fn ltl(&self) -> String {
         match self {
@@ -407,6 +420,27 @@ impl Form {
             Form::Eventually(e) | Form::Always(e) => e.timed(),
             Form::After(a, f) => a.timed() || f.timed(),
             Form::When(e, c) => e.timed() || c.as_ref().is_some_and(Expr::timed),
+        }
+    }
+
+    /// The statement as a safety claim on the end of a run, for `eventually P` and `after A
+    /// eventually P` with `A` and `P` monotone (`Expr::monotone`): `[] (ended -> (A -> P))`.
+    /// In a run that ends the two agree — a monotone `P` that ever held still holds at the end,
+    /// and a monotone `A` that ever held still holds there — so where every run ends (the
+    /// built-in `completes`), this finite search decides the statement without pan's search
+    /// for acceptance cycles (atoms as `@k`).
+    pub fn at_end(&self, atoms: &[Atom]) -> Option<String> {
+        match self {
+            Form::Eventually(p) if p.monotone(atoms) => {
+                Some(format!("[] (ended -> ({}))", p.ltl()))
+            }
+            Form::After(a, f) if a.monotone(atoms) => match f.as_ref() {
+                Form::Eventually(p) if p.monotone(atoms) => {
+                    Some(format!("[] (ended -> (({}) -> ({})))", a.ltl(), p.ltl()))
+                }
+                _ => None,
+            },
+            _ => None,
         }
     }
 
@@ -744,13 +778,23 @@ pub fn compile(check: &str, g: &ProcessGraph) -> Result<(Form, String, Vec<Atom>
     Ok((form, ltl, p.atoms))
 }
 
-/// The atoms of several requirements, deduplicated, with each requirement's formula rewritten
+/// A requirement's claims in the shared atom numbering.
+#[derive(Clone, Debug)]
+pub struct Formulas {
+    /// The LTL formula.
+    pub formula: String,
+    /// The same as a safety claim on the end of a run ([`Form::at_end`]), if it has one.
+    pub at_end: Option<String>,
+}
+
+/// The atoms of several requirements, deduplicated, with each requirement's formulas rewritten
 /// to the shared numbering.
-pub fn shared_atoms(reqs: &[Requirement]) -> (Vec<Atom>, BTreeMap<String, String>) {
+pub fn shared_atoms(reqs: &[Requirement]) -> (Vec<Atom>, BTreeMap<String, Formulas>) {
     let mut all: Vec<Atom> = Vec::new();
     let mut formulas = BTreeMap::new();
     for r in reqs.iter().filter(|r| !r.formula.is_empty()) {
         let mut f = r.formula.clone();
+        let mut end = r.form.at_end(&r.atoms);
         // Highest first, so `@1` does not eat the start of `@12`.
         for (k, a) in r.atoms.iter().enumerate().rev() {
             let j = match all.iter().position(|x| x == a) {
@@ -761,8 +805,15 @@ pub fn shared_atoms(reqs: &[Requirement]) -> (Vec<Atom>, BTreeMap<String, String
                 }
             };
             f = f.replace(&format!("@{k}"), &format!("#{j}"));
+            end = end.map(|e| e.replace(&format!("@{k}"), &format!("#{j}")));
         }
-        formulas.insert(r.name.clone(), f.replace('#', "@"));
+        formulas.insert(
+            r.name.clone(),
+            Formulas {
+                formula: f.replace('#', "@"),
+                at_end: end.map(|e| e.replace('#', "@")),
+            },
+        );
     }
     (all, formulas)
 }
@@ -771,22 +822,71 @@ pub fn shared_atoms(reqs: &[Requirement]) -> (Vec<Atom>, BTreeMap<String, String
 /// (`formulas` from [`shared_atoms`]): each `@k` becomes what reads atom `k` in the model.
 pub fn claims(
     reqs: &[Requirement],
-    formulas: &BTreeMap<String, String>,
+    formulas: &BTreeMap<String, Formulas>,
     t: &crate::Translation,
 ) -> Vec<crate::Ltl> {
+    // Highest first, as in `shared_atoms`.
+    let model = |mut text: String| {
+        for (k, expr) in t.atoms.iter().enumerate().rev() {
+            text = text.replace(&format!("@{k}"), expr);
+        }
+        text
+    };
     reqs.iter()
         .filter(|r| !r.formula.is_empty())
         .map(|r| {
-            let mut formula = formulas[&r.name].clone();
-            // Highest first, as in `shared_atoms`.
-            for (k, expr) in t.atoms.iter().enumerate().rev() {
-                formula = formula.replace(&format!("@{k}"), expr);
-            }
+            let f = &formulas[&r.name];
             crate::Ltl {
                 name: r.name.clone(),
                 description: r.says.clone(),
-                formula,
+                formula: model(f.formula.clone()),
+                at_end: f.at_end.clone().map(model),
             }
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn graph() -> ProcessGraph {
+        let xml = r#"<definitions xmlns="http://www.omg.org/spec/BPMN/20100524/MODEL" id="d" targetNamespace="urn:t">
+  <process id="p" isExecutable="true">
+    <startEvent id="s"/><task id="a" name="Drill"/><task id="b" name="Scoop"/><endEvent id="e"/>
+    <sequenceFlow id="f1" sourceRef="s" targetRef="a"/><sequenceFlow id="f2" sourceRef="a" targetRef="b"/>
+    <sequenceFlow id="f3" sourceRef="b" targetRef="e"/>
+  </process>
+</definitions>"#;
+        executive_model::load(xml.as_bytes()).graph.expect("valid")
+    }
+
+    /// Which statements have a form on the end of a run: `eventually` of atoms that stay true.
+    #[test]
+    fn only_eventually_of_what_stays_true_is_decided_at_the_end() {
+        let g = graph();
+        let at_end = |check: &str| {
+            let (form, _, atoms) = compile(check, &g).expect(check);
+            form.at_end(&atoms)
+        };
+        assert_eq!(
+            at_end(r#"eventually (done "Drill" and count "Scoop" >= 2)"#).as_deref(),
+            Some("[] (ended -> ((@0 && (@1 >= 2))))")
+        );
+        assert_eq!(
+            at_end(r#"after done "Drill" eventually done "Scoop""#).as_deref(),
+            Some("[] (ended -> ((@0) -> (@1)))")
+        );
+        for kept in [
+            r#"eventually running "Drill""#,
+            r#"eventually not done "Drill""#,
+            r#"eventually count "Scoop" < 2"#,
+            r#"after running "Drill" eventually done "Scoop""#,
+            r#"after done "Drill" always done "Scoop""#,
+            r#"never done "Drill""#,
+            r#"count "Scoop" >= 1 when completed"#,
+        ] {
+            assert_eq!(at_end(kept), None, "{kept}");
+        }
+    }
 }

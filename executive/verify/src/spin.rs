@@ -93,6 +93,10 @@ pub struct Ltl {
     pub description: String,
     /// The formula over the model's globals.
     pub formula: String,
+    /// A safety formula on the end of a run that agrees with `formula` wherever every run ends
+    /// (`requirements::Form::at_end`): where the built-in `completes` holds, it decides the
+    /// claim without a search for acceptance cycles.
+    pub at_end: Option<String>,
 }
 
 /// How hard pan may search.
@@ -356,23 +360,44 @@ pub fn check(
         }
     }
     let mut ltls = vec![Ltl {
-        name: "completes".into(),
+        name: COMPLETES.into(),
         description: "every run of the mission ends (no run is stuck or runs forever)".into(),
         formula: "<> ended".into(),
+        at_end: None,
     }];
     if t.signals {
         ltls.push(Ltl {
             name: "no_lost_signal".into(),
             description: "no signal is thrown while nothing that catches it is listening".into(),
             formula: "[] !lost".into(),
+            at_end: None,
         });
     }
     ltls.extend(requirements.iter().cloned());
+    // A liveness claim with a form on the end of a run is searched as that safety claim; its
+    // own search runs only if `completes` does not hold (`Ltl::at_end`).
+    let at_end: Vec<Ltl> = ltls
+        .iter()
+        .filter(|l| !safe_claim(l))
+        .filter_map(|l| {
+            l.at_end.as_ref().map(|f| Ltl {
+                name: format!("{}{AT_END}", l.name),
+                description: l.description.clone(),
+                formula: f.clone(),
+                at_end: None,
+            })
+        })
+        .collect();
+    let deferred = |l: &Ltl| !safe_claim(l) && l.at_end.is_some();
     // The safety claims (no `<>`: a violation is a finite run) are searched together, as their
     // conjunction, without pan's search for acceptance cycles; each alone only if it fails.
-    let safeties: Vec<&Ltl> = ltls.iter().filter(|l| safe_claim(l)).collect();
+    let safeties: Vec<&Ltl> = ltls
+        .iter()
+        .filter(|l| safe_claim(l))
+        .chain(at_end.iter())
+        .collect();
     let mut ltl_model = t.ltl_model();
-    for l in &ltls {
+    for l in ltls.iter().chain(at_end.iter()) {
         ltl_model.push_str(&format!("ltl {} {{ {} }}\n", l.name, l.formula));
     }
     if safeties.len() > 1 {
@@ -406,7 +431,7 @@ pub fn check(
     }
     jobs.extend(
         ltls.iter()
-            .filter(|l| !safe_claim(l))
+            .filter(|l| !safe_claim(l) && !deferred(l))
             .cloned()
             .map(Job::Claim),
     );
@@ -462,7 +487,48 @@ pub fn check(
         (safety, all)
     });
     let (mut properties, ends) = safety?;
-    let found: Vec<Outcome> = claims?.into_iter().flat_map(|(_, o)| o).collect();
+    let mut found: Vec<Outcome> = claims?.into_iter().flat_map(|(_, o)| o).collect();
+    // Every run ends: the claims searched on the end of a run are decided. Otherwise their own
+    // searches run now.
+    let every_run_ends = found
+        .iter()
+        .any(|o| o.name == COMPLETES && o.verdict == Verdict::Holds);
+    let mut again = Vec::new();
+    for l in ltls.iter().filter(|l| deferred(l)) {
+        let end_name = format!("{}{AT_END}", l.name);
+        match found.iter().position(|o| o.name == end_name) {
+            Some(i) if every_run_ends => {
+                let mut o = found.remove(i);
+                o.name = l.name.clone();
+                let how = "decided on the end of every run, since every run ends";
+                o.detail = Some(match o.detail.take() {
+                    Some(d) => format!("{d}; {how}"),
+                    None => how.to_owned(),
+                });
+                found.push(o);
+            }
+            _ => {
+                found.retain(|o| o.name != end_name);
+                again.push((again.len(), Job::Claim(l.clone())));
+            }
+        }
+    }
+    if !again.is_empty() {
+        *queue
+            .lock()
+            .map_err(|_| SpinError::Io("a worker died".into()))? = again;
+        let (a, b) = std::thread::scope(|scope| {
+            let other = scope.spawn(|| worker(1));
+            let mine = worker(0);
+            (
+                mine,
+                other
+                    .join()
+                    .unwrap_or_else(|_| Err(SpinError::Io("a search panicked".into()))),
+            )
+        });
+        found.extend(a?.into_iter().chain(b?).flat_map(|(_, o)| o));
+    }
     // In the order the claims were given.
     for l in &ltls {
         if let Some(o) = found.iter().find(|o| o.name == l.name) {
@@ -474,6 +540,12 @@ pub fn check(
 
 /// The name of the conjunction of the safety claims.
 const ALL_SAFETY: &str = "all_safety_claims";
+
+/// The built-in claim that every run ends.
+const COMPLETES: &str = "completes";
+
+/// What a claim's form on the end of a run is named after it.
+const AT_END: &str = "_at_end";
 
 /// A claim without `<>`: a safety property (a violation is a finite run).
 fn safe_claim(l: &Ltl) -> bool {
