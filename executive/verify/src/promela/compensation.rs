@@ -106,7 +106,10 @@ impl Tr<'_> {
             inner.effect.push(format!("comp[{k}] = 0"));
             if matches!(self.g.node(t).kind, NodeKind::SubProcess(_)) {
                 match self.compensation_start(t) {
-                    Some(start) => self.ask(c, start, &mut inner),
+                    Some(start) => {
+                        self.ask(c, start, &mut inner);
+                        self.fired(c, start, &mut inner);
+                    }
                     None => {
                         let inside = self.direct(Scope::SubProcess(t));
                         self.compensate(c, &inside, &mut inner);

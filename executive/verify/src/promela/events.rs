@@ -203,7 +203,7 @@ impl Tr<'_> {
     pub(super) fn caught(&mut self, catch: Catch, alt: &mut Alt) {
         match catch {
             Catch::Boundary { c, holder, b } => self.boundary_fires(c, holder, b, alt),
-            Catch::EventSub { c, start } => self.start_event_sub(c, start, alt),
+            Catch::EventSub { c, start } => self.start_event_sub(c, start, alt, true),
         }
     }
 

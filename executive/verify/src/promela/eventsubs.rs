@@ -93,29 +93,33 @@ impl Tr<'_> {
     }
 
     /// Starts the event sub-process of `start` in context `c`: an interrupting start first
-    /// clears the scope it sits in.
-    pub(super) fn start_event_sub(&mut self, c: usize, start: NodeId, alt: &mut Alt) {
+    /// clears the scope it sits in. `inside`: within another step, which then also records the
+    /// start's `fire` (a step of its own is named by it).
+    pub(super) fn start_event_sub(&mut self, c: usize, start: NodeId, alt: &mut Alt, inside: bool) {
         let Some(esp) = self.event_sub_of(start) else {
             return;
         };
         if self.interrupts(start) {
-            let inside = self.contents(c, self.owner_scope(esp));
-            self.clear(&inside, alt);
+            let scope = self.contents(c, self.owner_scope(esp));
+            self.clear(&scope, alt);
         }
         self.ask(c, start, alt);
+        if inside {
+            self.fired(c, start, alt);
+        }
     }
 
     /// Asks for the event sub-process of `start` (or for a compensation handler, `start` being
     /// the handler): its own step enters it (`activity`), so no run that never enters it
-    /// counts as one that does. The event is recorded as the start's `fire`.
-    pub(super) fn ask(&mut self, c: usize, start: NodeId, alt: &mut Alt) {
-        let Some(k) = self.pend_ix.get(&(c, start)).copied() else {
-            return;
-        };
-        alt.effect.push(format!("pend[{k}]++"));
-        if !matches!(self.g.node(start).kind, NodeKind::Start(_)) {
-            return;
+    /// counts as one that does.
+    pub(super) fn ask(&self, c: usize, start: NodeId, alt: &mut Alt) {
+        if let Some(k) = self.pend_ix.get(&(c, start)) {
+            alt.effect.push(format!("pend[{k}]++"));
         }
+    }
+
+    /// Records start event `start` firing within another step (its marker and what observes it).
+    pub(super) fn fired(&mut self, c: usize, start: NodeId, alt: &mut Alt) {
         let m = self.marker(c, start, "fire");
         alt.effect.push(format!("printf(\"@@BPMN {m}\\n\")"));
         let id = self.g.node(start).id.clone();
@@ -163,12 +167,8 @@ impl Tr<'_> {
                 alt.guard.push(format!("reps[{k}] < {limit}"));
                 alt.effect.push(format!("reps[{k}]++"));
             }
-            self.start_event_sub(c, start, &mut alt);
-            // The step is named by the start's `fire` marker, which `ask` prints: the
-            // alternative's own marker says the same.
+            self.start_event_sub(c, start, &mut alt, false);
             let m = self.marker(c, start, "fire");
-            alt.effect
-                .retain(|e| e != &format!("printf(\"@@BPMN {m}\\n\")"));
             self.push(&m, alt);
         }
     }
@@ -181,7 +181,7 @@ impl Tr<'_> {
                 return false;
             };
             let mut fire = Alt::default();
-            self.start_event_sub(c, start, &mut fire);
+            self.start_event_sub(c, start, &mut fire, true);
             alt.effect.push(format!(
                 "if :: {armed} -> {}; heard = 1 :: else -> skip fi",
                 fire.effect.join("; ")
@@ -189,6 +189,7 @@ impl Tr<'_> {
         } else if self.start_ix.contains_key(&(c, start)) {
             let mut fire = Alt::default();
             let guard = self.process_start(c, start, &mut fire);
+            self.fired(c, start, &mut fire);
             // The engine starts another instance whenever the process already runs; the
             // translation starts it only when idle, and the signal is heard either way.
             alt.effect.push(format!(
@@ -213,7 +214,7 @@ impl Tr<'_> {
     }
 
     /// Starts a process's instance at `start` (an event start): its guard (the process idle,
-    /// fewer than the loop bound such starts so far) and effects, the step recorded.
+    /// fewer than the loop bound such starts so far) and effects.
     fn process_start(&mut self, c: usize, start: NodeId, alt: &mut Alt) -> String {
         let k = self.start_ix[&(c, start)];
         let guard = format!(
@@ -225,10 +226,6 @@ impl Tr<'_> {
         self.reset(c, None, alt);
         let outs = self.g.node(start).outgoing.clone();
         self.put_all(c, &outs, alt);
-        let m = self.marker(c, start, "fire");
-        alt.effect.push(format!("printf(\"@@BPMN {m}\\n\")"));
-        let id = self.g.node(start).id.clone();
-        alt.effect.extend(self.observed(&id, "fire"));
         guard
     }
 
@@ -247,8 +244,6 @@ impl Tr<'_> {
         let guard = self.process_start(c, start, &mut alt);
         alt.guard.push(guard);
         let m = self.marker(c, start, "fire");
-        alt.effect
-            .retain(|e| e != &format!("printf(\"@@BPMN {m}\\n\")"));
         self.push(&m, alt);
     }
 }
