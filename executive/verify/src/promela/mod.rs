@@ -399,6 +399,12 @@ impl<'g> Tr<'g> {
 
     /// Indices for flows, activity slots and cycle counters in every context.
     fn slots(&mut self) {
+        let handlers: BTreeSet<NodeId> = self
+            .g
+            .nodes
+            .iter()
+            .filter_map(|m| m.compensation_handler)
+            .collect();
         for c in 0..self.ctxs.len() {
             let nodes = self.nodes(c);
             let set: BTreeSet<NodeId> = nodes.iter().copied().collect();
@@ -443,12 +449,8 @@ impl<'g> Tr<'g> {
                     self.comp_names
                         .push(format!("{}{}", self.ctxs[c].path, node.id));
                 }
-                let handler = (node.for_compensation && !is_event_sub(self.g, n))
-                    || self
-                        .g
-                        .nodes
-                        .iter()
-                        .any(|m| m.compensation_handler == Some(n));
+                let handler =
+                    (node.for_compensation && !is_event_sub(self.g, n)) || handlers.contains(&n);
                 let asked = handler
                     || matches!(node.scope, Scope::SubProcess(e) if is_event_sub(self.g, e))
                         && matches!(node.kind, NodeKind::Start(_));
