@@ -357,3 +357,52 @@ fn a_parallel_multi_instance_sub_process_runs_its_bodies_and_completes() {
         refused[0].reason
     );
 }
+
+/// A process drawn with an activity left unconnected at its start (Charge), beside the start
+/// event's path: the engine starts it with the process (implicit start, BPMN 2.0.2 §13.2.2),
+/// and so does the translation; an unconnected gateway is refused, named.
+fn unconnected(gateway: bool) -> String {
+    let extra = if gateway {
+        r#"<parallelGateway id="fork"/><endEvent id="e3"/><sequenceFlow id="g1" sourceRef="fork" targetRef="e3"/>"#
+    } else {
+        ""
+    };
+    format!(
+        r#"<process id="p" isExecutable="true">
+    <startEvent id="s"/>
+    <task id="survey" name="Survey"/>
+    <endEvent id="e1"/>
+    <task id="charge" name="Charge batteries"/>
+    <endEvent id="e2"/>
+    {extra}
+    <sequenceFlow id="f1" sourceRef="s" targetRef="survey"/>
+    <sequenceFlow id="f2" sourceRef="survey" targetRef="e1"/>
+    <sequenceFlow id="f3" sourceRef="charge" targetRef="e2"/>
+  </process>"#
+    )
+}
+
+#[test]
+fn activities_without_incoming_flow_start_with_their_scope() {
+    let c = agree("implicit-start", &unconnected(false));
+    assert!(c.dead.is_empty(), "Charge runs: {:?}", c.dead);
+    assert_eq!(c.ends, set(&["e1", "e2"]));
+    let text = format!("{HEAD}\n{}\n</definitions>", unconnected(true));
+    let graph = executive_model::load(text.as_bytes())
+        .graph
+        .expect("a valid model");
+    let refused = executive_verify::translate(
+        &graph,
+        executive_verify::Bounds::default(),
+        &[],
+        &Default::default(),
+    )
+    .expect_err("an unconnected gateway is refused");
+    assert_eq!(
+        refused
+            .iter()
+            .map(|r| r.element.as_str())
+            .collect::<Vec<_>>(),
+        ["fork"]
+    );
+}

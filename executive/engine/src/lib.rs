@@ -40,6 +40,7 @@ pub use io::{
     Action, Entry, Event, Input, InstanceId, Millis, Outcome, Record, Rejected, ScopeId, TaskKey,
     TimerKey, TokenId, Trigger, WaitId,
 };
+pub use run::implicit_starts;
 pub use state::{
     At, Compensable, CompensationRun, Handler, Instance, Loop, On, ScopeKind, ScopeState, State,
     Token, Wait,

@@ -997,8 +997,10 @@ fn sends_message(kind: &NodeKind) -> bool {
     }
 }
 
-/// Nodes of a scope that start without a start event (no incoming flow).
-pub(crate) fn implicit_starts(g: &ProcessGraph, scope: Scope) -> Vec<NodeId> {
+/// Nodes of a scope that start with it without a start event: every node without incoming flow
+/// but start and boundary events, link catch events, compensation handlers and event
+/// sub-processes (BPMN 2.0.2 §13.2.2, implicit start).
+pub fn implicit_starts(g: &ProcessGraph, scope: Scope) -> Vec<NodeId> {
     g.scope_nodes(scope)
             .iter()
             .copied()

@@ -224,6 +224,7 @@ impl Tr<'_> {
         );
         alt.effect.push(format!("starts[{k}]++"));
         self.reset(c, None, alt);
+        self.start_implicit(c, None, alt);
         let outs = self.g.node(start).outgoing.clone();
         self.put_all(c, &outs, alt);
         guard

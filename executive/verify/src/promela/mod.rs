@@ -192,6 +192,8 @@ struct Tr<'g> {
     folded: BTreeSet<NodeId>,
     /// Declared bounded variables.
     vars: crate::data::Variables,
+    /// Nodes that start with their scope, having no incoming flow (the engine's implicit start).
+    implicit: BTreeSet<NodeId>,
 }
 
 /// Most parallel instances of one task the translation runs at once: a literal cardinality
@@ -319,6 +321,7 @@ pub fn translate(
         observe: observe.to_vec(),
         folded: BTreeSet::new(),
         vars: vars.clone(),
+        implicit: implicit_nodes(g),
     };
     for id in (0..g.nodes.len() as u32).map(NodeId) {
         t.nodes_of.entry(g.process_of(id)).or_default().push(id);
@@ -339,6 +342,22 @@ pub fn translate(
         return Err(t.refusals);
     }
     Ok(t.finish())
+}
+
+/// Every node that starts with its scope without a start event, in every process and
+/// sub-process (`executive_engine::implicit_starts`, asked once per scope).
+fn implicit_nodes(g: &ProcessGraph) -> BTreeSet<NodeId> {
+    let scopes = (0..g.processes.len() as u32)
+        .map(|p| Scope::Process(ProcessId(p)))
+        .chain(
+            (0..g.nodes.len() as u32)
+                .map(NodeId)
+                .filter(|n| matches!(g.node(*n).kind, NodeKind::SubProcess(_)))
+                .map(Scope::SubProcess),
+        );
+    scopes
+        .flat_map(|s| executive_engine::implicit_starts(g, s))
+        .collect()
 }
 
 fn refusal(element: &str, reason: impl Into<String>) -> Refusal {
@@ -405,6 +424,13 @@ impl<'g> Tr<'g> {
             .iter()
             .filter_map(|m| m.compensation_handler)
             .collect();
+        // Activities without incoming flow start with their scope (implicit start).
+        let implicit: BTreeSet<NodeId> = self
+            .implicit
+            .iter()
+            .copied()
+            .filter(|n| self.g.node(*n).is_activity())
+            .collect();
         for c in 0..self.ctxs.len() {
             let nodes = self.nodes(c);
             let set: BTreeSet<NodeId> = nodes.iter().copied().collect();
@@ -452,6 +478,7 @@ impl<'g> Tr<'g> {
                 let handler =
                     (node.for_compensation && !is_event_sub(self.g, n)) || handlers.contains(&n);
                 let asked = handler
+                    || implicit.contains(&n)
                     || matches!(node.scope, Scope::SubProcess(e) if is_event_sub(self.g, e))
                         && matches!(node.kind, NodeKind::Start(_));
                 if asked {
@@ -679,9 +706,29 @@ impl<'g> Tr<'g> {
             .extend(inside.comps.iter().map(|k| format!("comp[{k}] = 0")));
     }
 
-    /// Starts a scope's body: counters reset, none starts' outgoing flows marked.
+    /// `n` starts with its scope, having no incoming flow (the engine's implicit start).
+    fn implicit(&self, n: NodeId) -> bool {
+        self.implicit.contains(&n)
+    }
+
+    /// Asks for the activities of a scope that start with it (implicit start).
+    fn start_implicit(&self, c: usize, s: Option<NodeId>, alt: &mut Alt) {
+        let scope = match s {
+            Some(s) => Scope::SubProcess(s),
+            None => Scope::Process(self.ctxs[c].process),
+        };
+        for n in executive_engine::implicit_starts(self.g, scope) {
+            if let Some(k) = self.pend_ix.get(&(c, n)) {
+                alt.effect.push(format!("pend[{k}]++"));
+            }
+        }
+    }
+
+    /// Starts a scope's body: counters reset, none starts' outgoing flows marked, activities
+    /// without incoming flow asked for.
     fn start_body(&mut self, c: usize, s: Option<NodeId>, alt: &mut Alt) {
         self.reset(c, s, alt);
+        self.start_implicit(c, s, alt);
         let starts: Vec<NodeId> = self
             .nodes(c)
             .into_iter()

@@ -507,6 +507,7 @@ impl Tr<'_> {
                 // An event sub-process starts at the start event that fired.
                 (Some(scope), Entry::Asked(_, start)) if start != n => {
                     self.reset(body_ctx, scope, &mut alt);
+                    self.start_implicit(body_ctx, scope, &mut alt);
                     let on = self.g.node(start).outgoing.clone();
                     self.put_all(body_ctx, &on, &mut alt);
                 }

@@ -92,6 +92,12 @@ impl Tr<'_> {
                 self.refusals.push(r);
                 continue;
             }
+            if !n.is_activity() && self.implicit(id) {
+                self.refusals.push(no(
+                    "an event or gateway without incoming flow (it starts with its scope) is not translated (an activity is)",
+                ));
+                continue;
+            }
             if n.is_activity() {
                 if n.start_quantity != 1 || n.completion_quantity != 1 {
                     self.refusals.push(no(
@@ -110,13 +116,18 @@ impl Tr<'_> {
                     ));
                 }
                 if let NodeKind::SubProcess(s) = &n.kind
-                    && matches!(s.kind, SubProcessKind::Embedded | SubProcessKind::Transaction)
+                    && matches!(
+                        s.kind,
+                        SubProcessKind::Embedded | SubProcessKind::Transaction
+                    )
                     && !s.nodes.iter().any(|m| {
                         matches!(&g.node(*m).kind, NodeKind::Start(st) if st.triggers.is_empty())
+                            || self.implicit(*m)
                     })
                 {
-                    self.refusals
-                        .push(no("a sub-process without a none start event is not translated"));
+                    self.refusals.push(no(
+                        "a sub-process with neither a none start event nor an element without incoming flow never starts anything",
+                    ));
                 }
             }
             if let NodeKind::Task(t) = &n.kind
