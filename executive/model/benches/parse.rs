@@ -2,7 +2,9 @@
 //!
 //! Times `executive_model::load` on a generated 10,000-node model and on the peers'
 //! `seq-1000.bpmn`, then runs the peer harness of `../shared/bench/peers` (parse mode) on the same
-//! files in the same run, and prints each time and the ratio to the faster peer. The peers are
+//! files in the same run, and prints each time and the ratio to the faster peer. The limit is
+//! printed beside: quick-xml reading the same bytes, every event and attribute, with no tree
+//! (`raw ms`, and how many times that the loader takes). The peers are
 //! installed once into a scratch copy of the harness (`$TMPDIR/trace-bench-peers`), since
 //! `shared/` is read-only. Run with `cargo bench -p executive-model --bench parse`.
 
@@ -51,6 +53,37 @@ fn ours(bytes: &[u8], reps: usize) -> (f64, usize) {
     (times[reps / 2], diagnostics)
 }
 
+/// Median wall time (ms) of quick-xml reading every event and attribute of `bytes`, building
+/// nothing: the floor for any loader on the same XML reader.
+fn raw(bytes: &[u8], reps: usize) -> f64 {
+    let mut times: Vec<f64> = (0..reps)
+        .map(|_| {
+            let t = Instant::now();
+            let mut reader = quick_xml::Reader::from_reader(bytes);
+            let mut buf = Vec::new();
+            let mut seen = 0usize;
+            loop {
+                match reader.read_event_into(&mut buf) {
+                    Ok(quick_xml::events::Event::Eof) | Err(_) => break,
+                    Ok(quick_xml::events::Event::Start(e) | quick_xml::events::Event::Empty(e)) => {
+                        seen += e
+                            .attributes()
+                            .flatten()
+                            .map(|a| a.value.len())
+                            .sum::<usize>();
+                    }
+                    Ok(_) => seen += 1,
+                }
+                buf.clear();
+            }
+            std::hint::black_box(seen);
+            t.elapsed().as_secs_f64() * 1000.0
+        })
+        .collect();
+    times.sort_by(f64::total_cmp);
+    times[reps / 2]
+}
+
 /// Warm median parse time (ms) reported by a peer runner in parse mode.
 fn peer(dir: &Path, engine: &str, model: &Path, reps: usize) -> Option<f64> {
     let reps = reps.to_string();
@@ -79,12 +112,13 @@ fn main() {
         );
     }
     println!(
-        "{:<24} {:>10} {:>12} {:>12} {:>14}  diagnostics",
-        "model", "ours ms", "bpmn-engine", "Spiff", "x faster peer"
+        "{:<24} {:>10} {:>12} {:>12} {:>14} {:>8} {:>10}  diagnostics",
+        "model", "ours ms", "bpmn-engine", "Spiff", "x faster peer", "raw ms", "ours/raw"
     );
     for (name, path) in &models {
         let bytes = std::fs::read(path).expect("model");
         let (ms, diagnostics) = ours(&bytes, 21);
+        let floor = raw(&bytes, 21);
         let engine = peers
             .as_deref()
             .and_then(|d| peer(d, "bpmn-engine", path, 6));
@@ -93,9 +127,10 @@ fn main() {
         let show = |v: Option<f64>| v.map_or("-".to_owned(), |v| format!("{v:.2}"));
         let ratio = faster.map_or("-".to_owned(), |f| format!("{:.0}x", f / ms));
         println!(
-            "{name:<24} {ms:>10.3} {:>12} {:>12} {ratio:>14}  {diagnostics}",
+            "{name:<24} {ms:>10.3} {:>12} {:>12} {ratio:>14} {floor:>8.3} {:>9.1}x  {diagnostics}",
             show(engine),
-            show(spiff)
+            show(spiff),
+            ms / floor
         );
     }
 }
