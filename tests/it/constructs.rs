@@ -12,15 +12,30 @@ const HEAD: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
   <message id="SAMPLE" name="sample"/>
   <signal id="RESULT" name="result"/>"#;
 
+/// Loads `body` (inside `definitions`); it must be valid.
+fn graph(name: &str, body: &str) -> executive_model::ProcessGraph {
+    let text = format!("{HEAD}\n{body}\n</definitions>");
+    let loaded = executive_model::load(text.as_bytes());
+    loaded
+        .graph
+        .unwrap_or_else(|| panic!("{name}: invalid: {:?}", loaded.diagnostics))
+}
+
+/// What the translation refuses in `body` (it must refuse something).
+fn refused(name: &str, body: &str) -> Vec<executive_verify::Refusal> {
+    executive_verify::translate(
+        &graph(name, body),
+        executive_verify::Bounds::default(),
+        &[],
+        &Default::default(),
+    )
+    .expect_err("the model is refused")
+}
+
 /// Loads `body` (inside `definitions`) and compares Spin with the engine on it; the model must
 /// translate and explore, and Spin must miss nothing the engine does.
 fn compared(name: &str, body: &str) -> Comparison {
-    let text = format!("{HEAD}\n{body}\n</definitions>");
-    let loaded = executive_model::load(text.as_bytes());
-    let graph = loaded
-        .graph
-        .unwrap_or_else(|| panic!("{name}: invalid: {:?}", loaded.diagnostics));
-    match compare(graph, &tempdir(&format!("constructs-{name}"))) {
+    match compare(graph(name, body), &tempdir(&format!("constructs-{name}"))) {
         Compared::Refused(why) => panic!("{name}: not translated: {why}"),
         Compared::NeedsData => panic!("{name}: the engine could not be explored"),
         Compared::Done(c) => {
@@ -338,17 +353,7 @@ fn a_parallel_multi_instance_sub_process_runs_its_bodies_and_completes() {
     let c = agree("multi-instance-body", &survey(false));
     assert!(c.dead.is_empty() && !c.deadlock && !c.unsafe_run);
     assert_eq!(c.ends, set(&["done", "imaged", "skipped"]));
-    let text = format!("{HEAD}\n{}\n</definitions>", survey(true));
-    let graph = executive_model::load(text.as_bytes())
-        .graph
-        .expect("a valid model");
-    let refused = executive_verify::translate(
-        &graph,
-        executive_verify::Bounds::default(),
-        &[],
-        &Default::default(),
-    )
-    .expect_err("instances that signal each other are refused");
+    let refused = refused("multi-instance-signals", &survey(true));
     assert_eq!(refused.len(), 1, "{refused:?}");
     assert_eq!(refused[0].element, "sites");
     assert!(
@@ -387,17 +392,7 @@ fn activities_without_incoming_flow_start_with_their_scope() {
     let c = agree("implicit-start", &unconnected(false));
     assert!(c.dead.is_empty(), "Charge runs: {:?}", c.dead);
     assert_eq!(c.ends, set(&["e1", "e2"]));
-    let text = format!("{HEAD}\n{}\n</definitions>", unconnected(true));
-    let graph = executive_model::load(text.as_bytes())
-        .graph
-        .expect("a valid model");
-    let refused = executive_verify::translate(
-        &graph,
-        executive_verify::Bounds::default(),
-        &[],
-        &Default::default(),
-    )
-    .expect_err("an unconnected gateway is refused");
+    let refused = refused("implicit-gateway", &unconnected(true));
     assert_eq!(
         refused
             .iter()

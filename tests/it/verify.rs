@@ -567,22 +567,26 @@ pub(crate) fn compare(graph: executive_model::ProcessGraph, work: &std::path::Pa
     let native_dead: std::collections::BTreeSet<String> =
         native.dead_activities.iter().cloned().collect();
     let (mut how, mut unsound) = (Vec::new(), Vec::new());
-    if native.deadlock.is_some() != spin_deadlock {
-        how.push(format!(
-            "deadlock: engine {} Spin {spin_deadlock}",
-            native.deadlock.is_some()
-        ));
-        if native.deadlock.is_some() {
-            unsound.push("the engine deadlocks, Spin says no".to_owned());
-        }
-    }
-    if native.unsafe_run.is_some() != spin_unsafe {
-        how.push(format!(
-            "unsafe: engine {} Spin {spin_unsafe}",
-            native.unsafe_run.is_some()
-        ));
-        if native.unsafe_run.is_some() {
-            unsound.push("the engine is unsafe, Spin says safe".to_owned());
+    // A finding the engine has and Spin has not is unsound; the other way, over-approximated.
+    for (what, engine, spin, missed) in [
+        (
+            "deadlock",
+            native.deadlock.is_some(),
+            spin_deadlock,
+            "the engine deadlocks, Spin says no",
+        ),
+        (
+            "unsafe",
+            native.unsafe_run.is_some(),
+            spin_unsafe,
+            "the engine is unsafe, Spin says safe",
+        ),
+    ] {
+        if engine != spin {
+            how.push(format!("{what}: engine {engine} Spin {spin}"));
+            if engine {
+                unsound.push(missed.to_owned());
+            }
         }
     }
     if native_dead != spin_dead {

@@ -78,7 +78,7 @@ impl Tr<'_> {
             if matches!(self.g.node(t).kind, NodeKind::SubProcess(_)) {
                 match self
                     .compensation_start(t)
-                    .and_then(|s| self.event_sub_of_start(s))
+                    .and_then(|s| self.event_sub_of(s))
                 {
                     Some(e) => out.push(e),
                     None => out.extend(self.handlers(&self.direct(Scope::SubProcess(t)))),
@@ -87,13 +87,6 @@ impl Tr<'_> {
             out.extend(self.g.node(t).compensation_handler);
         }
         out
-    }
-
-    fn event_sub_of_start(&self, start: NodeId) -> Option<NodeId> {
-        match self.g.node(start).scope {
-            Scope::SubProcess(e) => Some(e),
-            Scope::Process(_) => None,
-        }
     }
 
     /// Effects starting the handlers of the marked activities among `targets`.

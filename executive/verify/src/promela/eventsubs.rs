@@ -31,7 +31,7 @@ impl Tr<'_> {
     }
 
     /// The event sub-process a start event belongs to.
-    fn event_sub_of(&self, start: NodeId) -> Option<NodeId> {
+    pub(super) fn event_sub_of(&self, start: NodeId) -> Option<NodeId> {
         match self.g.node(start).scope {
             Scope::SubProcess(e) if is_event_sub(self.g, e) => Some(e),
             _ => None,
