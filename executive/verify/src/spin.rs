@@ -446,6 +446,9 @@ pub fn check(
     let worker = |w: usize| -> Result<Vec<(usize, Vec<Outcome>)>, SpinError> {
         let wdir = ldir.join(format!("w{w}"));
         std::fs::create_dir_all(&wdir).map_err(|e| SpinError::Io(e.to_string()))?;
+        // Trails are replayed here too: spin writes its preprocessed model (`pan.pre`) in
+        // the directory it runs in, so two replays in one directory at once collide.
+        write(&wdir.join("mission.pml"), &ltl_model)?;
         let mut done = Vec::new();
         loop {
             let next = {
@@ -716,10 +719,10 @@ fn claim(
         } else {
             "a run that breaks it".to_owned()
         });
+        o.counterexample = replay(wdir, "mission.pml.trail", t)?;
         let trail = format!("{}.trail", l.name);
         std::fs::rename(wdir.join("mission.pml.trail"), ldir.join(&trail))
             .map_err(|e| SpinError::Io(e.to_string()))?;
-        o.counterexample = replay(ldir, &trail, t)?;
     }
     Ok(o)
 }
