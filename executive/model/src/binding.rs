@@ -235,7 +235,7 @@ impl Reader<'_> {
                 continue;
             }
             let (target, source) = (child.attr("target"), child.attr("source"));
-            match child.name.as_str() {
+            match child.name {
                 "input" | "output" => {
                     let (Some(target), Some(source)) = (target, source) else {
                         self.problem(
@@ -282,7 +282,7 @@ impl Reader<'_> {
         let mut b = TaskBinding::new(Dialect::Zeebe);
         let mut relevant = false;
         for z in zeebe {
-            match z.name.as_str() {
+            match z.name {
                 "taskDefinition" => {
                     relevant = true;
                     b.resource = self.constant(z, "type");
@@ -310,7 +310,7 @@ impl Reader<'_> {
                             Some(source) => self.literal(m.offset, source, &what),
                         };
                         let Some(source) = source else { continue };
-                        match m.name.as_str() {
+                        match m.name {
                             "input" => b.inputs.push(InputMapping {
                                 target: target.to_owned(),
                                 source,
@@ -384,7 +384,7 @@ impl Reader<'_> {
     fn foreign_scripts(&mut self, el: &Element) {
         for ext in el.extensions().filter(|e| {
             e.ns == Ns::Spiff
-                && matches!(e.name.as_str(), "preScript" | "postScript")
+                && matches!(e.name, "preScript" | "postScript")
                 && !e.trimmed_text().is_empty()
         }) {
             let when = if ext.name == "preScript" {
@@ -408,7 +408,7 @@ impl Reader<'_> {
         let mut b = TaskBinding::new(Dialect::Spiff);
         let mut relevant = false;
         for ext in el.extensions().filter(|e| e.ns == Ns::Spiff) {
-            match ext.name.as_str() {
+            match ext.name {
                 "serviceTaskOperator" => {
                     relevant = true;
                     b.resource = ext.attr("id").map(str::to_owned);
@@ -481,7 +481,7 @@ impl Reader<'_> {
             .flat_map(|c| c.children.iter())
             .filter(|e| e.name == "inputOutput");
         for ext in el.extensions().filter(|e| e.ns == Ns::Camunda).chain(inner) {
-            match ext.name.as_str() {
+            match ext.name {
                 "inputOutput" => {
                     relevant = true;
                     for p in ext.children.iter().filter(|p| p.ns == Ns::Camunda) {
@@ -516,7 +516,7 @@ impl Reader<'_> {
                                 }
                             };
                         let Some(value) = value else { continue };
-                        match p.name.as_str() {
+                        match p.name {
                             "inputParameter" => b.inputs.push(InputMapping {
                                 target: name.to_owned(),
                                 source: value,
@@ -625,7 +625,7 @@ fn camunda_value(el: &Element) -> Result<String, Failure> {
             }
         }
     };
-    match el.name.as_str() {
+    match el.name {
         "map" => {
             let entries: Result<Vec<String>, Failure> = el
                 .children

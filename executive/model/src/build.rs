@@ -7,6 +7,8 @@
 
 use std::collections::BTreeMap;
 
+use foldhash::{HashMap, HashMapExt};
+
 use crate::binding::Reader as BindingReader;
 use crate::diagnostic::Sink;
 use crate::expr::{Expression, Failure, Language, parse_assignments};
@@ -113,7 +115,7 @@ pub(crate) fn local_ref(r: &str) -> &str {
 }
 
 struct NodeSource<'d> {
-    el: &'d Element,
+    el: &'d Element<'d>,
     strict: bool,
 }
 
@@ -121,22 +123,22 @@ pub(crate) struct Builder<'d, 's> {
     pub(crate) sink: &'s mut Sink,
     g: ProcessGraph,
     node_src: Vec<NodeSource<'d>>,
-    flow_src: Vec<(&'d Element, Scope, bool)>,
-    associations: Vec<&'d Element>,
+    flow_src: Vec<(&'d Element<'d>, Scope, bool)>,
+    associations: Vec<&'d Element<'d>>,
     messages: BTreeMap<String, MessageId>,
     signals: BTreeMap<String, SignalId>,
     errors: BTreeMap<String, ErrorId>,
     escalations: BTreeMap<String, EscalationId>,
     /// Definitions-level event definitions, by id (`eventDefinitionRef`).
-    global_event_defs: BTreeMap<String, &'d Element>,
+    global_event_defs: BTreeMap<String, &'d Element<'d>>,
     /// Global tasks callable by call activities.
-    global_tasks: BTreeMap<String, &'d Element>,
+    global_tasks: BTreeMap<String, &'d Element<'d>>,
     /// Every BPMN id in the document, with the element name and offset.
     /// Ids are unique per target namespace: (namespace index, id) -> (element name, offset).
-    pub(crate) all_ids: BTreeMap<(usize, &'d str), (&'d str, usize)>,
+    pub(crate) all_ids: HashMap<(usize, &'d str), (&'d str, usize)>,
     /// Item-aware elements (data objects and their references, properties, data stores and their
     /// references, data inputs and outputs) by (namespace index, id).
-    data_els: BTreeMap<(usize, &'d str), &'d Element>,
+    data_els: HashMap<(usize, &'d str), &'d Element<'d>>,
     /// First offset of each document of the bundle, ascending.
     bases: Vec<usize>,
     /// Namespace index of each document (documents with equal targetNamespace share one).
@@ -144,8 +146,8 @@ pub(crate) struct Builder<'d, 's> {
     /// The expression language each document declares (`expressionLanguage`; CEL when absent).
     doc_language: Vec<Language>,
     /// Flow nodes and processes by (document, id).
-    scoped_nodes: BTreeMap<(usize, String), NodeId>,
-    scoped_processes: BTreeMap<(usize, String), ProcessId>,
+    scoped_nodes: HashMap<(usize, &'d str), NodeId>,
+    scoped_processes: BTreeMap<(usize, &'d str), ProcessId>,
     /// Names of link event definitions by id (a link throw may name its catch by `<target>`).
     link_names: BTreeMap<&'d str, &'d str>,
     /// Foreign scripts are run by a script connector (see [`crate::Options`]).
@@ -200,8 +202,8 @@ pub(crate) fn build(
         escalations: BTreeMap::new(),
         global_event_defs: BTreeMap::new(),
         global_tasks: BTreeMap::new(),
-        all_ids: BTreeMap::new(),
-        data_els: BTreeMap::new(),
+        all_ids: HashMap::new(),
+        data_els: HashMap::new(),
         bases: docs.iter().map(|d| d.root.offset).collect(),
         doc_namespace: {
             let mut seen: Vec<Option<&str>> = Vec::new();
@@ -219,7 +221,7 @@ pub(crate) fn build(
             .iter()
             .map(|d| Language::named(d.root.attr("expressionLanguage").unwrap_or_default()))
             .collect(),
-        scoped_nodes: BTreeMap::new(),
+        scoped_nodes: HashMap::new(),
         scoped_processes: BTreeMap::new(),
         link_names: BTreeMap::new(),
         script_connector: options.script_connector,
@@ -252,7 +254,7 @@ pub(crate) fn build(
         .map(|(id, el)| (id.clone(), *el))
         .collect();
     for (id, el) in globals {
-        let name = el.name.strip_prefix("global").unwrap_or(&el.name);
+        let name = el.name.strip_prefix("global").unwrap_or(el.name);
         let name = format!("{}{}", name[..1].to_ascii_lowercase(), &name[1..]);
         let task = b.task(el, &name, &id, true);
         b.g.global_tasks.insert(id, task);
@@ -277,7 +279,7 @@ impl<'d> Builder<'d, '_> {
     /// The flow node `id` as seen from the element at `offset` (same document).
     fn node_ref(&self, offset: usize, id: &str) -> Option<NodeId> {
         self.scoped_nodes
-            .get(&(self.doc_of(offset), local_ref(id).to_owned()))
+            .get(&(self.doc_of(offset), local_ref(id)))
             .copied()
     }
 
@@ -306,7 +308,7 @@ impl<'d> Builder<'d, '_> {
         }
     }
 
-    fn collect_ids(&mut self, root: &'d Element) {
+    fn collect_ids(&mut self, root: &'d Element<'d>) {
         let mut stack = vec![root];
         while let Some(el) = stack.pop() {
             if el.ns == Ns::Bpmn
@@ -322,8 +324,8 @@ impl<'d> Builder<'d, '_> {
                         .error("duplicate-id", el.offset, Some(id), msg)
                         .constraint("EXT.002");
                 } else {
-                    self.all_ids.insert((ns, id), (el.name.as_str(), el.offset));
-                    if crate::constraints::ITEM_AWARE.contains(&el.name.as_str()) {
+                    self.all_ids.insert((ns, id), (el.name, el.offset));
+                    if crate::constraints::ITEM_AWARE.contains(&el.name) {
                         self.data_els.insert((ns, id), el);
                     }
                 }
@@ -357,13 +359,13 @@ impl<'d> Builder<'d, '_> {
         }
     }
 
-    fn globals(&mut self, root: &'d Element) {
+    fn globals(&mut self, root: &'d Element<'d>) {
         for el in &root.children {
             if el.ns != Ns::Bpmn {
                 continue;
             }
             let id = el.attr("id").unwrap_or_default().to_owned();
-            match el.name.as_str() {
+            match el.name {
                 "message" => {
                     let name = self.constant(el, "name", &id).unwrap_or_else(|| id.clone());
                     // Zeebe's correlation key is FEEL, with or without its `=`.
@@ -461,7 +463,7 @@ impl<'d> Builder<'d, '_> {
         ];
         for el in &root.children {
             if el.ns == Ns::Bpmn
-                && !KNOWN.contains(&el.name.as_str())
+                && !KNOWN.contains(&el.name)
                 && !el.name.ends_with("EventDefinition")
             {
                 self.sink.warning(
@@ -477,7 +479,7 @@ impl<'d> Builder<'d, '_> {
         }
     }
 
-    fn process(&mut self, el: &'d Element, imported: bool) {
+    fn process(&mut self, el: &'d Element<'d>, imported: bool) {
         let pid = ProcessId(self.g.processes.len() as u32);
         let id = el.attr("id").unwrap_or_default().to_owned();
         let strict = el.attr("isExecutable") != Some("false");
@@ -485,8 +487,10 @@ impl<'d> Builder<'d, '_> {
         self.declared = el.attr("isExecutable") == Some("true");
         if !id.is_empty() {
             self.g.process_ids.entry(id.clone()).or_insert(pid);
-            self.scoped_processes
-                .insert((self.doc_of(el.offset), id.clone()), pid);
+            self.scoped_processes.insert(
+                (self.doc_of(el.offset), el.attr("id").unwrap_or_default()),
+                pid,
+            );
         }
         self.g.processes.push(Process {
             id,
@@ -527,16 +531,17 @@ impl<'d> Builder<'d, '_> {
     }
 
     /// First pass over a process or sub-process: allocate its nodes, remember its flows.
-    fn scope(&mut self, el: &'d Element, scope: Scope, strict: bool) -> Vec<NodeId> {
+    fn scope(&mut self, el: &'d Element<'d>, scope: Scope, strict: bool) -> Vec<NodeId> {
         let mut nodes = Vec::new();
         for child in &el.children {
             if child.ns != Ns::Bpmn {
                 continue;
             }
-            let name = child.name.as_str();
+            let name = child.name;
             if FLOW_NODES.contains(&name) {
                 let nid = NodeId(self.g.nodes.len() as u32);
-                let id = match child.attr("id") {
+                let xml_id = child.attr("id");
+                let id = match xml_id {
                     Some(id) => id.to_owned(),
                     // The schema makes ids optional; one that nothing references may be left
                     // out. The node gets a name for messages and records.
@@ -552,8 +557,10 @@ impl<'d> Builder<'d, '_> {
                     }
                 };
                 self.g.node_ids.entry(id.clone()).or_insert(nid);
-                self.scoped_nodes
-                    .insert((self.doc_of(child.offset), id.clone()), nid);
+                if let Some(xml_id) = xml_id {
+                    self.scoped_nodes
+                        .insert((self.doc_of(child.offset), xml_id), nid);
+                }
                 self.g.nodes.push(Node {
                     id,
                     name: child.attr("name").map(str::to_owned),
@@ -739,11 +746,11 @@ impl<'d> Builder<'d, '_> {
 
     /// A process by id: in document `doc` first (or last, when `prefer_other`), else anywhere.
     fn find_process(&self, doc: usize, id: &str, prefer_other: bool) -> Option<ProcessId> {
-        let own = self.scoped_processes.get(&(doc, id.to_owned())).copied();
+        let own = self.scoped_processes.get(&(doc, id)).copied();
         let other = self
             .scoped_processes
             .iter()
-            .find(|((d, i), _)| *d != doc && i == id)
+            .find(|((d, i), _)| *d != doc && *i == id)
             .map(|(_, p)| *p);
         if prefer_other {
             other.or(own)
@@ -828,11 +835,11 @@ impl<'d> Builder<'d, '_> {
 
     fn event_definitions(
         &mut self,
-        el: &'d Element,
+        el: &'d Element<'d>,
         owner: &str,
         strict: bool,
     ) -> Vec<EventDefinition> {
-        let mut defs: Vec<&'d Element> = el
+        let mut defs: Vec<&'d Element<'d>> = el
             .children
             .iter()
             .filter(|c| c.ns == Ns::Bpmn && c.name.ends_with("EventDefinition"))
@@ -857,7 +864,7 @@ impl<'d> Builder<'d, '_> {
         }
         let mut out = Vec::new();
         for d in defs {
-            let def = match d.name.as_str() {
+            let def = match d.name {
                 "messageEventDefinition" => {
                     EventDefinition::Message(self.resolve(|b| &b.messages, d, "messageRef", owner))
                 }
@@ -1013,7 +1020,7 @@ impl<'d> Builder<'d, '_> {
         self.declared = self.declared_in(self.g.node(nid).scope);
         let owner = self.g.node(nid).id.clone();
         let parallel_multiple = el.attr("parallelMultiple") == Some("true");
-        if ACTIVITIES.contains(&el.name.as_str()) {
+        if ACTIVITIES.contains(&el.name) {
             self.g.nodes[nid.index()].data = self.data_io(el, &owner, strict);
         } else if let Some(a) = el
             .bpmn_child("dataInputAssociation")
@@ -1027,7 +1034,7 @@ impl<'d> Builder<'d, '_> {
             );
             self.problem(strict, "unsupported", a.offset, Some(&owner), msg);
         }
-        let kind = match el.name.as_str() {
+        let kind = match el.name {
             "startEvent" => NodeKind::Start(StartEvent {
                 triggers: self.event_definitions(el, &owner, strict),
                 interrupting: el.attr("isInterrupting") != Some("false"),
@@ -1051,7 +1058,7 @@ impl<'d> Builder<'d, '_> {
                 let attached_to = match attached.and_then(|a| self.node_ref(el.offset, a)) {
                     // Judged by the element name: the activity may come later in the document,
                     // so its details may not be read yet.
-                    Some(a) if ACTIVITIES.contains(&self.node_src[a.index()].el.name.as_str()) => {
+                    Some(a) if ACTIVITIES.contains(&self.node_src[a.index()].el.name) => {
                         if self.g.node(a).scope != self.g.node(nid).scope {
                             self.sink.error("cross-scope-boundary", el.offset, Some(&owner), "boundary event is attached to an activity of another process or sub-process level".to_owned());
                         }
@@ -1128,7 +1135,7 @@ impl<'d> Builder<'d, '_> {
                         "zeebe:adHoc (Camunda 8's choice of the activities to run, and its output collection) is not read: TRACE runs the ad-hoc sub-process as BPMN describes it, every activity without incoming flows enabled".to_owned(),
                     );
                 }
-                let sub_kind = match el.name.as_str() {
+                let sub_kind = match el.name {
                     "transaction" => SubProcessKind::Transaction,
                     "adHocSubProcess" => SubProcessKind::AdHoc {
                         sequential: el.attr("ordering") == Some("Sequential"),
@@ -1221,10 +1228,10 @@ impl<'d> Builder<'d, '_> {
     }
 
     /// The ioSpecification and data associations of activity `el` (§10.4.1).
-    fn data_io(&mut self, el: &'d Element, owner: &str, strict: bool) -> Option<Box<DataIo>> {
+    fn data_io(&mut self, el: &'d Element<'d>, owner: &str, strict: bool) -> Option<Box<DataIo>> {
         let spec = el.bpmn_child("ioSpecification");
-        let ins: Vec<&'d Element> = el.bpmn_children("dataInputAssociation").collect();
-        let outs: Vec<&'d Element> = el.bpmn_children("dataOutputAssociation").collect();
+        let ins: Vec<&'d Element<'d>> = el.bpmn_children("dataInputAssociation").collect();
+        let outs: Vec<&'d Element<'d>> = el.bpmn_children("dataOutputAssociation").collect();
         if spec.is_none() && ins.is_empty() && outs.is_empty() {
             return None;
         }
@@ -1320,7 +1327,7 @@ impl<'d> Builder<'d, '_> {
                 .and_then(|r| self.data_els.get(&(ns, local_ref(r))))
                 .copied()
         };
-        Some(match el.name.as_str() {
+        Some(match el.name {
             "dataObjectReference" => {
                 DataRef::Variable(item_name(referenced("dataObjectRef").unwrap_or(el)))
             }
@@ -1350,7 +1357,7 @@ impl<'d> Builder<'d, '_> {
     }
 
     /// A task (or global task, whose element name has lost its `global` prefix).
-    fn task(&mut self, el: &'d Element, name: &str, owner: &str, strict: bool) -> Task {
+    fn task(&mut self, el: &'d Element<'d>, name: &str, owner: &str, strict: bool) -> Task {
         let kind = match name {
             "serviceTask" => TaskKind::Service,
             "userTask" => TaskKind::User,
@@ -1388,7 +1395,7 @@ impl<'d> Builder<'d, '_> {
     }
 
     /// A message throw or end event implemented like a task (see [`Task::event`]).
-    fn event_task(&mut self, el: &'d Element, owner: &str, strict: bool) -> Task {
+    fn event_task(&mut self, el: &'d Element<'d>, owner: &str, strict: bool) -> Task {
         let mut t = self.task(el, "sendTask", owner, strict);
         let def = el.bpmn_child("messageEventDefinition");
         if t.binding.is_none()

@@ -7,7 +7,11 @@
 //! reason (e.g. EXT.128: WSDL `operationRef` on message events; the executive correlates
 //! messages by name).
 
-use std::collections::{BTreeSet, HashMap};
+use std::collections::BTreeSet;
+
+use std::sync::LazyLock;
+
+use foldhash::{HashMap, HashMapExt, HashSet};
 
 use crate::build::local_ref;
 use crate::build::{ACTIVITIES, FLOW_NODES};
@@ -167,6 +171,10 @@ const SCHEMA_ATTRIBUTES: &[&str] = &[
     "correlationPropertyRef",
 ];
 
+/// [`SCHEMA_ATTRIBUTES`] as a set: it is asked for every attribute of an executable model.
+static SCHEMA_ATTRIBUTE_SET: LazyLock<HashSet<&str>> =
+    LazyLock::new(|| SCHEMA_ATTRIBUTES.iter().copied().collect());
+
 /// Allowed target kinds for a reference held in a child element (`<x>id</x>`) or an attribute.
 fn ref_targets(owner: &str, name: &str) -> Option<&'static [&'static str]> {
     Some(match (owner, name) {
@@ -208,9 +216,9 @@ fn ref_targets(owner: &str, name: &str) -> Option<&'static [&'static str]> {
 /// Lookups only, so hash maps; iteration goes through `elements`, in a fixed order.
 struct Index<'d> {
     /// Every BPMN element with an id.
-    by_id: HashMap<&'d str, &'d Element>,
+    by_id: HashMap<&'d str, &'d Element<'d>>,
     /// The elements of `by_id`, first occurrence of each id.
-    elements: Vec<&'d Element>,
+    elements: Vec<&'d Element<'d>>,
     /// The process each element lies in, by element id.
     process_of: HashMap<&'d str, &'d str>,
     /// Participant of each process.
@@ -218,7 +226,7 @@ struct Index<'d> {
 }
 
 impl<'d> Index<'d> {
-    fn new(root: &'d Element) -> Index<'d> {
+    fn new(root: &'d Element<'d>) -> Index<'d> {
         let mut ix = Index {
             by_id: HashMap::new(),
             elements: Vec::new(),
@@ -252,7 +260,7 @@ impl<'d> Index<'d> {
     }
 
     fn kind(&self, id: &str) -> Option<&'d str> {
-        self.by_id.get(local_ref(id)).map(|e| e.name.as_str())
+        self.by_id.get(local_ref(id)).map(|e| e.name)
     }
 
     /// The pool an element belongs to: a participant itself, or the participant of its process.
@@ -310,7 +318,7 @@ fn is_uri(v: &str) -> bool {
         && !v.contains(char::is_whitespace)
 }
 
-/// Runs every element-level constraint over the document.
+/// Runs every element-level constraint over the document, and [`event_data`].
 pub(crate) fn check(root: &Element, sink: &mut Sink) {
     let ix = Index::new(root);
     let mut stack: Vec<(&Element, Option<&Element>, bool)> = vec![(root, None, false)];
@@ -345,7 +353,7 @@ pub(crate) fn check(root: &Element, sink: &mut Sink) {
             for a in el
                 .attrs
                 .iter()
-                .filter(|a| a.ns == Ns::None && !SCHEMA_ATTRIBUTES.contains(&a.name.as_str()))
+                .filter(|a| a.ns == Ns::None && !SCHEMA_ATTRIBUTE_SET.contains(a.name))
             {
                 err(
                     "unknown-attribute",
@@ -363,27 +371,27 @@ pub(crate) fn check(root: &Element, sink: &mut Sink) {
             .attrs
             .iter()
             .filter(|a| a.ns == Ns::None)
-            .map(|a| (a.name.as_str(), a.value.as_str()));
+            .map(|a| (a.name, &*a.value));
         let children = el
             .children
             .iter()
             .filter(|c| c.ns == Ns::Bpmn && c.children.is_empty())
-            .map(|c| (c.name.as_str(), c.trimmed_text()));
+            .map(|c| (c.name, c.trimmed_text()));
         for (name, value) in attrs.chain(children) {
-            let Some(kinds) = ref_targets(&el.name, name) else {
+            let Some(kinds) = ref_targets(el.name, name) else {
                 continue;
             };
-            match documentary(&el.name, name) {
+            match documentary(el.name, name) {
                 Some(why) => check_ref(&ix, name, value, kinds, &mut |code, _, msg| {
                     soft.push((code, format!("{msg}{why}")));
                 }),
                 None => check_ref(&ix, name, value, kinds, &mut err),
             }
         }
-        if FLOW_NODES.contains(&el.name.as_str()) {
+        if FLOW_NODES.contains(&el.name) {
             flow_node_refs(el, &ix, &mut err);
         }
-        match el.name.as_str() {
+        match el.name {
             "documentation" | "textAnnotation" => {
                 if let Some(f) = el.attr("textFormat")
                     && !is_mime_type(f)
@@ -505,7 +513,7 @@ pub(crate) fn check(root: &Element, sink: &mut Sink) {
                 {
                     let coll = |e: &Element| e.attr("isCollection") == Some("true");
                     if item.name == "itemDefinition" && coll(item) != coll(el) {
-                        let c = match el.name.as_str() {
+                        let c = match el.name {
                             "dataObject" => "EXT.077",
                             "dataInput" => "EXT.081",
                             _ => "EXT.083",
@@ -613,7 +621,7 @@ pub(crate) fn check(root: &Element, sink: &mut Sink) {
         let formal_by_schema =
             el.name == "condition" && parent.is_some_and(|p| p.name == "complexBehaviorDefinition");
         if executable
-            && EXPRESSIONS.contains(&el.name.as_str())
+            && EXPRESSIONS.contains(&el.name)
             && !formal_by_schema
             && !is_formal(el)
             && !el.trimmed_text().is_empty()
@@ -632,40 +640,30 @@ pub(crate) fn check(root: &Element, sink: &mut Sink) {
         }
         stack.extend(el.children.iter().map(|c| (c, Some(el), executable)));
     }
-    listed_flows(root, &ix, sink);
+    listed_flows(&ix, sink);
+    event_data(root, &ix, sink);
 }
 
 /// Where a document lists `<incoming>`/`<outgoing>` on its flow nodes, every sequence flow must
 /// be listed at both of its ends (EXT.101 for start events, EXT.107 for end events).
-fn listed_flows(root: &Element, ix: &Index<'_>, sink: &mut Sink) {
-    let mut listed: BTreeSet<(String, &'static str, String)> = BTreeSet::new();
-    let mut flows: Vec<&Element> = Vec::new();
-    for &el in &ix.elements {
-        if el.name == "sequenceFlow" {
-            flows.push(el);
-        }
-        if el.bpmn_child("incoming").is_some() || el.bpmn_child("outgoing").is_some() {
-            let id = el.attr("id").unwrap_or_default().to_owned();
-            for (child, end) in [("incoming", "targetRef"), ("outgoing", "sourceRef")] {
-                for r in el.bpmn_children(child) {
-                    listed.insert((id.clone(), end, local_ref(&r.text).to_owned()));
-                }
-            }
-        }
-    }
-    let _ = root;
-    if listed.is_empty() {
+fn listed_flows(ix: &Index<'_>, sink: &mut Sink) {
+    let lists =
+        |el: &Element| el.bpmn_child("incoming").is_some() || el.bpmn_child("outgoing").is_some();
+    if !ix.elements.iter().any(|el| lists(el)) {
         return;
     }
-    for f in flows {
+    for f in ix.elements.iter().filter(|el| el.name == "sequenceFlow") {
         let fid = f.attr("id").unwrap_or_default();
         for (end, child) in [("sourceRef", "outgoing"), ("targetRef", "incoming")] {
             let Some(node) = f.attr(end).map(local_ref) else {
                 continue;
             };
-            let Some(kind) = ix.kind(node) else { continue };
-            if !listed.contains(&(node.to_owned(), end, fid.to_owned())) {
-                let c = match (kind, child) {
+            let Some(n) = ix.by_id.get(node) else {
+                continue;
+            };
+            let listed = lists(n) && n.bpmn_children(child).any(|r| local_ref(&r.text) == fid);
+            if !listed {
+                let c = match (n.name, child) {
                     ("startEvent", "outgoing") => "EXT.101",
                     ("endEvent", "incoming") => "EXT.107",
                     _ => "EXT.023",
@@ -673,9 +671,7 @@ fn listed_flows(root: &Element, ix: &Index<'_>, sink: &mut Sink) {
                 let msg = format!(
                     "sequence flow `{fid}` is not listed in the <{child}> elements of `{node}`; the flow's own sourceRef and targetRef decide"
                 );
-                if let Some(n) = ix.by_id.get(node) {
-                    sink.bent("flow-mismatch", c, n.offset, Some(node), msg);
-                }
+                sink.bent("flow-mismatch", c, n.offset, Some(node), msg);
             }
         }
     }
@@ -859,7 +855,7 @@ fn data_association(
         let Some(target) = ix.by_id.get(r) else {
             continue;
         };
-        let kind = target.name.as_str();
+        let kind = target.name;
         if input && kind == "dataOutput" {
             err(
                 "bad-data-association",
@@ -1003,7 +999,7 @@ fn io_specification(el: &Element, err: &mut impl FnMut(&'static str, &'static st
     }
 }
 
-fn item_of<'d>(ix: &Index<'d>, el: &Element) -> Option<&'d Element> {
+fn item_of<'d>(ix: &Index<'d>, el: &Element) -> Option<&'d Element<'d>> {
     let r = el.attr("itemSubjectRef")?;
     ix.by_id
         .get(local_ref(r))
@@ -1126,8 +1122,7 @@ fn io_binding(
 
 /// Events with data: one data output (catch) or input (throw) per event definition, whose item
 /// matches the definition's item (EXT.093, EXT.094).
-pub(crate) fn event_data(root: &Element, sink: &mut Sink) {
-    let ix = Index::new(root);
+fn event_data(root: &Element, ix: &Index<'_>, sink: &mut Sink) {
     let mut stack = vec![root];
     while let Some(el) = stack.pop() {
         if el.ns != Ns::Bpmn {
@@ -1135,10 +1130,10 @@ pub(crate) fn event_data(root: &Element, sink: &mut Sink) {
         }
         stack.extend(el.children.iter());
         let catch = matches!(
-            el.name.as_str(),
+            el.name,
             "startEvent" | "intermediateCatchEvent" | "boundaryEvent"
         );
-        let throw = matches!(el.name.as_str(), "endEvent" | "intermediateThrowEvent");
+        let throw = matches!(el.name, "endEvent" | "intermediateThrowEvent");
         if !catch && !throw {
             continue;
         }
@@ -1170,7 +1165,7 @@ pub(crate) fn event_data(root: &Element, sink: &mut Sink) {
             sink.bent("event-data", "EXT.093", el.offset, el.attr("id"), msg);
         }
         for (d, data) in defs.iter().zip(&data) {
-            let item = match d.name.as_str() {
+            let item = match d.name {
                 "messageEventDefinition" => d
                     .attr("messageRef")
                     .and_then(|m| ix.by_id.get(local_ref(m)))

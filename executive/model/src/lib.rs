@@ -11,6 +11,9 @@
 //! Dependencies, chosen deliberately:
 //! - `quick-xml`: a fast pull parser that borrows from the input; it does no entity expansion of
 //!   its own beyond the predefined entities, which is what hardening needs.
+//! - `foldhash`: the hasher of the id maps the checks look up for every reference; several
+//!   times faster than std's SipHash on short ids, and seeded per process, so ids drawn to
+//!   collide cannot be prepared in advance.
 //! - `chrono`: ISO 8601 dates and calendar-correct month arithmetic for timers.
 //! - `cel`: the expression language (see [`Expression`]).
 //! - `thiserror` / `serde`: typed errors and machine-readable diagnostics (`--json`).
@@ -39,6 +42,8 @@ mod xml;
 
 #[cfg(test)]
 mod tests;
+
+use std::borrow::Cow;
 
 pub use diagnostic::{Category, Diagnostic, Severity};
 pub use expr::{Expression, Failure, Language, Program, feel_to_cel, parse_assignments};
@@ -122,17 +127,23 @@ pub fn load_with(bytes: &[u8], options: &Options) -> Loaded {
 /// Most documents one bundle may import (transitively).
 const MAX_IMPORTS: usize = 64;
 
-/// A decoded, parsed document of a bundle.
-struct Part {
+/// A decoded document of a bundle: the main model (borrowed from the input when it is UTF-8) or
+/// an import.
+struct Source<'b> {
     name: Option<String>,
-    text: String,
+    text: Cow<'b, str>,
     base: usize,
-    doc: Option<xml::Document>,
+    /// Reads as BPMN (imported XSD and WSDL are only checked for well-formedness).
+    bpmn: bool,
 }
 
 /// Loads a mission bundle: the model and the documents it imports (`<bpmn:import location=…>`),
 /// which `resolve` reads (the caller decides where from; this crate does no I/O). Call
 /// activities may call processes of imported BPMN documents.
+///
+/// The element trees borrow from the decoded texts, so the texts of every document are read
+/// first: an import is parsed once to find its own imports and once more, beside the others,
+/// to build the model. Models seldom import anything; the main model is parsed once.
 pub fn load_bundle(
     bytes: &[u8],
     options: &Options,
@@ -140,25 +151,40 @@ pub fn load_bundle(
 ) -> Loaded {
     let limits = &options.limits;
     let mut sink = Sink::default();
-    let mut parts: Vec<Part> = Vec::new();
-    let main = read_part(bytes, None, 0, limits, &mut sink);
-    let main_ok = main.doc.is_some();
-    parts.push(main);
+    let main = decode_part(bytes, None, 0, limits, &mut sink).unwrap_or(Source {
+        name: None,
+        text: Cow::Borrowed(""),
+        base: 0,
+        bpmn: false,
+    });
+    let main_doc = match main.bpmn {
+        true => parse_part(&main, limits, &mut sink),
+        false => None,
+    };
+    let mut imports = main_doc.as_ref().map(import_sources_of).unwrap_or_default();
+    let mut sources: Vec<Source<'static>> = Vec::new();
     // Resolve imports breadth-first; each document gets its own offset range.
+    let mut end = main.text.len() + 1;
     let mut next = 0;
-    while next < parts.len() && parts.len() <= MAX_IMPORTS {
-        let imports: Vec<(usize, String, bool)> = parts[next]
-            .doc
-            .iter()
-            .flat_map(|d| d.root.bpmn_children("import"))
-            .map(|i| {
-                let location = i.attr("location").unwrap_or_default().to_owned();
-                let bpmn = i.attr("importType") == Some(BPMN_NS) || location.ends_with(".bpmn");
-                (i.offset, location, bpmn)
-            })
-            .collect();
-        for (offset, location, bpmn) in imports {
-            if parts
+    while next <= sources.len() && sources.len() < MAX_IMPORTS {
+        let wanted = if next == 0 {
+            std::mem::take(&mut imports)
+        } else {
+            let source = &sources[next - 1];
+            match source.bpmn {
+                true => {
+                    let mut quiet = Sink::default();
+                    parse_part(source, limits, &mut quiet)
+                        .as_ref()
+                        .map(import_sources_of)
+                        .unwrap_or_default()
+                }
+                false => Vec::new(),
+            }
+        };
+        next += 1;
+        for (offset, location, bpmn) in wanted {
+            if sources
                 .iter()
                 .any(|p| p.name.as_deref() == Some(location.as_str()))
             {
@@ -184,9 +210,18 @@ pub fn load_bundle(
                     continue;
                 }
             };
-            let base = parts.last().map_or(0, |p| p.base + p.text.len() + 1);
-            let part = read_part(&bytes, Some(location.clone()), base, limits, &mut sink);
-            match &part.doc {
+            let base = end;
+            let text = decode_part(&bytes, Some(location.clone()), base, limits, &mut sink)
+                .map(|s| Cow::<'static, str>::Owned(s.text.into_owned()));
+            let text = text.unwrap_or_default();
+            end = base + text.len() + 1;
+            let mut source = Source {
+                name: Some(location.clone()),
+                text,
+                base,
+                bpmn,
+            };
+            match parse_part(&source, limits, &mut sink) {
                 None => {
                     sink.error(
                         "broken-import",
@@ -194,6 +229,7 @@ pub fn load_bundle(
                         None,
                         format!("imported file `{location}` is not well-formed XML"),
                     );
+                    source.bpmn = false;
                 }
                 Some(d) if bpmn && !d.root.is_bpmn("definitions") => {
                     sink.error(
@@ -205,42 +241,42 @@ pub fn load_bundle(
                 }
                 Some(_) => {}
             }
-            // Only BPMN documents join the model; XSD and WSDL are checked for well-formedness.
-            let part = if bpmn {
-                part
-            } else {
-                Part { doc: None, ..part }
-            };
-            parts.push(part);
+            sources.push(source);
         }
-        next += 1;
     }
-    let graph = if main_ok {
-        let docs: Vec<&xml::Document> = parts.iter().filter_map(|p| p.doc.as_ref()).collect();
-        for d in &docs {
-            for (offset, w) in &d.warnings {
-                sink.warning("xml", *offset, None, w.clone());
-            }
-        }
-        let built = build::build(&docs, &mut sink, options);
-        if let Some(g) = &built {
-            validate::Checker { g, sink: &mut sink }.run();
+    let graph = match &main_doc {
+        Some(main_doc) => {
+            let imported: Vec<xml::Document<'_>> = sources
+                .iter()
+                .filter(|s| s.bpmn)
+                .filter_map(|s| parse_part(s, limits, &mut sink))
+                .collect();
+            let docs: Vec<&xml::Document<'_>> =
+                std::iter::once(main_doc).chain(&imported).collect();
             for d in &docs {
-                validate::element_checks(&d.root, &mut sink);
-                constraints::check(&d.root, &mut sink);
-                constraints::event_data(&d.root, &mut sink);
+                for (offset, w) in &d.warnings {
+                    sink.warning("xml", *offset, None, w.clone());
+                }
             }
+            let built = build::build(&docs, &mut sink, options);
+            if let Some(g) = &built {
+                validate::Checker { g, sink: &mut sink }.run();
+                for d in &docs {
+                    validate::element_checks(&d.root, &mut sink);
+                    constraints::check(&d.root, &mut sink);
+                }
+            }
+            built
         }
-        built
-    } else {
-        None
+        None => None,
     };
+    drop(main_doc);
     if options.strict {
         sink.enforce_rules();
     }
     let ok = options.token_game || !sink.has_errors();
-    let texts: Vec<diagnostic::SourceText<'_>> = parts
-        .iter()
+    let texts: Vec<diagnostic::SourceText<'_>> = std::iter::once(&main)
+        .chain(&sources)
         .map(|p| diagnostic::SourceText {
             name: p.name.as_deref(),
             text: &p.text,
@@ -252,9 +288,11 @@ pub fn load_bundle(
         g.warnings = diagnostics.clone();
         g
     });
-    let mut parts = parts.into_iter();
-    let text = parts.next().map(|p| p.text).unwrap_or_default();
-    let imports = parts.filter_map(|p| Some((p.name?, p.text))).collect();
+    let text = main.text.into_owned();
+    let imports = sources
+        .into_iter()
+        .filter_map(|p| Some((p.name?, p.text.into_owned())))
+        .collect();
     Loaded {
         graph,
         diagnostics,
@@ -263,15 +301,26 @@ pub fn load_bundle(
     }
 }
 
-/// Decodes and parses one document; problems go to `sink`.
-fn read_part(
-    bytes: &[u8],
+/// The imports a document declares: (offset, location, is BPMN).
+fn import_sources_of(doc: &xml::Document<'_>) -> Vec<(usize, String, bool)> {
+    doc.root
+        .bpmn_children("import")
+        .map(|i| {
+            let location = i.attr("location").unwrap_or_default().to_owned();
+            let bpmn = i.attr("importType") == Some(BPMN_NS) || location.ends_with(".bpmn");
+            (i.offset, location, bpmn)
+        })
+        .collect()
+}
+
+/// Decodes one document; problems go to `sink`.
+fn decode_part<'b>(
+    bytes: &'b [u8],
     name: Option<String>,
     base: usize,
     limits: &Limits,
     sink: &mut Sink,
-) -> Part {
-    let mut warnings = Vec::new();
+) -> Option<Source<'b>> {
     if bytes.len() > limits.max_bytes {
         sink.error(
             "malformed-xml",
@@ -283,41 +332,39 @@ fn read_part(
                 limits.max_bytes
             ),
         );
-        return Part {
-            name,
-            text: String::new(),
-            base,
-            doc: None,
-        };
+        return None;
     }
-    let text = match xml::decode(bytes, &mut warnings) {
-        Ok(t) => t,
-        Err(e) => {
-            sink.error("malformed-xml", base, None, e.message);
-            return Part {
-                name,
-                text: String::new(),
-                base,
-                doc: None,
-            };
-        }
-    };
-    let warnings = warnings.into_iter().map(|(o, w)| (o + base, w)).collect();
-    match xml::parse(&text, base, limits, warnings) {
-        Ok(doc) => Part {
-            name,
-            text,
-            base,
-            doc: Some(doc),
-        },
-        Err(e) => {
-            sink.error("malformed-xml", e.offset, None, e.message);
-            Part {
+    let mut warnings = Vec::new();
+    match xml::decode(bytes, &mut warnings) {
+        Ok(text) => {
+            for (o, w) in warnings {
+                sink.warning("xml", o + base, None, w);
+            }
+            Some(Source {
                 name,
                 text,
                 base,
-                doc: None,
-            }
+                bpmn: true,
+            })
+        }
+        Err(e) => {
+            sink.error("malformed-xml", base, None, e.message);
+            None
+        }
+    }
+}
+
+/// Parses one decoded document; problems go to `sink`.
+fn parse_part<'t>(
+    source: &'t Source<'_>,
+    limits: &Limits,
+    sink: &mut Sink,
+) -> Option<xml::Document<'t>> {
+    match xml::parse(&source.text, source.base, limits, Vec::new()) {
+        Ok(doc) => Some(doc),
+        Err(e) => {
+            sink.error("malformed-xml", e.offset, None, e.message);
+            None
         }
     }
 }

@@ -951,7 +951,7 @@ pub(crate) fn element_checks(root: &Element, sink: &mut Sink) {
         };
         if el.ns == crate::xml::Ns::Bpmn {
             let id = el.attr("id");
-            match el.name.as_str() {
+            match el.name {
                 "process"
                     if el.attr("processType") == Some("Public")
                         && el.attr("isExecutable") == Some("true") =>

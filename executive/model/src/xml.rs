@@ -1,5 +1,9 @@
 //! Hostile-input-safe XML reading: bytes -> a namespace-resolved element tree with byte offsets.
 //!
+//! The tree borrows from the decoded text: names always, attribute values and text wherever
+//! they need no normalising (no entity, no line-end or white-space rewrite), which is nearly
+//! always. So reading allocates only each element's attribute and child lists.
+//!
 //! quick-xml does the tokenising; this module adds what a mission executive needs on top:
 //! decoding (UTF-8, UTF-16 with BOM, Latin-1 declared), namespace resolution by URI (never by
 //! prefix), and hard limits. A `<!DOCTYPE` is refused outright, so no external entity (XXE) is
@@ -7,7 +11,9 @@
 //! and character references are expanded. Size, depth, element and attribute counts are capped
 //! so every input is read in bounded time and memory.
 
-use quick_xml::events::attributes::Attribute;
+use std::borrow::Cow;
+
+use quick_xml::events::attributes::{Attribute, Attributes};
 use quick_xml::events::{BytesStart, Event};
 use quick_xml::reader::Reader;
 
@@ -37,7 +43,7 @@ impl Default for Limits {
 
 /// The namespaces the loader understands, resolved by URI.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub(crate) enum Ns {
+pub(crate) enum Ns<'a> {
     Bpmn,
     BpmnDi,
     Dc,
@@ -51,9 +57,9 @@ pub(crate) enum Ns {
     /// No namespace (an unprefixed attribute, or an element with no default namespace).
     None,
     /// A prefix that no `xmlns:` declaration binds.
-    Unbound(String),
+    Unbound(&'a str),
     /// Any other namespace URI (vendor extensions).
-    Other(String),
+    Other(Cow<'a, str>),
 }
 
 /// URI of the BPMN 2.0 model namespace.
@@ -67,9 +73,9 @@ pub const CAMUNDA_NS: &str = "http://camunda.org/schema/1.0/bpmn";
 /// URI of SpiffWorkflow's extension namespace.
 pub const SPIFF_NS: &str = "http://spiffworkflow.org/bpmn/schema/1.0/core";
 
-impl Ns {
-    fn from_uri(uri: &str) -> Ns {
-        match uri {
+impl<'a> Ns<'a> {
+    fn from_uri(uri: Cow<'a, str>) -> Ns<'a> {
+        match &*uri {
             BPMN_NS => Ns::Bpmn,
             "http://www.omg.org/spec/BPMN/20100524/DI" => Ns::BpmnDi,
             "http://www.omg.org/spec/DD/20100524/DC" => Ns::Dc,
@@ -81,32 +87,33 @@ impl Ns {
             "http://www.w3.org/2001/XMLSchema-instance" => Ns::Xsi,
             "http://www.w3.org/XML/1998/namespace" => Ns::Xml,
             "" => Ns::None,
-            other => Ns::Other(other.to_owned()),
+            _ => Ns::Other(uri),
         }
     }
 }
 
 /// One attribute with its resolved namespace.
 #[derive(Debug)]
-pub(crate) struct Attr {
-    pub(crate) ns: Ns,
-    pub(crate) name: String,
-    pub(crate) value: String,
+pub(crate) struct Attr<'a> {
+    pub(crate) ns: Ns<'a>,
+    pub(crate) name: &'a str,
+    pub(crate) value: Cow<'a, str>,
 }
 
 /// One element: resolved name, attributes, direct text, children, and where its start tag begins.
 #[derive(Debug)]
-pub(crate) struct Element {
-    pub(crate) ns: Ns,
-    pub(crate) name: String,
-    pub(crate) attrs: Vec<Attr>,
-    pub(crate) text: String,
-    pub(crate) children: Vec<Element>,
+pub(crate) struct Element<'a> {
+    pub(crate) ns: Ns<'a>,
+    pub(crate) name: &'a str,
+    pub(crate) attrs: Vec<Attr<'a>>,
+    /// Direct text; white space between child elements is kept only where it is all there is.
+    pub(crate) text: Cow<'a, str>,
+    pub(crate) children: Vec<Element<'a>>,
     /// Byte offset of the `<` of the start tag in the decoded text.
     pub(crate) offset: usize,
 }
 
-impl Element {
+impl<'a> Element<'a> {
     /// Is this the BPMN-namespace element `name`?
     pub(crate) fn is_bpmn(&self, name: &str) -> bool {
         self.ns == Ns::Bpmn && self.name == name
@@ -117,32 +124,32 @@ impl Element {
         self.attrs
             .iter()
             .find(|a| a.ns == Ns::None && a.name == name)
-            .map(|a| a.value.as_str())
+            .map(|a| &*a.value)
     }
 
     /// Value of the attribute `name` in namespace `ns`.
-    pub(crate) fn attr_ns(&self, ns: &Ns, name: &str) -> Option<&str> {
+    pub(crate) fn attr_ns(&self, ns: &Ns<'_>, name: &str) -> Option<&str> {
         self.attrs
             .iter()
             .find(|a| &a.ns == ns && a.name == name)
-            .map(|a| a.value.as_str())
+            .map(|a| &*a.value)
     }
 
     /// BPMN-namespace children named `name`.
-    pub(crate) fn bpmn_children<'a>(
-        &'a self,
-        name: &'a str,
-    ) -> impl Iterator<Item = &'a Element> + 'a {
+    pub(crate) fn bpmn_children<'s>(
+        &'s self,
+        name: &'s str,
+    ) -> impl Iterator<Item = &'s Element<'a>> + 's {
         self.children.iter().filter(move |c| c.is_bpmn(name))
     }
 
     /// First BPMN-namespace child named `name`.
-    pub(crate) fn bpmn_child(&self, name: &str) -> Option<&Element> {
+    pub(crate) fn bpmn_child(&self, name: &str) -> Option<&Element<'a>> {
         self.children.iter().find(|c| c.is_bpmn(name))
     }
 
     /// The children of `<bpmn:extensionElements>`, if any.
-    pub(crate) fn extensions(&self) -> impl Iterator<Item = &Element> {
+    pub(crate) fn extensions(&self) -> impl Iterator<Item = &Element<'a>> {
         self.bpmn_children("extensionElements")
             .flat_map(|e| e.children.iter())
     }
@@ -155,8 +162,8 @@ impl Element {
 
 /// A parsed document: the decoded text and its root element.
 #[derive(Debug)]
-pub(crate) struct Document {
-    pub(crate) root: Element,
+pub(crate) struct Document<'a> {
+    pub(crate) root: Element<'a>,
     /// Problems that did not stop reading (declared encoding ignored, unbound prefixes).
     pub(crate) warnings: Vec<(usize, String)>,
 }
@@ -179,14 +186,15 @@ fn err(offset: usize, message: impl Into<String>) -> XmlError {
 
 /// Decodes input bytes to text: UTF-8 (BOM stripped), UTF-16 with a BOM, or Latin-1 where the
 /// XML declaration says so. Anything else is refused with the offset of the first bad byte.
-pub(crate) fn decode(
-    bytes: &[u8],
+/// UTF-8 input, nearly all of it, is borrowed, not copied.
+pub(crate) fn decode<'b>(
+    bytes: &'b [u8],
     warnings: &mut Vec<(usize, String)>,
-) -> Result<String, XmlError> {
+) -> Result<Cow<'b, str>, XmlError> {
     if let Some(rest) = bytes.strip_prefix(&[0xEF, 0xBB, 0xBF]) {
         return decode_utf8(rest);
     }
-    let utf16 = |le: bool, rest: &[u8]| -> Result<String, XmlError> {
+    let utf16 = |le: bool, rest: &[u8]| -> Result<Cow<'b, str>, XmlError> {
         if !rest.len().is_multiple_of(2) {
             return Err(err(rest.len(), "UTF-16 input has an odd number of bytes"));
         }
@@ -199,6 +207,7 @@ pub(crate) fn decode(
         });
         char::decode_utf16(units)
             .collect::<Result<String, _>>()
+            .map(Cow::Owned)
             .map_err(|_| err(0, "input is not valid UTF-16"))
     };
     if let Some(rest) = bytes.strip_prefix(&[0xFF, 0xFE]) {
@@ -220,10 +229,10 @@ pub(crate) fn decode(
                         format!("declared encoding {enc} is read as UTF-8, which the content is"),
                     ));
                 }
-                return Ok(text.to_owned());
+                return Ok(Cow::Borrowed(text));
             }
             warnings.push((0, format!("declared encoding {enc} decoded as Latin-1")));
-            Ok(bytes.iter().map(|&b| char::from(b)).collect())
+            Ok(Cow::Owned(bytes.iter().map(|&b| char::from(b)).collect()))
         }
         Some(other) => Err(err(
             0,
@@ -232,9 +241,9 @@ pub(crate) fn decode(
     }
 }
 
-fn decode_utf8(bytes: &[u8]) -> Result<String, XmlError> {
+fn decode_utf8(bytes: &[u8]) -> Result<Cow<'_, str>, XmlError> {
     match std::str::from_utf8(bytes) {
-        Ok(s) => Ok(s.to_owned()),
+        Ok(s) => Ok(Cow::Borrowed(s)),
         Err(e) => Err(err(
             e.valid_up_to(),
             format!(
@@ -267,18 +276,18 @@ fn declared_encoding(bytes: &[u8]) -> Option<&str> {
 }
 
 /// Namespace bindings in force: (prefix, namespace) pairs, innermost last.
-struct Scope {
-    bindings: Vec<(String, Ns)>,
+struct Scope<'a> {
+    bindings: Vec<(&'a str, Ns<'a>)>,
     /// How many bindings each open element pushed.
     pushed: Vec<usize>,
 }
 
-impl Scope {
-    fn resolve(&self, prefix: &str) -> Option<&Ns> {
+impl<'a> Scope<'a> {
+    fn resolve(&self, prefix: &str) -> Option<&Ns<'a>> {
         self.bindings
             .iter()
             .rev()
-            .find(|(p, _)| p == prefix)
+            .find(|(p, _)| *p == prefix)
             .map(|(_, ns)| ns)
     }
 }
@@ -308,12 +317,12 @@ fn attributes_run_together(decl: &str) -> bool {
 /// Parses decoded text into a [`Document`], enforcing `limits`.
 /// Offsets are `base` plus the position in `text`, so several documents of a bundle share one
 /// offset space.
-pub(crate) fn parse(
-    text: &str,
+pub(crate) fn parse<'a>(
+    text: &'a str,
     base: usize,
     limits: &Limits,
     mut warnings: Vec<(usize, String)>,
-) -> Result<Document, XmlError> {
+) -> Result<Document<'a>, XmlError> {
     if text.len() > limits.max_bytes {
         return Err(err(
             base,
@@ -327,7 +336,7 @@ pub(crate) fn parse(
     let mut reader = Reader::from_str(text);
     reader.config_mut().check_end_names = true;
     let mut scope = Scope {
-        bindings: vec![("xml".to_owned(), Ns::Xml), (String::new(), Ns::None)],
+        bindings: vec![("xml", Ns::Xml), ("", Ns::None)],
         pushed: Vec::new(),
     };
     let mut stack: Vec<Element> = Vec::new();
@@ -360,7 +369,7 @@ pub(crate) fn parse(
                         format!("elements nested deeper than {}", limits.max_depth),
                     ));
                 }
-                let element = open(&start, offset, &mut scope, limits, &mut warnings)?;
+                let element = open(text, &start, offset, &mut scope, limits, &mut warnings)?;
                 stack.push(element);
             }
             Event::Empty(start) => {
@@ -371,7 +380,7 @@ pub(crate) fn parse(
                         format!("more than {} elements", limits.max_elements),
                     ));
                 }
-                let element = open(&start, offset, &mut scope, limits, &mut warnings)?;
+                let element = open(text, &start, offset, &mut scope, limits, &mut warnings)?;
                 close_scope(&mut scope);
                 attach(&mut stack, &mut root, element);
             }
@@ -385,14 +394,14 @@ pub(crate) fn parse(
             Event::Text(t) => {
                 let content = t.xml10_content();
                 match stack.last_mut() {
-                    Some(top) => top.text.push_str(&content),
+                    Some(top) => append(&mut top.text, content),
                     None if content.trim().is_empty() => {}
                     None => return Err(err(offset, "text outside the root element")),
                 }
             }
             Event::CData(c) => {
                 if let Some(top) = stack.last_mut() {
-                    top.text.push_str(&c.xml10_content());
+                    append(&mut top.text, c.xml10_content());
                 }
             }
             Event::GeneralRef(r) => {
@@ -419,7 +428,7 @@ pub(crate) fn parse(
                     }
                 };
                 if let Some(top) = stack.last_mut() {
-                    top.text.push(ch);
+                    top.text.to_mut().push(ch);
                 }
             }
             Event::DocType(_) => {
@@ -457,14 +466,26 @@ pub(crate) fn parse(
     Ok(Document { root, warnings })
 }
 
-fn attach(stack: &mut [Element], root: &mut Option<Element>, element: Element) {
+fn attach<'a>(stack: &mut [Element<'a>], root: &mut Option<Element<'a>>, element: Element<'a>) {
     match stack.last_mut() {
         Some(parent) => parent.children.push(element),
         None => *root = Some(element),
     }
 }
 
-fn close_scope(scope: &mut Scope) {
+/// Adds a piece of text to an element's text, borrowing while it is the only piece. White
+/// space meeting white space (the indentation between child elements) is not added: it would
+/// copy every indented parent's text for nothing the model reads.
+fn append<'a>(text: &mut Cow<'a, str>, piece: Cow<'a, str>) {
+    let blank = |s: &str| s.bytes().all(|b| b.is_ascii_whitespace());
+    if text.is_empty() {
+        *text = piece;
+    } else if !(blank(&piece) && blank(text)) {
+        text.to_mut().push_str(&piece);
+    }
+}
+
+fn close_scope(scope: &mut Scope<'_>) {
     let n = scope.pushed.pop().unwrap_or(0);
     let keep = scope.bindings.len().saturating_sub(n);
     scope.bindings.truncate(keep);
@@ -477,48 +498,62 @@ fn split_qname(raw: &str) -> (&str, &str) {
     }
 }
 
-fn open(
-    start: &BytesStart<'_>,
+/// `piece` as a slice of `text`, when it lies inside it (the reader borrows from the text, so
+/// a tag always does).
+fn within<'a>(text: &'a str, piece: &str) -> Option<&'a str> {
+    let at = (piece.as_ptr() as usize).checked_sub(text.as_ptr() as usize)?;
+    text.get(at..at + piece.len())
+        .filter(|s| s.as_ptr() == piece.as_ptr())
+}
+
+fn open<'a>(
+    text: &'a str,
+    start: &BytesStart<'a>,
     offset: usize,
-    scope: &mut Scope,
+    scope: &mut Scope<'a>,
     limits: &Limits,
     warnings: &mut Vec<(usize, String)>,
-) -> Result<Element, XmlError> {
-    let mut raw_attrs: Vec<(String, String)> = Vec::new();
-    for attr in start.attributes().with_checks(true) {
-        let attr: Attribute<'_> =
+) -> Result<Element<'a>, XmlError> {
+    let tag = within(text, start)
+        .ok_or_else(|| err(offset, "the tag could not be located in the document"))?;
+    let name_len = start.name().as_ref().len();
+    let raw_name = &tag[..name_len];
+    let mut attributes = Attributes::new(tag, name_len);
+    attributes.with_checks(true);
+    let mut attrs: Vec<Attr<'a>> = Vec::new();
+    let mut pushed = 0;
+    for (count, attr) in attributes.enumerate() {
+        let attr: Attribute<'a> =
             attr.map_err(|e| err(offset, format!("malformed attribute: {e}")))?;
-        if raw_attrs.len() >= limits.max_attributes {
+        if count >= limits.max_attributes {
             return Err(err(
                 offset,
                 format!("element has more than {} attributes", limits.max_attributes),
             ));
         }
-        let key: &str = attr.key.as_ref();
-        let key = key.to_owned();
+        let key = attr.key.0;
         let value = attr
             .normalized_value(quick_xml::XmlVersion::Implicit1_0)
-            .map_err(|e| err(offset, format!("attribute {key}: {e}")))?
-            .into_owned();
-        raw_attrs.push((key, value));
-    }
-    let mut pushed = 0;
-    for (key, value) in &raw_attrs {
+            .map_err(|e| err(offset, format!("attribute {key}: {e}")))?;
         let prefix = if key == "xmlns" {
-            Some(String::new())
+            Some("")
         } else {
-            key.strip_prefix("xmlns:").map(str::to_owned)
+            key.strip_prefix("xmlns:")
         };
-        if let Some(prefix) = prefix {
-            scope.bindings.push((prefix, Ns::from_uri(value)));
-            pushed += 1;
+        match prefix {
+            Some(prefix) => {
+                scope.bindings.push((prefix, Ns::from_uri(value)));
+                pushed += 1;
+            }
+            None => attrs.push(Attr {
+                ns: Ns::None,
+                name: key,
+                value,
+            }),
         }
     }
     scope.pushed.push(pushed);
-    let qname = start.name();
-    let raw_name: &str = qname.as_ref();
-    let raw_name = raw_name.to_owned();
-    let (prefix, local) = split_qname(&raw_name);
+    let (prefix, local) = split_qname(raw_name);
     let ns = match scope.resolve(prefix) {
         Some(ns) => ns.clone(),
         None => {
@@ -526,34 +561,24 @@ fn open(
                 offset,
                 format!("prefix {prefix:?} of <{raw_name}> is not declared"),
             ));
-            Ns::Unbound(prefix.to_owned())
+            Ns::Unbound(prefix)
         }
     };
-    let mut attrs = Vec::with_capacity(raw_attrs.len());
-    for (key, value) in raw_attrs {
-        if key == "xmlns" || key.starts_with("xmlns:") {
-            continue;
-        }
-        let (prefix, local) = split_qname(&key);
-        let ns = if prefix.is_empty() {
-            Ns::None
-        } else {
-            scope
+    for attr in &mut attrs {
+        let (prefix, local) = split_qname(attr.name);
+        if !prefix.is_empty() {
+            attr.ns = scope
                 .resolve(prefix)
                 .cloned()
-                .unwrap_or_else(|| Ns::Unbound(prefix.to_owned()))
-        };
-        attrs.push(Attr {
-            ns,
-            name: local.to_owned(),
-            value,
-        });
+                .unwrap_or(Ns::Unbound(prefix));
+            attr.name = local;
+        }
     }
     Ok(Element {
         ns,
-        name: local.to_owned(),
+        name: local,
         attrs,
-        text: String::new(),
+        text: Cow::Borrowed(""),
         children: Vec::new(),
         offset,
     })
@@ -563,16 +588,16 @@ fn open(
 mod tests {
     use super::*;
 
-    fn read(text: &str) -> Result<Document, XmlError> {
+    fn read(text: &str) -> Result<Document<'_>, XmlError> {
         parse(text, 0, &Limits::default(), Vec::new())
     }
 
     #[test]
     fn resolves_namespaces_by_uri_not_prefix() {
-        let doc = read(&format!(
+        let text = format!(
             r#"<foo:definitions xmlns:foo="{BPMN_NS}"><process xmlns="{BPMN_NS}" id="p"/></foo:definitions>"#
-        ))
-        .unwrap();
+        );
+        let doc = read(&text).unwrap();
         assert!(doc.root.is_bpmn("definitions"));
         assert!(doc.root.children[0].is_bpmn("process"));
         assert_eq!(doc.root.children[0].attr("id"), Some("p"));
@@ -589,6 +614,32 @@ mod tests {
                 .contains("undefined entity")
         );
         assert_eq!(read("<d>&lt;&#65;</d>").unwrap().root.text, "<A");
+    }
+
+    #[test]
+    fn borrows_what_needs_no_normalising_and_joins_text_pieces() {
+        let doc = read(
+            "<p a=\"plain\" b=\"x &amp; y\" c=\"tab\tbed\">\n  <s>a &lt; b<![CDATA[ & c]]>\nd</s>\n  <t/>\n</p>",
+        )
+        .unwrap();
+        let value = |name: &str| {
+            &doc.root
+                .attrs
+                .iter()
+                .find(|a| a.name == name)
+                .unwrap()
+                .value
+        };
+        assert!(matches!(value("a"), Cow::Borrowed("plain")));
+        assert_eq!(value("b"), "x & y");
+        assert_eq!(value("c"), "tab bed", "attribute-value normalisation");
+        assert_eq!(doc.root.children[0].text, "a < b & c\nd");
+        assert!(matches!(doc.root.children[1].text, Cow::Borrowed("")));
+        assert!(doc.root.trimmed_text().is_empty());
+        assert!(
+            matches!(doc.root.text, Cow::Borrowed(_)),
+            "indentation is not copied"
+        );
     }
 
     #[test]
