@@ -1363,7 +1363,7 @@ impl Run<'_> {
             }
         };
         if let Some(tok) = self.s.tokens.get_mut(&h) {
-            tok.compensating = Some(run);
+            tok.compensating = Some(Box::new(run));
         }
     }
 

@@ -105,7 +105,7 @@ impl Run<'_> {
 
     fn set_loop(&mut self, t: TokenId, l: Loop) {
         if let Some(tok) = self.s.tokens.get_mut(&t) {
-            tok.at = At::Looping(l);
+            tok.at = At::Looping(Box::new(l));
         }
     }
 

@@ -814,7 +814,7 @@ impl Run<'_> {
         };
         let scope = tok.scope;
         if let Some(run) = tok.compensating {
-            self.compensation_step(scope, run);
+            self.compensation_step(scope, *run);
         }
         let Some(sc) = self.s.scopes.get_mut(&scope) else {
             return;

@@ -108,7 +108,7 @@ pub struct Token {
     /// The token runs the body of a looping activity: finishing it ends the body scope.
     pub body: bool,
     /// The token runs a compensation handler for this thrower (waiting throw token, if any).
-    pub compensating: Option<CompensationRun>,
+    pub compensating: Option<Box<CompensationRun>>,
     /// Its subscriptions (catch events, boundaries).
     pub waits: Vec<WaitId>,
     /// The command in flight for this token (dispatch or open user task), to re-command it
@@ -162,7 +162,7 @@ pub enum At {
     /// Running a child scope (sub-process, call activity, loop).
     Scope(ScopeId),
     /// Running the bodies of a looping or multi-instance activity.
-    Looping(Loop),
+    Looping(Box<Loop>),
     /// Waiting for compensation handlers to finish.
     Compensating,
     /// Stuck; the reason is an incident of the instance.
