@@ -2,7 +2,10 @@
 //!
 //! The tree borrows from the decoded text: names always, attribute values and text wherever
 //! they need no normalising (no entity, no line-end or white-space rewrite), which is nearly
-//! always. So reading allocates only each element's attribute and child lists.
+//! always. So reading allocates only each element's attribute and child lists. Diagram
+//! interchange (BPMN DI, DC and DI namespaces below the root) is read and checked like the rest
+//! but not kept: nothing executes or checks the drawing, and in a drawn model it is about half
+//! the elements.
 //!
 //! quick-xml does the tokenising; this module adds what a mission executive needs on top:
 //! decoding (UTF-8, UTF-16 with BOM, Latin-1 declared), namespace resolution by URI (never by
@@ -342,6 +345,9 @@ pub(crate) fn parse<'a>(
     let mut stack: Vec<Element> = Vec::new();
     let mut root: Option<Element> = None;
     let mut elements = 0usize;
+    // Depth inside a diagram-interchange subtree, which is read but not kept.
+    let mut hidden = 0usize;
+    let drawing = |ns: &Ns<'_>| matches!(ns, Ns::BpmnDi | Ns::Dc | Ns::Di);
     loop {
         let offset = base + reader.buffer_position() as usize;
         let event = reader.read_event().map_err(|e| {
@@ -363,14 +369,18 @@ pub(crate) fn parse<'a>(
                         format!("more than {} elements", limits.max_elements),
                     ));
                 }
-                if stack.len() >= limits.max_depth {
+                if stack.len() + hidden >= limits.max_depth {
                     return Err(err(
                         offset,
                         format!("elements nested deeper than {}", limits.max_depth),
                     ));
                 }
                 let element = open(text, &start, offset, &mut scope, limits, &mut warnings)?;
-                stack.push(element);
+                if hidden > 0 || (drawing(&element.ns) && !stack.is_empty()) {
+                    hidden += 1;
+                } else {
+                    stack.push(element);
+                }
             }
             Event::Empty(start) => {
                 elements += 1;
@@ -382,15 +392,22 @@ pub(crate) fn parse<'a>(
                 }
                 let element = open(text, &start, offset, &mut scope, limits, &mut warnings)?;
                 close_scope(&mut scope);
-                attach(&mut stack, &mut root, element);
+                if hidden == 0 && !(drawing(&element.ns) && !stack.is_empty()) {
+                    attach(&mut stack, &mut root, element);
+                }
             }
             Event::End(_) => {
                 close_scope(&mut scope);
+                if hidden > 0 {
+                    hidden -= 1;
+                    continue;
+                }
                 let element = stack
                     .pop()
                     .ok_or_else(|| err(offset, "unexpected end tag"))?;
                 attach(&mut stack, &mut root, element);
             }
+            Event::Text(_) | Event::CData(_) if hidden > 0 => {}
             Event::Text(t) => {
                 let content = t.xml10_content();
                 match stack.last_mut() {
@@ -427,7 +444,7 @@ pub(crate) fn parse<'a>(
                         }
                     }
                 };
-                if let Some(top) = stack.last_mut() {
+                if let Some(top) = stack.last_mut().filter(|_| hidden == 0) {
                     top.text.to_mut().push(ch);
                 }
             }
@@ -590,6 +607,42 @@ mod tests {
 
     fn read(text: &str) -> Result<Document<'_>, XmlError> {
         parse(text, 0, &Limits::default(), Vec::new())
+    }
+
+    #[test]
+    fn reads_the_drawing_without_keeping_it() {
+        let di = "http://www.omg.org/spec/BPMN/20100524/DI";
+        let dc = "http://www.omg.org/spec/DD/20100524/DC";
+        let model = |shape: &str| {
+            format!(
+                r#"<definitions xmlns="{BPMN_NS}" xmlns:di="{di}" xmlns:dc="{dc}"><process id="p"/><di:BPMNDiagram><di:BPMNPlane>{shape}</di:BPMNPlane></di:BPMNDiagram><message id="m"/></definitions>"#
+            )
+        };
+        let text =
+            model(r#"<di:BPMNShape bpmnElement="p">t &amp;<dc:Bounds x="1"/></di:BPMNShape>"#);
+        let doc = read(&text).unwrap();
+        let kept: Vec<&str> = doc.root.children.iter().map(|c| c.name).collect();
+        assert_eq!(kept, ["process", "message"]);
+        assert!(
+            doc.root.text.is_empty(),
+            "the drawing's text is not the parent's"
+        );
+        // Still read: well-formedness and entities inside the drawing are checked.
+        for bad in [
+            r#"<dc:Bounds x="1" x="2"/>"#,
+            "<di:BPMNShape>&nope;</di:BPMNShape>",
+            "<dc:Bounds>",
+        ] {
+            assert!(read(&model(bad)).is_err(), "{bad}");
+        }
+        // The root is kept whatever its namespace.
+        assert_eq!(
+            read(&format!(r#"<di:BPMNDiagram xmlns:di="{di}"/>"#))
+                .unwrap()
+                .root
+                .name,
+            "BPMNDiagram"
+        );
     }
 
     #[test]
