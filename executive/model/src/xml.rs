@@ -347,7 +347,10 @@ pub(crate) fn parse<'a>(
     let mut elements = 0usize;
     // Depth inside a diagram-interchange subtree, which is read but not kept.
     let mut hidden = 0usize;
-    let drawing = |ns: &Ns<'_>| matches!(ns, Ns::BpmnDi | Ns::Dc | Ns::Di);
+    let kept = |hidden: usize, element: &Element<'_>, stack: &[Element<'_>]| {
+        let drawing = matches!(element.ns, Ns::BpmnDi | Ns::Dc | Ns::Di);
+        hidden == 0 && (stack.is_empty() || !drawing)
+    };
     loop {
         let offset = base + reader.buffer_position() as usize;
         let event = reader.read_event().map_err(|e| {
@@ -376,10 +379,10 @@ pub(crate) fn parse<'a>(
                     ));
                 }
                 let element = open(text, &start, offset, &mut scope, limits, &mut warnings)?;
-                if hidden > 0 || (drawing(&element.ns) && !stack.is_empty()) {
-                    hidden += 1;
-                } else {
+                if kept(hidden, &element, &stack) {
                     stack.push(element);
+                } else {
+                    hidden += 1;
                 }
             }
             Event::Empty(start) => {
@@ -392,7 +395,7 @@ pub(crate) fn parse<'a>(
                 }
                 let element = open(text, &start, offset, &mut scope, limits, &mut warnings)?;
                 close_scope(&mut scope);
-                if hidden == 0 && !(drawing(&element.ns) && !stack.is_empty()) {
+                if kept(hidden, &element, &stack) {
                     attach(&mut stack, &mut root, element);
                 }
             }
