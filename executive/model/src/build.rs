@@ -202,7 +202,7 @@ pub(crate) fn build(
         escalations: BTreeMap::new(),
         global_event_defs: BTreeMap::new(),
         global_tasks: BTreeMap::new(),
-        all_ids: HashMap::new(),
+        all_ids: HashMap::with_capacity(docs.iter().map(|d| d.ids).sum()),
         data_els: HashMap::new(),
         bases: docs.iter().map(|d| d.root.offset).collect(),
         doc_namespace: {

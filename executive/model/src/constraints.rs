@@ -16,7 +16,7 @@ use foldhash::{HashMap, HashMapExt, HashSet};
 use crate::build::local_ref;
 use crate::build::{ACTIVITIES, FLOW_NODES};
 use crate::diagnostic::Sink;
-use crate::xml::{Element, Ns};
+use crate::xml::{Document, Element, Ns};
 
 /// Rules whose breach leaves the meaning clear: warnings naming the rule (errors with
 /// `--strict`). Each message says how the model is read.
@@ -226,11 +226,11 @@ struct Index<'d> {
 }
 
 impl<'d> Index<'d> {
-    fn new(root: &'d Element<'d>) -> Index<'d> {
+    fn new(root: &'d Element<'d>, ids: usize) -> Index<'d> {
         let mut ix = Index {
-            by_id: HashMap::new(),
-            elements: Vec::new(),
-            process_of: HashMap::new(),
+            by_id: HashMap::with_capacity(ids),
+            elements: Vec::with_capacity(ids),
+            process_of: HashMap::with_capacity(ids),
             pool_of_process: HashMap::new(),
         };
         let mut stack: Vec<(&Element, Option<&str>)> = vec![(root, None)];
@@ -318,19 +318,25 @@ fn is_uri(v: &str) -> bool {
         && !v.contains(char::is_whitespace)
 }
 
-/// Runs every element-level constraint over the document, and [`event_data`].
-pub(crate) fn check(root: &Element, sink: &mut Sink) {
-    let ix = Index::new(root);
-    let mut stack: Vec<(&Element, Option<&Element>, bool)> = vec![(root, None, false)];
-    while let Some((el, parent, executable)) = stack.pop() {
+/// Runs every element-level constraint over the document (with
+/// [`crate::validate::element_check`] in the same walk), and [`event_data`].
+pub(crate) fn check(doc: &Document<'_>, sink: &mut Sink) {
+    let root = &doc.root;
+    let ix = Index::new(root, doc.ids);
+    let mut stack: Vec<(&Element, Option<&Element>, bool, bool)> = vec![(root, None, false, false)];
+    while let Some((el, parent, executable, declared)) = stack.pop() {
         if el.ns != Ns::Bpmn {
             continue;
         }
-        let executable = if el.name == "process" {
-            el.attr("isExecutable") != Some("false")
+        let (executable, declared) = if el.name == "process" {
+            (
+                el.attr("isExecutable") != Some("false"),
+                el.attr("isExecutable") == Some("true"),
+            )
         } else {
-            executable
+            (executable, declared)
         };
+        crate::validate::element_check(el, executable, declared, sink);
         let id = el.attr("id");
         let in_process = ix.process_of.contains_key(id.unwrap_or_default()) || el.name == "process";
         // References whose breach leaves the meaning clear, reported as bent rules below.
@@ -638,7 +644,11 @@ pub(crate) fn check(root: &Element, sink: &mut Sink) {
         for (code, msg) in soft {
             sink.bent(code, "REF", el.offset, id, msg);
         }
-        stack.extend(el.children.iter().map(|c| (c, Some(el), executable)));
+        stack.extend(
+            el.children
+                .iter()
+                .map(|c| (c, Some(el), executable, declared)),
+        );
     }
     listed_flows(&ix, sink);
     event_data(root, &ix, sink);

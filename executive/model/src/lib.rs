@@ -262,8 +262,7 @@ pub fn load_bundle(
             if let Some(g) = &built {
                 validate::Checker { g, sink: &mut sink }.run();
                 for d in &docs {
-                    validate::element_checks(&d.root, &mut sink);
-                    constraints::check(&d.root, &mut sink);
+                    constraints::check(d, &mut sink);
                 }
             }
             built

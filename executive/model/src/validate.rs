@@ -937,134 +937,130 @@ impl Checker<'_> {
     }
 }
 
-/// Constraint checks that need the raw elements (attributes the graph does not keep).
-pub(crate) fn element_checks(root: &Element, sink: &mut Sink) {
-    let mut stack: Vec<(&Element, bool, bool)> = vec![(root, false, false)];
-    while let Some((el, executable, declared)) = stack.pop() {
-        let (executable, declared) = if el.is_bpmn("process") {
-            (
-                el.attr("isExecutable") != Some("false"),
-                el.attr("isExecutable") == Some("true"),
-            )
-        } else {
-            (executable, declared)
-        };
-        if el.ns == crate::xml::Ns::Bpmn {
-            let id = el.attr("id");
-            match el.name {
-                "process"
-                    if el.attr("processType") == Some("Public")
-                        && el.attr("isExecutable") == Some("true") =>
-                {
-                    sink.bent(
-                        "public-executable",
-                        "EXT.035",
-                        el.offset,
-                        id,
-                        "a public process should not be executable; it is run as marked executable"
-                            .to_owned(),
-                    );
-                }
-                "sequenceFlow" if executable && el.attr("isImmediate") == Some("false") => {
-                    sink.bent(
+/// Constraint checks of one BPMN element that need the raw element (attributes the graph does
+/// not keep). `executable` / `declared`: the element's process is executable / marked
+/// `isExecutable="true"`. Called from the walk of [`crate::constraints::check`].
+pub(crate) fn element_check(el: &Element, executable: bool, declared: bool, sink: &mut Sink) {
+    if el.ns == crate::xml::Ns::Bpmn {
+        let id = el.attr("id");
+        match el.name {
+            "process"
+                if el.attr("processType") == Some("Public")
+                    && el.attr("isExecutable") == Some("true") =>
+            {
+                sink.bent(
+                    "public-executable",
+                    "EXT.035",
+                    el.offset,
+                    id,
+                    "a public process should not be executable; it is run as marked executable"
+                        .to_owned(),
+                );
+            }
+            "sequenceFlow" if executable && el.attr("isImmediate") == Some("false") => {
+                sink.bent(
                         "not-immediate",
                         "EXT.024",
                         el.offset,
                         id,
                         "isImmediate=\"false\" is not allowed in an executable process; the flow is taken immediately".to_owned(),
                     );
-                }
-                "scriptTask" if executable => {
-                    if let Some(s) = el.bpmn_child("script")
-                        && !s.trimmed_text().is_empty()
-                        && el.attr("scriptFormat").is_some_and(|f| f.trim().is_empty())
-                    {
-                        sink.bent(
-                            "empty-script-format",
-                            "EXT.053",
-                            el.offset,
-                            id,
-                            "scriptFormat is empty; the script is read as if it had none"
-                                .to_owned(),
-                        );
-                    }
-                }
-                _ => {}
             }
-            if el.name == "boundaryEvent"
-                && el.attr("cancelActivity") == Some("false")
-                && [
-                    "errorEventDefinition",
-                    "cancelEventDefinition",
-                    "compensateEventDefinition",
-                ]
-                .iter()
-                .any(|d| el.bpmn_child(d).is_some())
-            {
-                sink.bent(
+            "scriptTask" if executable => {
+                if let Some(s) = el.bpmn_child("script")
+                    && !s.trimmed_text().is_empty()
+                    && el.attr("scriptFormat").is_some_and(|f| f.trim().is_empty())
+                {
+                    sink.bent(
+                        "empty-script-format",
+                        "EXT.053",
+                        el.offset,
+                        id,
+                        "scriptFormat is empty; the script is read as if it had none".to_owned(),
+                    );
+                }
+            }
+            _ => {}
+        }
+        if el.name == "boundaryEvent"
+            && el.attr("cancelActivity") == Some("false")
+            && [
+                "errorEventDefinition",
+                "cancelEventDefinition",
+                "compensateEventDefinition",
+            ]
+            .iter()
+            .any(|d| el.bpmn_child(d).is_some())
+        {
+            sink.bent(
                     "non-interrupting-error",
                     "EXT.110",
                     el.offset,
                     id,
                     "error, cancel and compensation boundary events always interrupt: cancelActivity=\"false\" is ignored".to_owned(),
                 );
-            }
-            for (attr, constraint) in [
-                ("startQuantity", "EXT.037"),
-                ("completionQuantity", "EXT.038"),
-            ] {
-                let Some(v) = el.attr(attr) else { continue };
-                let max = crate::MAX_QUANTITY;
-                // How many tokens to wait for is undefined at zero: an executable process
-                // cannot run with it; a drawing (ADONIS writes 0 throughout) is read as 1. Over
-                // the bound the model is fine BPMN that TRACE will not run (each token is state).
-                let (error, bent, limit) = match v.trim().parse::<u32>() {
-                    Ok(q) if q > max => (
-                        format!(
-                            "{attr}=\"{v}\" is over the {max} tokens TRACE runs for one activity"
-                        ),
-                        format!("{attr}=\"{v}\" is over {max} tokens; it is read as {max}"),
-                        true,
+        }
+        for (attr, constraint) in [
+            ("startQuantity", "EXT.037"),
+            ("completionQuantity", "EXT.038"),
+        ] {
+            let Some(v) = el.attr(attr) else { continue };
+            let max = crate::MAX_QUANTITY;
+            // How many tokens to wait for is undefined at zero: an executable process
+            // cannot run with it; a drawing (ADONIS writes 0 throughout) is read as 1. Over
+            // the bound the model is fine BPMN that TRACE will not run (each token is state).
+            let (error, bent, limit) = match v.trim().parse::<u32>() {
+                Ok(q) if q > max => (
+                    format!("{attr}=\"{v}\" is over the {max} tokens TRACE runs for one activity"),
+                    format!("{attr}=\"{v}\" is over {max} tokens; it is read as {max}"),
+                    true,
+                ),
+                Ok(q) if q >= 1 => continue,
+                _ => (
+                    format!("{attr}=\"{v}\" must be a whole number of at least 1"),
+                    format!(
+                        "{attr}=\"{v}\" should be a whole number of at least 1; it is read as 1"
                     ),
-                    Ok(q) if q >= 1 => continue,
-                    _ => (
-                        format!("{attr}=\"{v}\" must be a whole number of at least 1"),
-                        format!(
-                            "{attr}=\"{v}\" should be a whole number of at least 1; it is read as 1"
-                        ),
-                        false,
-                    ),
-                };
-                if executable {
-                    let d = sink.error("bad-quantity", el.offset, id, error);
-                    d.constraint(constraint);
-                    if limit || !declared {
-                        d.execution();
-                    }
-                } else {
-                    sink.bent("bad-quantity", constraint, el.offset, id, bent);
+                    false,
+                ),
+            };
+            if executable {
+                let d = sink.error("bad-quantity", el.offset, id, error);
+                d.constraint(constraint);
+                if limit || !declared {
+                    d.execution();
                 }
+            } else {
+                sink.bent("bad-quantity", constraint, el.offset, id, bent);
             }
-            if let Some(dir) = el.attr("gatewayDirection") {
-                let ins = el.bpmn_children("incoming").count();
-                let outs = el.bpmn_children("outgoing").count();
-                let bad = match dir {
-                    "Diverging" => (ins > 1).then_some(("EXT.018", "a diverging gateway cannot have more than one incoming sequence flow")),
-                    "Converging" => (outs > 1).then_some(("EXT.018", "a converging gateway cannot have more than one outgoing sequence flow")),
-                    "Mixed" => (ins < 2 || outs < 2).then_some(("EXT.019", "a mixed gateway needs several incoming and several outgoing sequence flows")),
-                    _ => None,
-                };
-                if let Some((c, msg)) = bad {
-                    sink.bent(
-                        "gateway-direction",
-                        c,
-                        el.offset,
-                        id,
-                        format!("{msg}; gatewayDirection is ignored, the sequence flows decide"),
-                    );
-                }
+        }
+        if let Some(dir) = el.attr("gatewayDirection") {
+            let ins = el.bpmn_children("incoming").count();
+            let outs = el.bpmn_children("outgoing").count();
+            let bad = match dir {
+                "Diverging" => (ins > 1).then_some((
+                    "EXT.018",
+                    "a diverging gateway cannot have more than one incoming sequence flow",
+                )),
+                "Converging" => (outs > 1).then_some((
+                    "EXT.018",
+                    "a converging gateway cannot have more than one outgoing sequence flow",
+                )),
+                "Mixed" => (ins < 2 || outs < 2).then_some((
+                    "EXT.019",
+                    "a mixed gateway needs several incoming and several outgoing sequence flows",
+                )),
+                _ => None,
+            };
+            if let Some((c, msg)) = bad {
+                sink.bent(
+                    "gateway-direction",
+                    c,
+                    el.offset,
+                    id,
+                    format!("{msg}; gatewayDirection is ignored, the sequence flows decide"),
+                );
             }
-            stack.extend(el.children.iter().map(|c| (c, executable, declared)));
         }
     }
 }

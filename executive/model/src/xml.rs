@@ -167,6 +167,8 @@ impl<'a> Element<'a> {
 #[derive(Debug)]
 pub(crate) struct Document<'a> {
     pub(crate) root: Element<'a>,
+    /// How many kept elements carry an `id` (to size the id maps once).
+    pub(crate) ids: usize,
     /// Problems that did not stop reading (declared encoding ignored, unbound prefixes).
     pub(crate) warnings: Vec<(usize, String)>,
 }
@@ -347,6 +349,8 @@ pub(crate) fn parse<'a>(
     let mut elements = 0usize;
     // Depth inside a diagram-interchange subtree, which is read but not kept.
     let mut hidden = 0usize;
+    let mut ids = 0usize;
+    let has_id = |element: &Element<'_>| element.attr("id").is_some();
     let kept = |hidden: usize, element: &Element<'_>, stack: &[Element<'_>]| {
         let drawing = matches!(element.ns, Ns::BpmnDi | Ns::Dc | Ns::Di);
         hidden == 0 && (stack.is_empty() || !drawing)
@@ -380,6 +384,7 @@ pub(crate) fn parse<'a>(
                 }
                 let element = open(text, &start, offset, &mut scope, limits, &mut warnings)?;
                 if kept(hidden, &element, &stack) {
+                    ids += usize::from(has_id(&element));
                     stack.push(element);
                 } else {
                     hidden += 1;
@@ -396,6 +401,7 @@ pub(crate) fn parse<'a>(
                 let element = open(text, &start, offset, &mut scope, limits, &mut warnings)?;
                 close_scope(&mut scope);
                 if kept(hidden, &element, &stack) {
+                    ids += usize::from(has_id(&element));
                     attach(&mut stack, &mut root, element);
                 }
             }
@@ -483,7 +489,11 @@ pub(crate) fn parse<'a>(
         ));
     }
     let root = root.ok_or_else(|| err(base, "no root element: this is not an XML document"))?;
-    Ok(Document { root, warnings })
+    Ok(Document {
+        root,
+        ids,
+        warnings,
+    })
 }
 
 fn attach<'a>(stack: &mut [Element<'a>], root: &mut Option<Element<'a>>, element: Element<'a>) {
