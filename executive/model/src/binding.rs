@@ -230,7 +230,7 @@ impl Reader<'_> {
                 ),
             }
         }
-        for child in &task.children {
+        for child in task.children {
             if child.ns != Ns::Trace {
                 continue;
             }
@@ -334,7 +334,7 @@ impl Reader<'_> {
                 // What a Camunda 8 user task says about people and dates: TRACE's ground
                 // stations do not use it, but a FEEL error in it is still named.
                 "assignmentDefinition" | "taskSchedule" => {
-                    for a in &z.attrs {
+                    for a in z.attrs {
                         let (attr, value) = (&a.name, &a.value);
                         let Some(body) = value.trim().strip_prefix('=') else {
                             continue;

@@ -360,7 +360,7 @@ impl<'d> Builder<'d, '_> {
     }
 
     fn globals(&mut self, root: &'d Element<'d>) {
-        for el in &root.children {
+        for el in root.children {
             if el.ns != Ns::Bpmn {
                 continue;
             }
@@ -461,7 +461,7 @@ impl<'d> Builder<'d, '_> {
             "globalManualTask",
             "globalBusinessRuleTask",
         ];
-        for el in &root.children {
+        for el in root.children {
             if el.ns == Ns::Bpmn
                 && !KNOWN.contains(&el.name)
                 && !el.name.ends_with("EventDefinition")
@@ -533,7 +533,7 @@ impl<'d> Builder<'d, '_> {
     /// First pass over a process or sub-process: allocate its nodes, remember its flows.
     fn scope(&mut self, el: &'d Element<'d>, scope: Scope, strict: bool) -> Vec<NodeId> {
         let mut nodes = Vec::new();
-        for child in &el.children {
+        for child in el.children {
             if child.ns != Ns::Bpmn {
                 continue;
             }
