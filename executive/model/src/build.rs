@@ -517,7 +517,7 @@ impl<'d> Builder<'d, '_> {
         for lane in set.bpmn_children("lane") {
             let nodes = lane
                 .bpmn_children("flowNodeRef")
-                .filter_map(|r| self.node_ref(r.offset, &r.text))
+                .filter_map(|r| self.node_ref(r.offset, r.text))
                 .collect();
             out.push(Lane {
                 id: lane.attr("id").unwrap_or_default().to_owned(),
@@ -845,7 +845,7 @@ impl<'d> Builder<'d, '_> {
             .filter(|c| c.ns == Ns::Bpmn && c.name.ends_with("EventDefinition"))
             .collect();
         for r in el.bpmn_children("eventDefinitionRef") {
-            let id = local_ref(&r.text);
+            let id = local_ref(r.text);
             // A reference to a definition the event already holds inline adds nothing.
             if defs.iter().any(|d| d.attr("id") == Some(id)) {
                 continue;
@@ -915,7 +915,7 @@ impl<'d> Builder<'d, '_> {
                     // A throw may name its catch explicitly; then the pair shares the catch's name.
                     let target = d
                         .bpmn_child("target")
-                        .and_then(|t| self.link_names.get(local_ref(&t.text)).copied());
+                        .and_then(|t| self.link_names.get(local_ref(t.text)).copied());
                     EventDefinition::Link(target.or(d.attr("name")).unwrap_or_default().to_owned())
                 }
                 // A condition that cannot be evaluated (empty, or in another language) is a
@@ -1255,7 +1255,7 @@ impl<'d> Builder<'d, '_> {
                 .map(|set| {
                     let idx = |child: &str| -> Vec<usize> {
                         set.bpmn_children(child)
-                            .filter_map(|r| of.iter().position(|p| p.id == local_ref(&r.text)))
+                            .filter_map(|r| of.iter().position(|p| p.id == local_ref(r.text)))
                             .collect()
                     };
                     IoSet {
@@ -1276,11 +1276,11 @@ impl<'d> Builder<'d, '_> {
             for a in list {
                 let sources = a
                     .bpmn_children("sourceRef")
-                    .filter_map(|r| self.data_ref(r.offset, &r.text, &io))
+                    .filter_map(|r| self.data_ref(r.offset, r.text, &io))
                     .collect();
                 let target = a
                     .bpmn_child("targetRef")
-                    .and_then(|r| self.data_ref(r.offset, &r.text, &io));
+                    .and_then(|r| self.data_ref(r.offset, r.text, &io));
                 let transformation = a
                     .bpmn_child("transformation")
                     .and_then(|t| self.expr(strict, t, owner, "data association transformation"));
@@ -1600,7 +1600,7 @@ impl<'d> Builder<'d, '_> {
             || zeebe.is_some_and(|z| z.attr("inputCollection").is_some());
         let mut input_collection = m
             .bpmn_child("loopDataInputRef")
-            .map(|r| local_ref(&r.text).to_owned())
+            .map(|r| local_ref(r.text).to_owned())
             .map(|r| match data_inputs.iter().find(|p| p.id == r) {
                 Some(p) => p.name.clone(),
                 None => r,
@@ -1648,7 +1648,7 @@ impl<'d> Builder<'d, '_> {
             });
         let output_collection = m
             .bpmn_child("loopDataOutputRef")
-            .map(|r| local_ref(&r.text).to_owned())
+            .map(|r| local_ref(r.text).to_owned())
             .or_else(|| {
                 zeebe
                     .and_then(|z| z.attr("outputCollection"))

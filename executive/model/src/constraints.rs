@@ -278,7 +278,7 @@ impl<'d> Index<'d> {
 fn is_formal(el: &Element) -> bool {
     el.attrs
         .iter()
-        .any(|a| a.ns == Ns::Xsi && a.name == "type" && local_ref(&a.value) == "tFormalExpression")
+        .any(|a| a.ns == Ns::Xsi && a.name == "type" && local_ref(a.value) == "tFormalExpression")
 }
 
 /// A literal that can never be a condition (a number or a quoted string).
@@ -377,7 +377,7 @@ pub(crate) fn check(doc: &Document<'_>, sink: &mut Sink) {
             .attrs
             .iter()
             .filter(|a| a.ns == Ns::None)
-            .map(|a| (a.name, &*a.value));
+            .map(|a| (a.name, a.value));
         let children = el
             .children
             .iter()
@@ -486,7 +486,7 @@ pub(crate) fn check(doc: &Document<'_>, sink: &mut Sink) {
             }
             "collaboration" => {
                 for r in el.bpmn_children("choreographyRef") {
-                    if let Some(ch) = ix.by_id.get(local_ref(&r.text)) {
+                    if let Some(ch) = ix.by_id.get(local_ref(r.text)) {
                         let closed = |e: &Element| e.attr("isClosed") == Some("true");
                         if ch.name == "choreography" && closed(ch) != closed(el) {
                             err("is-closed-mismatch", "EXT.033", "the collaboration and the choreography it references must agree on isClosed".to_owned());
@@ -671,7 +671,7 @@ fn listed_flows(ix: &Index<'_>, sink: &mut Sink) {
             let Some(n) = ix.by_id.get(node) else {
                 continue;
             };
-            let listed = lists(n) && n.bpmn_children(child).any(|r| local_ref(&r.text) == fid);
+            let listed = lists(n) && n.bpmn_children(child).any(|r| local_ref(r.text) == fid);
             if !listed {
                 let c = match (n.name, child) {
                     ("startEvent", "outgoing") => "EXT.101",
@@ -726,7 +726,7 @@ fn flow_node_refs(
     let id = el.attr("id").unwrap_or_default();
     for (child, attr) in [("incoming", "targetRef"), ("outgoing", "sourceRef")] {
         for r in el.bpmn_children(child) {
-            let f = local_ref(&r.text);
+            let f = local_ref(r.text);
             if let Some(flow) = ix.by_id.get(f)
                 && flow.name == "sequenceFlow"
                 && flow.attr(attr).map(local_ref) != Some(id)
@@ -784,7 +784,7 @@ fn message_flow(
         ix.by_id.get(id).is_some_and(|e| {
             e.bpmn_child("messageEventDefinition").is_some()
                 || e.bpmn_children("eventDefinitionRef")
-                    .any(|r| ix.kind(&r.text) == Some("messageEventDefinition"))
+                    .any(|r| ix.kind(r.text) == Some("messageEventDefinition"))
         })
     };
     if let Some(k) = ix.kind(s) {
@@ -833,7 +833,7 @@ fn data_association(
 ) {
     let sources: Vec<&str> = el
         .bpmn_children("sourceRef")
-        .map(|r| local_ref(&r.text))
+        .map(|r| local_ref(r.text))
         .collect();
     if sources.len() > 1 && el.bpmn_child("transformation").is_none() {
         err(
@@ -858,7 +858,7 @@ fn data_association(
         sources.clone()
     } else {
         el.bpmn_children("targetRef")
-            .map(|r| local_ref(&r.text))
+            .map(|r| local_ref(r.text))
             .collect()
     };
     for r in outside {
@@ -911,7 +911,7 @@ fn data_association(
 fn io_specification(el: &Element, err: &mut impl FnMut(&'static str, &'static str, String)) {
     let ids = |set: &Element, child: &str| -> BTreeSet<String> {
         set.bpmn_children(child)
-            .map(|r| local_ref(&r.text).to_owned())
+            .map(|r| local_ref(r.text).to_owned())
             .collect()
     };
     for (set, main, rules) in [
@@ -1049,7 +1049,7 @@ fn multi_instance(
     ] {
         let Some(r) = el
             .bpmn_child(reference)
-            .map(|r| local_ref(&r.text).to_owned())
+            .map(|r| local_ref(r.text).to_owned())
         else {
             continue;
         };
@@ -1112,7 +1112,7 @@ fn io_binding(
         let data = el.attr(data_attr).and_then(|r| ix.by_id.get(local_ref(r)));
         let msg = op
             .bpmn_child(msg_child)
-            .and_then(|m| ix.by_id.get(local_ref(&m.text)));
+            .and_then(|m| ix.by_id.get(local_ref(m.text)));
         if let (Some(data), Some(msg)) = (data, msg) {
             let data_item = data.attr("itemSubjectRef").map(local_ref);
             let msg_item = msg.attr("itemRef").map(local_ref);
@@ -1159,7 +1159,7 @@ fn event_data(root: &Element, ix: &Index<'_>, sink: &mut Sink) {
             .filter(|c| c.ns == Ns::Bpmn)
             .filter_map(|c| {
                 if c.name == "eventDefinitionRef" {
-                    ix.by_id.get(local_ref(&c.text)).copied()
+                    ix.by_id.get(local_ref(c.text)).copied()
                 } else {
                     c.name.ends_with("EventDefinition").then_some(c)
                 }
