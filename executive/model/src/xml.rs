@@ -354,7 +354,6 @@ impl<'a> Tree<'a> {
 
     /// A finished element joins its parent's children (or becomes the root).
     fn attach(&mut self, element: Element<'a>) {
-        self.ids += usize::from(element.attr("id").is_some());
         match self.open.is_empty() {
             false => self.pending.push(element),
             true => self.root = Some(element),
@@ -458,6 +457,7 @@ pub(crate) fn parse<'a>(
                     &mut warnings,
                 )?;
                 let kept = tree.keeps(&element);
+                tree.ids += usize::from(kept && element.attr("id").is_some());
                 if empty {
                     close_scope(&mut scope);
                     if kept {
@@ -588,8 +588,9 @@ fn close_scope(scope: &mut Scope<'_>) {
 }
 
 fn split_qname(raw: &str) -> (&str, &str) {
-    match raw.split_once(':') {
-        Some((p, l)) => (p, l),
+    // Names are short: a plain scan beats a searcher's set-up.
+    match raw.bytes().position(|b| b == b':') {
+        Some(at) => (&raw[..at], &raw[at + 1..]),
         None => ("", raw),
     }
 }
