@@ -9,9 +9,7 @@
 
 use std::collections::BTreeSet;
 
-use std::sync::LazyLock;
-
-use foldhash::{HashMap, HashMapExt, HashSet};
+use foldhash::{HashMap, HashMapExt};
 
 use crate::build::local_ref;
 use crate::build::{ACTIVITIES, FLOW_NODES};
@@ -72,108 +70,106 @@ pub(crate) const ITEM_AWARE: &[&str] = &[
 ];
 
 /// Every unqualified attribute the BPMN 2.0 schema defines, on any element.
-const SCHEMA_ATTRIBUTES: &[&str] = &[
-    "id",
-    "name",
-    "isExecutable",
-    "processType",
-    "isClosed",
-    "definitionalCollaborationRef",
-    "implementation",
-    "sourceRef",
-    "targetRef",
-    "isImmediate",
-    "default",
-    "gatewayDirection",
-    "eventGatewayType",
-    "instantiate",
-    "attachedToRef",
-    "cancelActivity",
-    "parallelMultiple",
-    "isInterrupting",
-    "isForCompensation",
-    "startQuantity",
-    "completionQuantity",
-    "triggeredByEvent",
-    "calledElement",
-    "scriptFormat",
-    "messageRef",
-    "operationRef",
-    "errorRef",
-    "signalRef",
-    "escalationRef",
-    "activityRef",
-    "waitForCompletion",
-    "errorCode",
-    "escalationCode",
-    "structureRef",
-    "itemKind",
-    "isCollection",
-    "itemSubjectRef",
-    "itemRef",
-    "dataObjectRef",
-    "dataStoreRef",
-    "capacity",
-    "isUnlimited",
-    "processRef",
-    "textFormat",
-    "associationDirection",
-    "categoryValueRef",
-    "value",
-    "targetNamespace",
-    "expressionLanguage",
-    "typeLanguage",
-    "exporter",
-    "exporterVersion",
-    "location",
-    "namespace",
-    "importType",
-    "method",
-    "ordering",
-    "cancelRemainingInstances",
-    "isSequential",
-    "behavior",
-    "testBefore",
-    "loopMaximum",
-    "oneBehaviorEventRef",
-    "noneBehaviorEventRef",
-    "evaluatesToTypeRef",
-    "language",
-    "inputDataRef",
-    "outputDataRef",
-    "initiatingParticipantRef",
-    "loopType",
-    "minimum",
-    "maximum",
-    "parameterRef",
-    "implementationRef",
-    "isRequired",
-    "correlationKeyRef",
-    "definition",
-    "mustUnderstand",
-    "type",
-    "inMessageRef",
-    "outMessageRef",
-    "calledChoreographyRef",
-    "calledCollaborationRef",
-    "processRef",
-    "resourceRef",
-    "partnerRoleRef",
-    "partnerEntityRef",
-    "participantRef",
-    "interfaceRef",
-    "messageFlowRef",
-    "conversationNodeRef",
-    "direction",
-    "dataStateRef",
-    "dataInputRefs",
-    "dataOutputRefs",
-    "correlationPropertyRef",
-];
-
-/// [`SCHEMA_ATTRIBUTES`] as a set: it is asked for every attribute of an executable model.
-static SCHEMA_ATTRIBUTE_SET: LazyLock<HashSet<&str>> =
-    LazyLock::new(|| SCHEMA_ATTRIBUTES.iter().copied().collect());
+fn schema_attribute(name: &str) -> bool {
+    // A `match` on the names: faster than hashing them, and this is asked of every attribute.
+    matches!(
+        name,
+        "id" | "name"
+            | "isExecutable"
+            | "processType"
+            | "isClosed"
+            | "definitionalCollaborationRef"
+            | "implementation"
+            | "sourceRef"
+            | "targetRef"
+            | "isImmediate"
+            | "default"
+            | "gatewayDirection"
+            | "eventGatewayType"
+            | "instantiate"
+            | "attachedToRef"
+            | "cancelActivity"
+            | "parallelMultiple"
+            | "isInterrupting"
+            | "isForCompensation"
+            | "startQuantity"
+            | "completionQuantity"
+            | "triggeredByEvent"
+            | "calledElement"
+            | "scriptFormat"
+            | "messageRef"
+            | "operationRef"
+            | "errorRef"
+            | "signalRef"
+            | "escalationRef"
+            | "activityRef"
+            | "waitForCompletion"
+            | "errorCode"
+            | "escalationCode"
+            | "structureRef"
+            | "itemKind"
+            | "isCollection"
+            | "itemSubjectRef"
+            | "itemRef"
+            | "dataObjectRef"
+            | "dataStoreRef"
+            | "capacity"
+            | "isUnlimited"
+            | "processRef"
+            | "textFormat"
+            | "associationDirection"
+            | "categoryValueRef"
+            | "value"
+            | "targetNamespace"
+            | "expressionLanguage"
+            | "typeLanguage"
+            | "exporter"
+            | "exporterVersion"
+            | "location"
+            | "namespace"
+            | "importType"
+            | "method"
+            | "ordering"
+            | "cancelRemainingInstances"
+            | "isSequential"
+            | "behavior"
+            | "testBefore"
+            | "loopMaximum"
+            | "oneBehaviorEventRef"
+            | "noneBehaviorEventRef"
+            | "evaluatesToTypeRef"
+            | "language"
+            | "inputDataRef"
+            | "outputDataRef"
+            | "initiatingParticipantRef"
+            | "loopType"
+            | "minimum"
+            | "maximum"
+            | "parameterRef"
+            | "implementationRef"
+            | "isRequired"
+            | "correlationKeyRef"
+            | "definition"
+            | "mustUnderstand"
+            | "type"
+            | "inMessageRef"
+            | "outMessageRef"
+            | "calledChoreographyRef"
+            | "calledCollaborationRef"
+            | "resourceRef"
+            | "partnerRoleRef"
+            | "partnerEntityRef"
+            | "participantRef"
+            | "interfaceRef"
+            | "messageFlowRef"
+            | "conversationNodeRef"
+            | "direction"
+            | "dataStateRef"
+            | "dataInputRefs"
+            | "dataOutputRefs"
+            | "correlationPropertyRef"
+    )
+}
 
 /// Allowed target kinds for a reference held in a child element (`<x>id</x>`) or an attribute.
 fn ref_targets(owner: &str, name: &str) -> Option<&'static [&'static str]> {
@@ -323,8 +319,17 @@ fn is_uri(v: &str) -> bool {
 pub(crate) fn check(doc: &Document<'_>, sink: &mut Sink) {
     let root = &doc.root;
     let ix = Index::new(root, doc.ids);
-    let mut stack: Vec<(&Element, Option<&Element>, bool, bool)> = vec![(root, None, false, false)];
-    while let Some((el, parent, executable, declared)) = stack.pop() {
+    // Each element with its parent, whether its process is executable and marked so, and the
+    // id of its process.
+    type Visit<'e> = (
+        &'e Element<'e>,
+        Option<&'e Element<'e>>,
+        bool,
+        bool,
+        Option<&'e str>,
+    );
+    let mut stack: Vec<Visit<'_>> = vec![(root, None, false, false, None)];
+    while let Some((el, parent, executable, declared, process)) = stack.pop() {
         if el.ns != Ns::Bpmn {
             continue;
         }
@@ -338,7 +343,8 @@ pub(crate) fn check(doc: &Document<'_>, sink: &mut Sink) {
         };
         crate::validate::element_check(el, executable, declared, sink);
         let id = el.attr("id");
-        let in_process = ix.process_of.contains_key(id.unwrap_or_default()) || el.name == "process";
+        let process = if el.name == "process" { id } else { process };
+        let in_process = (id.is_some() && process.is_some()) || el.name == "process";
         // References whose breach leaves the meaning clear, reported as bent rules below.
         let mut soft: Vec<(&'static str, String)> = Vec::new();
         let mut err = |code: &'static str, constraint: &'static str, msg: String| {
@@ -359,7 +365,7 @@ pub(crate) fn check(doc: &Document<'_>, sink: &mut Sink) {
             for a in el
                 .attrs
                 .iter()
-                .filter(|a| a.ns == Ns::None && !SCHEMA_ATTRIBUTE_SET.contains(a.name))
+                .filter(|a| a.ns == Ns::None && !schema_attribute(a.name))
             {
                 err(
                     "unknown-attribute",
@@ -647,7 +653,7 @@ pub(crate) fn check(doc: &Document<'_>, sink: &mut Sink) {
         stack.extend(
             el.children
                 .iter()
-                .map(|c| (c, Some(el), executable, declared)),
+                .map(|c| (c, Some(el), executable, declared, process)),
         );
     }
     listed_flows(&ix, sink);
