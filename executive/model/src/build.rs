@@ -58,6 +58,43 @@ pub(crate) const FLOW_NODES: &[&str] = &[
     "callActivity",
 ];
 
+/// Is `name` one of [`ACTIVITIES`]? (A `match`: it is asked of every element.)
+pub(crate) fn is_activity(name: &str) -> bool {
+    matches!(
+        name,
+        "task"
+            | "serviceTask"
+            | "userTask"
+            | "scriptTask"
+            | "sendTask"
+            | "receiveTask"
+            | "manualTask"
+            | "businessRuleTask"
+            | "subProcess"
+            | "transaction"
+            | "adHocSubProcess"
+            | "callActivity"
+    )
+}
+
+/// Is `name` one of [`FLOW_NODES`]?
+pub(crate) fn is_flow_node(name: &str) -> bool {
+    is_activity(name)
+        || matches!(
+            name,
+            "startEvent"
+                | "endEvent"
+                | "intermediateCatchEvent"
+                | "intermediateThrowEvent"
+                | "boundaryEvent"
+                | "exclusiveGateway"
+                | "inclusiveGateway"
+                | "parallelGateway"
+                | "eventBasedGateway"
+                | "complexGateway"
+        )
+}
+
 /// BPMN elements that may stand in a process or sub-process and carry no control flow.
 const PASSIVE: &[&str] = &[
     "sequenceFlow",
@@ -538,7 +575,7 @@ impl<'d> Builder<'d, '_> {
                 continue;
             }
             let name = child.name;
-            if FLOW_NODES.contains(&name) {
+            if is_flow_node(name) {
                 let nid = NodeId(self.g.nodes.len() as u32);
                 let xml_id = child.attr("id");
                 let id = match xml_id {
@@ -1020,7 +1057,7 @@ impl<'d> Builder<'d, '_> {
         self.declared = self.declared_in(self.g.node(nid).scope);
         let owner = self.g.node(nid).id.clone();
         let parallel_multiple = el.attr("parallelMultiple") == Some("true");
-        if ACTIVITIES.contains(&el.name) {
+        if is_activity(el.name) {
             self.g.nodes[nid.index()].data = self.data_io(el, &owner, strict);
         } else if let Some(a) = el
             .bpmn_child("dataInputAssociation")
@@ -1058,7 +1095,7 @@ impl<'d> Builder<'d, '_> {
                 let attached_to = match attached.and_then(|a| self.node_ref(el.offset, a)) {
                     // Judged by the element name: the activity may come later in the document,
                     // so its details may not be read yet.
-                    Some(a) if ACTIVITIES.contains(&self.node_src[a.index()].el.name) => {
+                    Some(a) if is_activity(self.node_src[a.index()].el.name) => {
                         if self.g.node(a).scope != self.g.node(nid).scope {
                             self.sink.error("cross-scope-boundary", el.offset, Some(&owner), "boundary event is attached to an activity of another process or sub-process level".to_owned());
                         }
