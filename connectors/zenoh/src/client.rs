@@ -36,11 +36,11 @@ use connector_api::{
 };
 use serde_json::Value;
 use tokio::sync::{Notify, watch};
+use zenoh::Session;
 use zenoh::pubsub::Subscriber;
 use zenoh::qos::CongestionControl;
 use zenoh::query::{ConsolidationMode, Query, QueryTarget, Queryable};
 use zenoh::sample::{Sample, SampleKind};
-use zenoh::{Session, Wait};
 
 use crate::codec::{encoding, json};
 use crate::drops::{Drops, Reason};
@@ -236,15 +236,6 @@ enum Sent {
     /// No usable answer: send it again after a pause (the reason, for the log).
     Unanswered(String),
 }
-
-/// A goal query on the wire: its key and its replies, or why it could not be sent.
-type Issued = Result<
-    (
-        String,
-        zenoh::handlers::FifoChannelHandler<zenoh::query::Reply>,
-    ),
-    String,
->;
 
 /// What one state query achieved.
 #[derive(Debug, PartialEq, Eq)]
@@ -567,75 +558,47 @@ impl Shared {
             f.sending = Some(Arc::clone(&wake));
             wake
         };
-        // The first query goes on the wire here, not after the sending task is scheduled: the
-        // task only waits for its reply (one scheduling hop less on every dispatch).
-        let Some(command) = self.next_send(goal_id) else {
-            return;
-        };
-        let issued = self.issue(&command);
-        self.rt.spawn(Arc::clone(self).send_loop(
-            goal_id.to_owned(),
-            wake,
-            Some((command, issued)),
-        ));
-    }
-
-    /// Counts one more send of a goal and returns it, or `None` (and stops sending) when it is
-    /// acknowledged or nobody serves its action now (the token's return sends it again).
-    fn next_send(self: &Arc<Self>, goal_id: &str) -> Option<Command> {
-        let (command, attempt, arm) = {
-            let mut s = self.state();
-            let served = s
-                .flights
-                .get(goal_id)
-                .is_some_and(|f| s.served(&f.command.action));
-            let f = s.flights.get_mut(goal_id)?;
-            if f.acked || !served {
-                f.sending = None;
-                return None;
-            }
-            f.sends += 1;
-            let arm = !f.deadline_armed;
-            f.deadline_armed = true;
-            (f.command.clone(), f.sends, arm)
-        };
-        if arm {
-            self.arm_accept_deadline(&command);
-        }
-        if attempt > 1 {
-            tracing::warn!(
-                connector = self.name(),
-                goal_id,
-                action = command.action,
-                attempt,
-                "goal not acknowledged yet; sent again"
-            );
-        }
-        Some(command)
+        self.rt
+            .spawn(Arc::clone(self).send_loop(goal_id.to_owned(), wake));
     }
 
     /// Sends a goal, and again after each pause of the backoff schedule (or at once when
-    /// woken: the server appeared), while it is unacknowledged and its action served. `first`:
-    /// the first send, already on the wire.
-    async fn send_loop(
-        self: Arc<Shared>,
-        goal_id: String,
-        wake: Arc<Notify>,
-        mut first: Option<(Command, Issued)>,
-    ) {
+    /// woken: the server appeared), while it is unacknowledged and its action served.
+    async fn send_loop(self: Arc<Shared>, goal_id: String, wake: Arc<Notify>) {
         let mut pauses = self.limits.pauses();
         loop {
-            let (command, issued) = match first.take() {
-                Some((command, issued)) => (command, issued),
-                None => match self.next_send(&goal_id) {
-                    Some(command) => {
-                        let issued = self.issue(&command);
-                        (command, issued)
-                    }
-                    None => return,
-                },
+            let (command, attempt, arm) = {
+                let mut s = self.state();
+                let served = s
+                    .flights
+                    .get(&goal_id)
+                    .is_some_and(|f| s.served(&f.command.action));
+                let Some(f) = s.flights.get_mut(&goal_id) else {
+                    return;
+                };
+                if f.acked || !served {
+                    // Acknowledged, or nobody serves it now: the token's return sends it again.
+                    f.sending = None;
+                    return;
+                }
+                f.sends += 1;
+                let arm = !f.deadline_armed;
+                f.deadline_armed = true;
+                (f.command.clone(), f.sends, arm)
             };
-            match self.send_once(&command, issued).await {
+            if arm {
+                self.arm_accept_deadline(&command);
+            }
+            if attempt > 1 {
+                tracing::warn!(
+                    connector = self.name(),
+                    goal_id,
+                    action = command.action,
+                    attempt,
+                    "goal not acknowledged yet; sent again"
+                );
+            }
+            match self.send_once(&command).await {
                 Sent::Settled => {
                     if let Some(f) = self.state().flights.get_mut(&goal_id) {
                         f.sending = None;
@@ -643,7 +606,7 @@ impl Shared {
                     return;
                 }
                 Sent::Unanswered(why) => {
-                    tracing::debug!(goal_id, why, "goal not acknowledged");
+                    tracing::debug!(goal_id, attempt, why, "goal not acknowledged");
                 }
             }
             let pause = pauses
@@ -692,9 +655,8 @@ impl Shared {
         });
     }
 
-    /// Puts a goal query on the wire (the server answers a repeat with the goal's current
-    /// status); its replies are read by [`Shared::send_once`].
-    fn issue(&self, command: &Command) -> Issued {
+    /// Sends a goal once (the server answers a repeat with the goal's current status).
+    async fn send_once(self: &Arc<Self>, command: &Command) -> Sent {
         let key = self.opts.keys.goal(
             self.server(),
             &command.action,
@@ -706,23 +668,18 @@ impl Shared {
             fields: command.fields.clone(),
             client: self.opts.client.clone(),
         };
-        self.session
+        let replies = match self
+            .session
             .get(&key)
             .payload(json(&goal))
             .encoding(encoding("goal"))
             .target(self.target())
             .consolidation(ConsolidationMode::None)
             .timeout(self.opts.query_timeout)
-            .wait()
-            .map(|replies| (key, replies))
-            .map_err(|e| format!("the goal query could not be sent: {e}"))
-    }
-
-    /// Reads the replies to a goal query [`Shared::issue`] sent.
-    async fn send_once(self: &Arc<Self>, command: &Command, issued: Issued) -> Sent {
-        let (key, replies) = match issued {
-            Ok(issued) => issued,
-            Err(why) => return Sent::Unanswered(why),
+            .await
+        {
+            Ok(r) => r,
+            Err(e) => return Sent::Unanswered(format!("the goal query could not be sent: {e}")),
         };
         let Ok(reply) = replies.recv_async().await else {
             // Nobody answered (routing not converged yet, or the server just left).
@@ -868,7 +825,7 @@ impl Shared {
     /// instead: any station may hold it, and a repeated goal is harmless.
     async fn reconcile(self: Arc<Shared>, command: Command) {
         if self.opts.config.answers {
-            self.send_once(&command, self.issue(&command)).await;
+            self.send_once(&command).await;
             return;
         }
         if self.ask_state(&command).await == Asked::Again {
