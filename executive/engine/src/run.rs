@@ -1,5 +1,6 @@
 //! Moving tokens to quiescence: arriving at nodes, leaving them, consuming tokens, incidents.
 
+use std::borrow::Cow;
 use std::collections::VecDeque;
 
 use executive_model::{
@@ -40,7 +41,7 @@ const MAX_CONDITION_ROUNDS: usize = 1000;
 /// never return; its tokens become incidents instead.
 const MAX_MOVES: usize = 1_000_000;
 
-impl Run<'_> {
+impl<'a> Run<'a> {
     pub(crate) fn mint(&mut self) -> u64 {
         self.s.next_id += 1;
         self.s.next_id
@@ -547,21 +548,26 @@ impl Run<'_> {
 
     /// Every variable visible from a scope (inner ones win), without system data.
     pub(crate) fn visible_vars(&self, scope: ScopeId) -> Vars {
-        let mut chain = Vec::new();
+        // Innermost first: a name already taken by an inner scope is skipped.
+        let mut out = Vars::new();
         let mut cur = Some(scope);
         while let Some(id) = cur {
             let Some(sc) = self.s.scopes.get(&id) else {
                 break;
             };
-            chain.push(&sc.vars);
+            if out.is_empty() {
+                out.clone_from(&sc.vars);
+            } else {
+                for (k, v) in &sc.vars {
+                    if !out.contains_key(k) {
+                        out.insert(k.clone(), v.clone());
+                    }
+                }
+            }
             if matches!(sc.kind, ScopeKind::Process(_)) {
                 break;
             }
             cur = sc.parent;
-        }
-        let mut out = Vars::new();
-        for v in chain.into_iter().rev() {
-            out.extend(v.iter().map(|(k, v)| (k.clone(), v.clone())));
         }
         out
     }
@@ -736,11 +742,11 @@ impl Run<'_> {
         t: TokenId,
         node_id: NodeId,
         scope: ScopeId,
-    ) -> Result<Vec<FlowId>, String> {
+    ) -> Result<Cow<'a, [FlowId]>, String> {
         let g = self.g;
         let node = g.node(node_id);
         if node.outgoing.iter().all(|f| g.flow(*f).condition.is_none()) {
-            return Ok(node.outgoing.clone());
+            return Ok(Cow::Borrowed(&node.outgoing));
         }
         let mut taken = Vec::new();
         let mut read = Vars::new();
@@ -777,7 +783,7 @@ impl Run<'_> {
                 node.label()
             ));
         }
-        Ok(taken)
+        Ok(Cow::Owned(taken))
     }
 
     /// The token waits at its node's join.
