@@ -218,9 +218,10 @@ pub fn load_bundle(
                 }
             };
             let base = end;
-            let text = decode_part(&bytes, Some(location.clone()), base, limits, &mut sink)
+            let decoded = decode_part(&bytes, Some(location.clone()), base, limits, &mut sink)
                 .map(|s| Cow::<'static, str>::Owned(s.text.into_owned()));
-            let text = text.unwrap_or_default();
+            let readable = decoded.is_some();
+            let text = decoded.unwrap_or_default();
             end = base + text.len() + 1;
             let mut source = Source {
                 name: Some(location.clone()),
@@ -228,7 +229,14 @@ pub fn load_bundle(
                 base,
                 bpmn,
             };
-            match parse_part(&source, &Bump::new(), limits, &mut sink) {
+            // Well-formedness is checked here (XSD and WSDL too); BPMN documents are parsed
+            // again below, beside the model.
+            let definitions = match readable {
+                true => parse_part(&source, &Bump::new(), limits, &mut sink)
+                    .map(|d| d.root.is_bpmn("definitions")),
+                false => None,
+            };
+            match definitions {
                 None => {
                     sink.error(
                         "broken-import",
@@ -238,7 +246,7 @@ pub fn load_bundle(
                     );
                     source.bpmn = false;
                 }
-                Some(d) if bpmn && !d.root.is_bpmn("definitions") => {
+                Some(false) if bpmn => {
                     sink.error(
                         "broken-import",
                         offset,

@@ -894,6 +894,65 @@ fn imports_resolve_through_the_callers_resolver() {
 }
 
 #[test]
+fn imports_of_imports_resolve_and_a_broken_import_is_named_once() {
+    // main imports lib.bpmn (which imports deep.bpmn, whose process main calls), an XSD that is
+    // only checked for well-formedness, and a file that is not XML.
+    let import = |location: &str, kind: &str| {
+        format!(
+            r#"<bpmn:import importType="{kind}" location="{location}" namespace="urn:{location}"/>"#
+        )
+    };
+    let bpmn = "http://www.omg.org/spec/BPMN/20100524/MODEL";
+    let xsd = "http://www.w3.org/2001/XMLSchema";
+    let deep = format!(r#"{HEAD}<bpmn:process id="deep" isExecutable="true"><bpmn:startEvent id="ds"/><bpmn:endEvent id="de"/>
+        <bpmn:sequenceFlow id="d1" sourceRef="ds" targetRef="de"/></bpmn:process></bpmn:definitions>"#).replace("urn:test", "urn:deep");
+    let lib = format!("{HEAD}{}</bpmn:definitions>", import("deep.bpmn", bpmn))
+        .replace("urn:test", "urn:lib");
+    let imports = [
+        ("lib.bpmn", bpmn),
+        ("types.xsd", xsd),
+        ("broken.bpmn", bpmn),
+    ]
+    .map(|(l, k)| import(l, k))
+    .concat();
+    let main = around(r#"<bpmn:callActivity id="x" calledElement="deep"/>"#)
+        .replace("<bpmn:process", &format!("{imports}<bpmn:process"));
+    let files = |loc: &str| -> Result<Vec<u8>, String> {
+        match loc {
+            "lib.bpmn" => Ok(lib.clone().into_bytes()),
+            "deep.bpmn" => Ok(deep.clone().into_bytes()),
+            "types.xsd" => {
+                Ok(br#"<xs:schema xmlns:xs="http://www.w3.org/2001/XMLSchema"/>"#.to_vec())
+            }
+            "broken.bpmn" => Ok(b"\xff\xfe\x00not xml".to_vec()),
+            _ => Err("no such file".into()),
+        }
+    };
+    let loaded = load_bundle(main.as_bytes(), &Options::default(), &mut |loc| files(loc));
+    let broken: Vec<&str> = loaded
+        .errors()
+        .filter(|d| d.file.as_deref() == Some("broken.bpmn") || d.code == "broken-import")
+        .map(|d| d.code)
+        .collect();
+    assert_eq!(
+        broken,
+        ["broken-import", "malformed-xml"],
+        "{:#?}",
+        loaded.diagnostics
+    );
+    assert_eq!(loaded.errors().count(), 2, "{:#?}", loaded.diagnostics);
+    let names: Vec<&str> = loaded.imports.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(names, ["lib.bpmn", "types.xsd", "broken.bpmn", "deep.bpmn"]);
+    // Without the broken file the bundle loads, with the process two imports away.
+    let fixed = main.replace(&import("broken.bpmn", bpmn), "");
+    let loaded = load_bundle(fixed.as_bytes(), &Options::default(), &mut |loc| files(loc));
+    let g = loaded
+        .graph
+        .unwrap_or_else(|| panic!("{:#?}", loaded.diagnostics));
+    assert!(g.process(g.process_by_id("deep").unwrap()).imported);
+}
+
+#[test]
 fn a_boundary_event_may_come_before_its_activity() {
     // bpmn-js writes elements in creation order, so a boundary event can precede its task.
     let g = ok(&around(
