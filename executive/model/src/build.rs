@@ -58,43 +58,6 @@ pub(crate) const FLOW_NODES: &[&str] = &[
     "callActivity",
 ];
 
-/// Is `name` one of [`ACTIVITIES`]? (A `match`: it is asked of every element.)
-pub(crate) fn is_activity(name: &str) -> bool {
-    matches!(
-        name,
-        "task"
-            | "serviceTask"
-            | "userTask"
-            | "scriptTask"
-            | "sendTask"
-            | "receiveTask"
-            | "manualTask"
-            | "businessRuleTask"
-            | "subProcess"
-            | "transaction"
-            | "adHocSubProcess"
-            | "callActivity"
-    )
-}
-
-/// Is `name` one of [`FLOW_NODES`]?
-pub(crate) fn is_flow_node(name: &str) -> bool {
-    is_activity(name)
-        || matches!(
-            name,
-            "startEvent"
-                | "endEvent"
-                | "intermediateCatchEvent"
-                | "intermediateThrowEvent"
-                | "boundaryEvent"
-                | "exclusiveGateway"
-                | "inclusiveGateway"
-                | "parallelGateway"
-                | "eventBasedGateway"
-                | "complexGateway"
-        )
-}
-
 /// BPMN elements that may stand in a process or sub-process and carry no control flow.
 const PASSIVE: &[&str] = &[
     "sequenceFlow",
@@ -148,12 +111,7 @@ const UNRUNNABLE_FLOW_ELEMENTS: &[&str] = &[
 /// Strips a QName prefix from a reference (`tns:Message_1` -> `Message_1`).
 pub(crate) fn local_ref(r: &str) -> &str {
     let r = r.trim();
-    // References are short and asked for by the thousand: a plain scan beats a searcher's
-    // set-up.
-    match r.bytes().rposition(|b| b == b':') {
-        Some(at) => &r[at + 1..],
-        None => r,
-    }
+    r.rsplit_once(':').map_or(r, |(_, l)| l)
 }
 
 struct NodeSource<'d> {
@@ -580,7 +538,7 @@ impl<'d> Builder<'d, '_> {
                 continue;
             }
             let name = child.name;
-            if is_flow_node(name) {
+            if FLOW_NODES.contains(&name) {
                 let nid = NodeId(self.g.nodes.len() as u32);
                 let xml_id = child.attr("id");
                 let id = match xml_id {
@@ -1062,7 +1020,7 @@ impl<'d> Builder<'d, '_> {
         self.declared = self.declared_in(self.g.node(nid).scope);
         let owner = self.g.node(nid).id.clone();
         let parallel_multiple = el.attr("parallelMultiple") == Some("true");
-        if is_activity(el.name) {
+        if ACTIVITIES.contains(&el.name) {
             self.g.nodes[nid.index()].data = self.data_io(el, &owner, strict);
         } else if let Some(a) = el
             .bpmn_child("dataInputAssociation")
@@ -1100,7 +1058,7 @@ impl<'d> Builder<'d, '_> {
                 let attached_to = match attached.and_then(|a| self.node_ref(el.offset, a)) {
                     // Judged by the element name: the activity may come later in the document,
                     // so its details may not be read yet.
-                    Some(a) if is_activity(self.node_src[a.index()].el.name) => {
+                    Some(a) if ACTIVITIES.contains(&self.node_src[a.index()].el.name) => {
                         if self.g.node(a).scope != self.g.node(nid).scope {
                             self.sink.error("cross-scope-boundary", el.offset, Some(&owner), "boundary event is attached to an activity of another process or sub-process level".to_owned());
                         }

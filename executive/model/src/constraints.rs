@@ -12,7 +12,7 @@ use std::collections::BTreeSet;
 use foldhash::{HashMap, HashMapExt};
 
 use crate::build::local_ref;
-use crate::build::{ACTIVITIES, FLOW_NODES, is_activity, is_flow_node};
+use crate::build::{ACTIVITIES, FLOW_NODES};
 use crate::diagnostic::Sink;
 use crate::xml::{Document, Element, Ns};
 
@@ -199,7 +199,7 @@ fn ref_targets(owner: &str, name: &str) -> Option<&'static [&'static str]> {
         (_, "choreographyRef") => &["choreography"],
         (_, "categoryValueRef") => &["categoryValue"],
         (_, "messageFlowRef") => &["messageFlow"],
-        (_, "incoming" | "outgoing") if is_flow_node(owner) => &["sequenceFlow"],
+        (_, "incoming" | "outgoing") if FLOW_NODES.contains(&owner) => &["sequenceFlow"],
         ("multiInstanceLoopCharacteristics", "loopDataInputRef" | "loopDataOutputRef") => {
             ITEM_AWARE
         }
@@ -400,7 +400,7 @@ pub(crate) fn check(doc: &Document<'_>, sink: &mut Sink) {
                 None => check_ref(&ix, name, value, kinds, &mut err),
             }
         }
-        if is_flow_node(el.name) {
+        if FLOW_NODES.contains(&el.name) {
             flow_node_refs(el, &ix, &mut err);
         }
         match el.name {
@@ -761,7 +761,10 @@ fn message_flow(
         return;
     };
     let interaction = |k: &str| {
-        k == "participant" || is_activity(k) || k.ends_with("Event") || k == "choreographyTask"
+        k == "participant"
+            || ACTIVITIES.contains(&k)
+            || k.ends_with("Event")
+            || k == "choreographyTask"
     };
     for (end, role) in [(s, "source"), (t, "target")] {
         if let Some(k) = ix.kind(end)

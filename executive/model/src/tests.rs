@@ -978,21 +978,3 @@ fn a_quantity_over_the_bound_is_refused_when_executable_and_read_as_the_bound_in
     let x = g.node(g.node_by_id("x").expect("x"));
     assert_eq!(x.completion_quantity, crate::MAX_QUANTITY);
 }
-
-#[test]
-fn the_name_matches_agree_with_the_name_lists() {
-    use crate::build::{ACTIVITIES, FLOW_NODES, is_activity, is_flow_node};
-    let all = [
-        "definitions",
-        "process",
-        "sequenceFlow",
-        "dataObject",
-        "lane",
-        "Task",
-        "",
-    ];
-    for name in FLOW_NODES.iter().chain(&all) {
-        assert_eq!(is_flow_node(name), FLOW_NODES.contains(name), "{name}");
-        assert_eq!(is_activity(name), ACTIVITIES.contains(name), "{name}");
-    }
-}
