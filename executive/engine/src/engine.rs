@@ -30,6 +30,8 @@ pub struct Engine {
     graph: Arc<ProcessGraph>,
     state: State,
     reach: BTreeMap<(NodeId, NodeId, bool), Vec<executive_model::FlowId>>,
+    /// The ready-token queue, kept empty between steps so a step does not allocate one.
+    ready: std::collections::VecDeque<crate::io::TokenId>,
     trace_moves: bool,
     game: Option<Game>,
 }
@@ -46,6 +48,7 @@ impl Engine {
             graph,
             state,
             reach: BTreeMap::new(),
+            ready: Default::default(),
             trace_moves: true,
             game: None,
         }
@@ -126,6 +129,8 @@ impl Engine {
         self.check(&input.event)?;
         self.state.last_seq = input.seq;
         self.state.now = self.state.now.max(input.at);
+        let mut ready = std::mem::take(&mut self.ready);
+        ready.clear();
         let mut run = Run {
             g: &self.graph,
             s: &mut self.state,
@@ -133,7 +138,7 @@ impl Engine {
             // Room for a typical step (7 actions), and small enough (768 bytes) for the allocator's
             // per-thread cache: 16 went through its slower shared bins on every step.
             out: Vec::with_capacity(8),
-            ready: Default::default(),
+            ready,
             trace_moves: self.trace_moves,
             deferred: Vec::new(),
             game: self.game.as_ref(),
@@ -142,6 +147,7 @@ impl Engine {
         };
         apply(&mut run, input.event);
         run.quiesce();
+        self.ready = run.ready;
         Ok(run.out)
     }
 

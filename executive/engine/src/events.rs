@@ -555,26 +555,17 @@ impl Run<'_> {
         let g = self.g;
         let tok = self.s.tokens.get(&t)?;
         let boundary_of = |activity: NodeId| -> Option<NodeId> {
-            let cands: Vec<NodeId> = g
-                .node(activity)
-                .boundaries
+            let boundaries = &g.node(activity).boundaries;
+            let catching = |b: &&NodeId, specific: bool| {
+                triggers_of(g, **b)
+                    .iter()
+                    .any(|d| (!specific || !is_catch_all(d)) && self.catches(d, what, code))
+            };
+            boundaries
                 .iter()
+                .find(|b| catching(b, true))
+                .or_else(|| boundaries.iter().find(|b| catching(b, false)))
                 .copied()
-                .filter(|b| {
-                    triggers_of(g, *b)
-                        .iter()
-                        .any(|d| self.catches(d, what, code))
-                })
-                .collect();
-            cands
-                .iter()
-                .copied()
-                .find(|b| {
-                    triggers_of(g, *b)
-                        .iter()
-                        .any(|d| !is_catch_all(d) && self.catches(d, what, code))
-                })
-                .or_else(|| cands.first().copied())
         };
         if own && let Some(b) = boundary_of(tok.node) {
             return Some(Catcher::Boundary(t, b));
