@@ -1,14 +1,14 @@
 //! Ground stations as separate processes answering a running mission's user tasks over Zenoh:
 //! every kind of bad answer refused with the reason and nothing applied, two stations racing
-//! (first valid answer wins, the other is told), an operator answering at the terminal
-//! through a pseudo-terminal, and restarts: a station killed with a task open answers it by
+//! (first valid answer wins, the other is told, nobody logs an error), an operator answering
+//! at the terminal through a pseudo-terminal, and restarts: a station killed with a task open answers it by
 //! its policy when restarted on its store, and an answer sent while the executive is down is
 //! sent again until the resumed executive judges it.
 
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
-use std::sync::mpsc;
+use std::process::{Child, ChildStderr, Command, Stdio};
+use std::sync::{Arc, Mutex, mpsc};
 use std::time::Duration;
 
 use connector_api::wire::Answer;
@@ -94,8 +94,36 @@ fn setup(name: &str, n: usize) -> PathBuf {
     dir
 }
 
-/// A running executive, killed if the test fails before it ends.
-struct Exec(Option<Child>);
+/// A process's log lines (its standard error), echoed to the test's as they come.
+type Log = Arc<Mutex<Vec<String>>>;
+
+fn echo(stderr: ChildStderr) -> Log {
+    let log = Log::default();
+    let keep = Arc::clone(&log);
+    std::thread::spawn(move || {
+        for line in std::io::BufReader::new(stderr)
+            .lines()
+            .map_while(Result::ok)
+        {
+            eprintln!("{line}");
+            keep.lock().unwrap_or_else(|p| p.into_inner()).push(line);
+        }
+    });
+    log
+}
+
+/// The lines of a log at level ERROR.
+fn errors(log: &Log) -> Vec<String> {
+    let lines = log.lock().unwrap_or_else(|p| p.into_inner());
+    lines
+        .iter()
+        .filter(|l| l.contains(" ERROR "))
+        .cloned()
+        .collect()
+}
+
+/// A running executive (and its log), killed if the test fails before it ends.
+struct Exec(Option<Child>, Log);
 
 impl Drop for Exec {
     fn drop(&mut self) {
@@ -120,7 +148,7 @@ fn resume(dir: &Path, zenoh: &[&str]) -> Exec {
 }
 
 fn trace(verb: &[&str], dir: &Path, zenoh: &[&str]) -> Exec {
-    let child = Command::new(bin("trace"))
+    let mut child = Command::new(bin("trace"))
         .args(verb)
         .arg("--store")
         .arg(dir.join("store"))
@@ -129,10 +157,11 @@ fn trace(verb: &[&str], dir: &Path, zenoh: &[&str]) -> Exec {
         .args(zenoh)
         .arg("--no-multicast-scouting")
         .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
+        .stderr(Stdio::piped())
         .spawn()
         .expect("trace starts");
-    Exec(Some(child))
+    let log = echo(child.stderr.take().expect("stderr"));
+    Exec(Some(child), log)
 }
 
 /// The executive's exit, waited for on a thread so a hang fails the test instead of CI.
@@ -156,6 +185,7 @@ struct Station {
     child: Child,
     lines: mpsc::Receiver<String>,
     seen: Vec<String>,
+    log: Log,
 }
 
 impl Station {
@@ -168,9 +198,10 @@ impl Station {
             .args(["--station", id, "--no-multicast-scouting"])
             .args(zenoh)
             .stdout(Stdio::piped())
-            .stderr(Stdio::inherit())
+            .stderr(Stdio::piped())
             .spawn()
             .expect("ground-station starts");
+        let log = echo(child.stderr.take().expect("stderr"));
         let out = child.stdout.take().expect("stdout");
         let (tx, lines) = mpsc::channel();
         std::thread::spawn(move || {
@@ -184,6 +215,7 @@ impl Station {
             child,
             lines,
             seen: Vec::new(),
+            log,
         };
         s.expect(|l| l.starts_with("ready ground"));
         s
@@ -507,6 +539,7 @@ async fn two_stations_race_and_the_first_valid_answer_wins() {
         seen.insert(key.expect("token"));
     }
     let exec = executive(&dir, &["-e", &hub]);
+    let exec_log = Arc::clone(&exec.1);
     tokio::task::spawn_blocking(move || exits(exec))
         .await
         .expect("the mission ends");
@@ -560,6 +593,15 @@ async fn two_stations_race_and_the_first_valid_answer_wins() {
             .filter(|l| l.contains(" open: "))
             .count();
         assert_eq!(opened, n, "{:#?}", station.seen);
+    }
+    // A race is nominal: the answer that lost, and the replies to queries no longer awaited
+    // (a second station's, a query's own timeout), are no error in anybody's log.
+    for (who, log) in [
+        ("executive", &exec_log),
+        ("alpha", &a.log),
+        ("bravo", &b.log),
+    ] {
+        assert_eq!(errors(log), Vec::<String>::new(), "{who} logged errors");
     }
     router.close().await.expect("router closes");
 }

@@ -41,6 +41,7 @@ pub async fn send_answer(
         .encoding(encoding("answer"))
         .consolidation(ConsolidationMode::None)
         .timeout(wait)
+        .with(crate::replies())
         .await
         .map_err(|e| AnswerError::Zenoh(e.to_string()))?;
     let reply = replies

@@ -25,6 +25,7 @@ use std::collections::{HashMap, HashSet, VecDeque};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
+use crate::replies::replies;
 use connector_api::contract::{BoxFuture, Dropped, Limits};
 use connector_api::wire::{
     self, Answer, AnswerReply, CancelReply, CancelRequest, ClockReading, FeedbackMsg, Goal,
@@ -676,6 +677,7 @@ impl Shared {
             .target(self.target())
             .consolidation(ConsolidationMode::None)
             .timeout(self.opts.query_timeout)
+            .with(replies())
             .await
         {
             Ok(r) => r,
@@ -905,6 +907,7 @@ impl Shared {
             .get(&key)
             .consolidation(ConsolidationMode::None)
             .timeout(self.opts.query_timeout)
+            .with(replies())
             .await
         {
             Ok(r) => r,
@@ -999,6 +1002,7 @@ impl Shared {
             .target(self.target())
             .consolidation(ConsolidationMode::None)
             .timeout(self.opts.query_timeout)
+            .with(replies())
             .await
         {
             Ok(r) => r,
@@ -1592,6 +1596,7 @@ impl Connector for ZenohConnector {
                     .target(QueryTarget::All)
                     .consolidation(ConsolidationMode::None)
                     .timeout(sh.opts.query_timeout)
+                    .with(replies())
                     .await
                     .map_err(|e| ConnectorError::Transport(e.to_string()))?;
                 let mut answer = None;

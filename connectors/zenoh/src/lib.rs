@@ -10,6 +10,8 @@
 //! - [`ActionServer`]: the reusable server side for any system (the lander simulator, the
 //!   ground station, test servers);
 //! - [`send_answer`]: a ground station's answer to a user task, and the executive's verdict;
+//! - [`replies`]: the reply handler of every query, which drops a reply that arrives after
+//!   its query stopped being awaited without logging it as an error;
 //! - [`ZenohArgs`]: the Zenoh flags and embedded defaults every TRACE binary shares;
 //! - [`router`]: `trace router`, a Zenoh router for multi-host deployments that logs what its
 //!   access control refuses.
@@ -20,18 +22,21 @@
 //! unsoundly, eclipse-zenoh/zenoh#2557; the other transports cost most of the build); no
 //! `zenoh-ext`: results survive link loss through `state` reconciliation on reappearance
 //! instead of AdvancedPublisher caches, which also covers executive restarts. `sled` keeps a
-//! server's goal table across restarts; `clap` for the shared flags.
+//! server's goal table across restarts; `clap` for the shared flags; `flume` (already Zenoh's own
+//! channel) for query replies, with the late ones dropped quietly.
 
 mod answer;
 mod client;
 mod codec;
 mod drops;
 pub mod mock;
+mod replies;
 pub mod router;
 mod server;
 mod session;
 
 pub use answer::{AnswerError, send_answer};
 pub use client::{ClientOptions, ZenohConnector};
+pub use replies::{Replies, replies};
 pub use server::{AcceptFn, ActionServer, GoalHandle, Request, ServerError, ServerOptions};
 pub use session::{DEFAULT_HUB, Role, SessionError, ZenohArgs, log_to_stderr};

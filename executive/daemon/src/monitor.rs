@@ -319,7 +319,11 @@ const BOARD_EVERY: std::time::Duration = std::time::Duration::from_secs(2);
 
 /// Asks the executive for its present state.
 async fn state(session: &zenoh::Session, key: &str) -> Result<Value, WatchError> {
-    let replies = session.get(key).await.map_err(zenoh_error)?;
+    let replies = session
+        .get(key)
+        .with(connector_zenoh::replies())
+        .await
+        .map_err(zenoh_error)?;
     Ok(match replies.recv_async().await {
         Ok(r) => r
             .result()

@@ -120,6 +120,7 @@ impl Live {
             .target(QueryTarget::All)
             .consolidation(ConsolidationMode::None)
             .timeout(ASK_FOR)
+            .with(connector_zenoh::replies())
             .await
         {
             Ok(r) => r,

@@ -100,6 +100,7 @@ impl Live {
             .session()
             .get(key)
             .timeout(ASK_FOR)
+            .with(connector_zenoh::replies())
             .await
             .map_err(|e| AskError::Zenoh(e.to_string()))?;
         while let Ok(reply) = replies.recv_async().await {
