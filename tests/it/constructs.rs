@@ -1,6 +1,7 @@
 //! The Spin translation of event sub-processes, compensation, transactions with cancel, message
-//! flows between pools and parallel multi-instance: per construct a mission model on which Spin
-//! and the engine agree exactly, and a flawed variant both find the flaw in.
+//! flows between pools, processes the outside starts and parallel multi-instance: per construct
+//! a mission model on which Spin and the engine agree exactly, and a flawed variant both find the
+//! flaw in.
 
 use crate::protocol::tempdir;
 use crate::verify::{Compared, Comparison, compare};
@@ -64,9 +65,9 @@ fn set(items: &[&str]) -> std::collections::BTreeSet<String> {
 /// error event sub-process, which wins over the sub-process's own JAM boundary (`give_up`, dead
 /// unless the event sub-process is removed; clearing is a ground decision, which cannot fail
 /// and so throw a jam of its own to the boundary); a status request (message, non-interrupting) is
-/// answered beside the work, at once (an activity there would pile up one held instance per
-/// request in the engine's exploration, which has no bound on requests); a one-hour deadline
-/// (timer, interrupting) stows the arm.
+/// answered beside the work by a report the operator confirms, one request at a time in both
+/// (the engine's exploration once piled up one held instance per request, without bound); a
+/// one-hour deadline (timer, interrupting) stows the arm.
 fn excavation(with_event_sub: bool) -> String {
     let on_jam = if with_event_sub {
         r#"<subProcess id="on_jam" name="On jam" triggeredByEvent="true">
@@ -91,7 +92,7 @@ fn excavation(with_event_sub: bool) -> String {
       {on_jam}
       <subProcess id="on_status" name="On status request" triggeredByEvent="true">
         <startEvent id="status" isInterrupting="false"><messageEventDefinition messageRef="STATUS"/></startEvent>
-        <intermediateThrowEvent id="report" name="Status reported"/>
+        <userTask id="report" name="Confirm status report"/>
         <endEvent id="reported"/>
         <sequenceFlow id="r1" sourceRef="status" targetRef="report"/>
         <sequenceFlow id="r2" sourceRef="report" targetRef="reported"/>
@@ -257,6 +258,55 @@ fn message_flows_between_pools_start_the_receiving_process() {
         .replace(r#"processRef="orbiter""#, "");
     let c = agree("pools-lander", &lander_only);
     assert_eq!(c.ends, set(&["sent"]));
+}
+
+/// A relay process the ground starts by a message (no pool in the model sends it), beside the
+/// lander's own work: its activity is held while the lander works. `stuck` joins its two
+/// exclusive ways with a parallel gateway, so a relay run never ends.
+fn relay(stuck: bool) -> String {
+    let join = if stuck {
+        "parallelGateway"
+    } else {
+        "exclusiveGateway"
+    };
+    format!(
+        r#"<process id="lander" isExecutable="true">
+    <startEvent id="s"/>
+    <serviceTask id="drill" name="Drill"><extensionElements><trace:task resource="arm"/></extensionElements></serviceTask>
+    <endEvent id="drilled"/>
+    <sequenceFlow id="l1" sourceRef="s" targetRef="drill"/>
+    <sequenceFlow id="l2" sourceRef="drill" targetRef="drilled"/>
+  </process>
+  <process id="relay" isExecutable="true">
+    <startEvent id="asked"><messageEventDefinition messageRef="STATUS"/></startEvent>
+    <serviceTask id="send" name="Send status"><extensionElements><trace:task resource="comm"/></extensionElements></serviceTask>
+    <exclusiveGateway id="how" default="r4"/>
+    <task id="short" name="Short report"/>
+    <task id="long" name="Long report"/>
+    <{join} id="merge"/>
+    <endEvent id="relayed"/>
+    <sequenceFlow id="r1" sourceRef="asked" targetRef="send"/>
+    <sequenceFlow id="r2" sourceRef="send" targetRef="how"/>
+    <sequenceFlow id="r3" sourceRef="how" targetRef="short"><conditionExpression xsi:type="tFormalExpression">brief</conditionExpression></sequenceFlow>
+    <sequenceFlow id="r4" sourceRef="how" targetRef="long"/>
+    <sequenceFlow id="r5" sourceRef="short" targetRef="merge"/>
+    <sequenceFlow id="r6" sourceRef="long" targetRef="merge"/>
+    <sequenceFlow id="r7" sourceRef="merge" targetRef="relayed"/>
+  </process>"#
+    )
+}
+
+#[test]
+fn a_process_the_outside_starts_by_a_message_runs_in_both() {
+    // The engine's exploration once never started it (its `send` dead, `relayed` unreached,
+    // where Spin found both).
+    let c = agree("relay", &relay(false));
+    assert!(c.dead.is_empty(), "{:?}", c.dead);
+    assert_eq!(c.ends, set(&["drilled", "relayed"]));
+    assert!(!c.deadlock && !c.unsafe_run);
+    let c = agree("relay-stuck", &relay(true));
+    assert!(c.deadlock, "a relay run waits at its parallel join forever");
+    assert_eq!(c.ends, set(&["drilled"]));
 }
 
 /// Three parallel analyses of a sample; the first result (behaviour `One`) notifies the ground

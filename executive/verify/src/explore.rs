@@ -2,7 +2,8 @@
 //! outside can do — each task in flight completes or fails with each error code something
 //! catches, each armed timer, message or condition fires, each diverging gateway takes each of
 //! its branches — under the same abstractions as the PROMELA translation (no data; conditions
-//! chosen; timers untimed), with no translation in between. It checks the built-in properties
+//! chosen; timers untimed; a non-interrupting event sub-process runs one instance at a time),
+//! with no translation in between. It checks the built-in properties
 //! on the engine's real semantics and gives the end events each run can reach, so the Spin
 //! verdicts can be cross-checked against it (the differential test).
 //!
@@ -48,7 +49,7 @@ struct Node {
 }
 
 /// The shape of a state: tokens by (scope path, node, flow in, what they do), waits by node,
-/// instance outcomes.
+/// the ways instances ended, how many run.
 pub(crate) fn shape(g: &ProcessGraph, s: &State) -> String {
     let path = |mut scope: Option<executive_engine::ScopeId>| {
         let mut p = Vec::new();
@@ -95,12 +96,15 @@ pub(crate) fn shape(g: &ProcessGraph, s: &State) -> String {
         .map(|w| format!("{}|{}", g.node(w.node).id, path(Some(w.scope))))
         .collect();
     waits.sort();
-    let outcomes: Vec<String> = s
+    // Instances by how they ended, each way once: a process the outside starts again and again
+    // leaves ended instances behind, which must not make every state new.
+    let outcomes: BTreeSet<String> = s
         .instances
         .values()
         .map(|i| format!("{:?}", i.outcome.as_ref().map(std::mem::discriminant)))
         .collect();
-    format!("{tokens:?}{waits:?}{outcomes:?}")
+    let running = s.instances.values().filter(|i| i.outcome.is_none()).count();
+    format!("{tokens:?}{waits:?}{outcomes:?}{running}")
 }
 
 /// The code the exploration fails a task with to stand for every code no boundary names.
@@ -159,9 +163,51 @@ pub(crate) fn take_label(g: &ProcessGraph, gateway: NodeId, flows: &[FlowId]) ->
     format!("{}.take[{}]", g.node(gateway).id, names.join("+"))
 }
 
+/// The start events by which the outside starts a mission's process: a message or condition
+/// start of a primary process (a signal start hears the model's own signals instead).
+fn outside_starts(g: &ProcessGraph) -> Vec<(executive_model::ProcessId, NodeId)> {
+    g.primary_processes()
+        .into_iter()
+        .flat_map(|p| {
+            g.scope_nodes(executive_model::Scope::Process(p))
+                .iter()
+                .copied()
+                .filter(|n| {
+                    g.node(*n).incoming.is_empty()
+                        && matches!(&g.node(*n).kind, NodeKind::Start(st) if st.triggers.iter().any(
+                            |d| matches!(d, EventDefinition::Message(_) | EventDefinition::Conditional(_))))
+                })
+                .map(move |n| (p, n))
+        })
+        .collect()
+}
+
 /// What the outside can do in a state.
-fn inputs(g: &ProcessGraph, s: &State, codes: &[String]) -> Vec<(String, Event)> {
+fn inputs(
+    g: &ProcessGraph,
+    s: &State,
+    codes: &[String],
+    starts: &[(executive_model::ProcessId, NodeId)],
+) -> Vec<(String, Event)> {
     let mut out = Vec::new();
+    // A process started from outside starts again once its last instance has ended, as in the
+    // translation (one instance at a time).
+    for &(p, n) in starts {
+        let running = s
+            .instances
+            .values()
+            .any(|i| i.process == p && i.outcome.is_none());
+        if !running {
+            out.push((
+                format!("{}.fire", g.node(n).id),
+                Event::InstanceStarted {
+                    process: g.process(p).id.clone(),
+                    vars: Vars::new(),
+                    start: Some(g.node(n).id.clone()),
+                },
+            ));
+        }
+    }
     for (id, t) in &s.tokens {
         let label = g.node(t.node).id.clone();
         match &t.at {
@@ -210,6 +256,7 @@ fn inputs(g: &ProcessGraph, s: &State, codes: &[String]) -> Vec<(String, Event)>
             _ => false,
         };
         let fires = !later
+            && !running_beside(g, s, w)
             && matches!(
                 w.on,
                 On::Timer { .. } | On::Message(..) | On::Condition { .. } | On::Manual
@@ -225,6 +272,22 @@ fn inputs(g: &ProcessGraph, s: &State, codes: &[String]) -> Vec<(String, Event)>
         }
     }
     out
+}
+
+/// Whether `w` is the start of a non-interrupting event sub-process of which an instance
+/// already runs in the same scope. Such a start fires again only once that instance has ended,
+/// as in the translation (one instance at a time): each firing while one runs would add
+/// another instance, and a sub-process whose body waits on an activity would then grow the
+/// state space without bound.
+fn running_beside(g: &ProcessGraph, s: &State, w: &executive_engine::Wait) -> bool {
+    let non_interrupting = matches!(&g.node(w.node).kind, NodeKind::Start(st) if !st.interrupting);
+    match g.node(w.node).scope {
+        executive_model::Scope::SubProcess(esp) if non_interrupting => s
+            .tokens
+            .values()
+            .any(|t| t.node == esp && t.scope == w.scope),
+        _ => false,
+    }
 }
 
 fn path_of(nodes: &[Node], mut at: usize) -> Vec<String> {
@@ -251,6 +314,7 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
         e
     };
     let codes = codes(&g);
+    let starts = outside_starts(&g);
     let mut entered: BTreeSet<NodeId> = BTreeSet::new();
     let note = |actions: &[Action], entered: &mut BTreeSet<NodeId>| {
         for a in actions {
@@ -316,7 +380,7 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
             }
         }
         let running = state.instances.values().any(|i| i.outcome.is_none());
-        let next = inputs(&g, &state, &codes);
+        let next = inputs(&g, &state, &codes, &starts);
         if next.is_empty() {
             if running && out.deadlock.is_none() {
                 out.deadlock = Some(path_of(&nodes, at));
