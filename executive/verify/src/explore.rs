@@ -279,7 +279,7 @@ fn inputs(
 /// as in the translation (one instance at a time): each firing while one runs would add
 /// another instance, and a sub-process whose body waits on an activity would then grow the
 /// state space without bound.
-fn running_beside(g: &ProcessGraph, s: &State, w: &executive_engine::Wait) -> bool {
+pub(crate) fn running_beside(g: &ProcessGraph, s: &State, w: &executive_engine::Wait) -> bool {
     let non_interrupting = matches!(&g.node(w.node).kind, NodeKind::Start(st) if !st.interrupting);
     match g.node(w.node).scope {
         executive_model::Scope::SubProcess(esp) if non_interrupting => s

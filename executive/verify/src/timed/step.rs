@@ -83,6 +83,11 @@ pub(super) fn successors(cx: &Ctx, n: &Node) -> Vec<Next> {
         }
     }
     for (wid, w) in &s.waits {
+        // A non-interrupting event sub-process runs one instance at a time (as in the
+        // untimed exploration and the translation).
+        if crate::explore::running_beside(g, s, w) {
+            continue;
+        }
         let label = format!("{}.fire", g.node(w.node).id);
         match w.on {
             On::Timer { key, .. } => {

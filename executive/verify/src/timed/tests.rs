@@ -1,6 +1,7 @@
 //! The timed exploration on small missions: timers against durations, energy as idle draw plus
 //! activity draw, the battery running out, decisions read from the battery, hourly polling until
-//! the battery is low, and every VIOLATED verdict backed by one run that shows it.
+//! the battery is low, reports beside the work one at a time, and every VIOLATED verdict backed
+//! by one run that shows it.
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -11,7 +12,8 @@ use executive_model::ProcessGraph;
 use super::*;
 use crate::resources::{Costs, TaskCost};
 
-/// A process of `body`, each `<serviceTask id="X"/>` bound to resource `sys.X`.
+/// A process of `body`, each `<serviceTask id="X"/>` bound to resource `sys.X` (message
+/// `STATUS` defined).
 fn mission(body: &str) -> Arc<ProcessGraph> {
     let mut body = body.to_owned();
     let mut from = 0;
@@ -31,6 +33,7 @@ fn mission(body: &str) -> Arc<ProcessGraph> {
     let xml = format!(
         r#"<?xml version="1.0" encoding="UTF-8"?>
 <definitions xmlns="http://www.omg.org/spec/BPMN/20100524/MODEL" xmlns:trace="urn:trace:bpmn:1.0" id="d" targetNamespace="urn:t">
+  <message id="STATUS" name="status"/>
   <process id="p" isExecutable="true">{body}</process>
 </definitions>"#
     );
@@ -187,6 +190,46 @@ fn the_battery_running_out_ends_the_run() {
         steps.last().and_then(|s| s.resources).map(|r| r.time_ms.hi),
         Some(1_800_000.0)
     );
+}
+
+/// An hour's drilling while the ground may ask for status reports: a non-interrupting message
+/// event sub-process with a 10-minute report. Requests are heard one at a time, as in the
+/// translation; before, every request heard while one ran added an instance, and the
+/// exploration ran into its bound instead of deciding.
+#[test]
+fn status_reports_beside_the_work_run_one_at_a_time() {
+    let g = mission(
+        r#"
+    <startEvent id="s"/>
+    <sequenceFlow id="f1" sourceRef="s" targetRef="Drill"/>
+    <serviceTask id="Drill"/>
+    <sequenceFlow id="f2" sourceRef="Drill" targetRef="e"/>
+    <endEvent id="e"/>
+    <subProcess id="OnStatus" triggeredByEvent="true">
+      <startEvent id="Asked" isInterrupting="false"><messageEventDefinition messageRef="STATUS"/></startEvent>
+      <sequenceFlow id="r1" sourceRef="Asked" targetRef="Report"/>
+      <serviceTask id="Report"/>
+      <sequenceFlow id="r2" sourceRef="Report" targetRef="Reported"/>
+      <endEvent id="Reported"/>
+    </subProcess>"#,
+    );
+    let c = costs(
+        &g,
+        1000.0,
+        0.0,
+        &[("Drill", 60.0, 60.0, 0.0), ("Report", 10.0, 10.0, 100.0)],
+    );
+    let (t, v) = verdicts(
+        &g,
+        &c,
+        &[
+            "eventually ended within PT2H",
+            "eventually done \"Reported\" within PT1H",
+        ],
+    );
+    // Every run ends within the hour and ten minutes; a run nobody asks in reports nothing.
+    assert_eq!(v, [Verdict::Holds, Verdict::Violated], "{:?}", t.properties);
+    assert!(t.properties[0].states < 100, "{:?}", t.properties[0]);
 }
 
 /// An hourly monitor: wait an hour, read the battery, stop below 20 %, else wait again.
