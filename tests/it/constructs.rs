@@ -261,21 +261,35 @@ fn message_flows_between_pools_start_the_receiving_process() {
 }
 
 /// A relay process the ground starts by a message (no pool in the model sends it), beside the
-/// lander's own work: its activity is held while the lander works. `stuck` joins its two
-/// exclusive ways with a parallel gateway, so a relay run never ends.
-fn relay(stuck: bool) -> String {
+/// lander's own work: its activity is held while the lander works. `stuck` joins the relay's
+/// two exclusive ways with a parallel gateway, so a relay run never ends; `waiting` makes the
+/// lander wait, beside its drilling, for a signal nothing throws.
+fn relay(stuck: bool, waiting: bool) -> String {
     let join = if stuck {
         "parallelGateway"
     } else {
         "exclusiveGateway"
+    };
+    let lander = if waiting {
+        r#"<parallelGateway id="fork"/>
+    <intermediateCatchEvent id="result"><signalEventDefinition signalRef="RESULT"/></intermediateCatchEvent>
+    <parallelGateway id="join"/>
+    <sequenceFlow id="l1" sourceRef="s" targetRef="fork"/>
+    <sequenceFlow id="l2" sourceRef="fork" targetRef="drill"/>
+    <sequenceFlow id="l3" sourceRef="fork" targetRef="result"/>
+    <sequenceFlow id="l4" sourceRef="drill" targetRef="join"/>
+    <sequenceFlow id="l5" sourceRef="result" targetRef="join"/>
+    <sequenceFlow id="l6" sourceRef="join" targetRef="drilled"/>"#
+    } else {
+        r#"<sequenceFlow id="l1" sourceRef="s" targetRef="drill"/>
+    <sequenceFlow id="l2" sourceRef="drill" targetRef="drilled"/>"#
     };
     format!(
         r#"<process id="lander" isExecutable="true">
     <startEvent id="s"/>
     <serviceTask id="drill" name="Drill"><extensionElements><trace:task resource="arm"/></extensionElements></serviceTask>
     <endEvent id="drilled"/>
-    <sequenceFlow id="l1" sourceRef="s" targetRef="drill"/>
-    <sequenceFlow id="l2" sourceRef="drill" targetRef="drilled"/>
+    {lander}
   </process>
   <process id="relay" isExecutable="true">
     <startEvent id="asked"><messageEventDefinition messageRef="STATUS"/></startEvent>
@@ -300,13 +314,18 @@ fn relay(stuck: bool) -> String {
 fn a_process_the_outside_starts_by_a_message_runs_in_both() {
     // The engine's exploration once never started it (its `send` dead, `relayed` unreached,
     // where Spin found both).
-    let c = agree("relay", &relay(false));
+    let c = agree("relay", &relay(false, false));
     assert!(c.dead.is_empty(), "{:?}", c.dead);
     assert_eq!(c.ends, set(&["drilled", "relayed"]));
     assert!(!c.deadlock && !c.unsafe_run);
-    let c = agree("relay-stuck", &relay(true));
+    let c = agree("relay-stuck", &relay(true, false));
     assert!(c.deadlock, "a relay run waits at its parallel join forever");
     assert_eq!(c.ends, set(&["drilled"]));
+    // The lander stuck while the relay is idle: that the outside could still start the relay
+    // does not hide it (the outside starts it once per run, as the translation does).
+    let c = agree("relay-lander-waits", &relay(false, true));
+    assert!(c.deadlock, "the lander waits for a signal nothing throws");
+    assert_eq!(c.ends, set(&["relayed"]));
 }
 
 /// Three parallel analyses of a sample; the first result (behaviour `One`) notifies the ground

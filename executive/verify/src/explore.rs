@@ -2,10 +2,10 @@
 //! outside can do — each task in flight completes or fails with each error code something
 //! catches, each armed timer, message or condition fires, each diverging gateway takes each of
 //! its branches — under the same abstractions as the PROMELA translation (no data; conditions
-//! chosen; timers untimed; a non-interrupting event sub-process runs one instance at a time),
-//! with no translation in between. It checks the built-in properties
-//! on the engine's real semantics and gives the end events each run can reach, so the Spin
-//! verdicts can be cross-checked against it (the differential test).
+//! chosen; timers untimed; the outside starts a process once per run; a non-interrupting event
+//! sub-process runs one instance at a time), with no translation in between. It checks the
+//! built-in properties on the engine's real semantics and gives the end events each run can
+//! reach, so the Spin verdicts can be cross-checked against it (the differential test).
 //!
 //! States are compared by their shape — which elements hold tokens (and by which flow they
 //! came), in which scopes, what waits — not by ids, so loops converge.
@@ -49,7 +49,7 @@ struct Node {
 }
 
 /// The shape of a state: tokens by (scope path, node, flow in, what they do), waits by node,
-/// the ways instances ended, how many run.
+/// instance outcomes.
 pub(crate) fn shape(g: &ProcessGraph, s: &State) -> String {
     let path = |mut scope: Option<executive_engine::ScopeId>| {
         let mut p = Vec::new();
@@ -96,15 +96,12 @@ pub(crate) fn shape(g: &ProcessGraph, s: &State) -> String {
         .map(|w| format!("{}|{}", g.node(w.node).id, path(Some(w.scope))))
         .collect();
     waits.sort();
-    // Instances by how they ended, each way once: a process the outside starts again and again
-    // leaves ended instances behind, which must not make every state new.
-    let outcomes: BTreeSet<String> = s
+    let outcomes: Vec<String> = s
         .instances
         .values()
         .map(|i| format!("{:?}", i.outcome.as_ref().map(std::mem::discriminant)))
         .collect();
-    let running = s.instances.values().filter(|i| i.outcome.is_none()).count();
-    format!("{tokens:?}{waits:?}{outcomes:?}{running}")
+    format!("{tokens:?}{waits:?}{outcomes:?}")
 }
 
 /// The code the exploration fails a task with to stand for every code no boundary names.
@@ -190,14 +187,18 @@ fn inputs(
     starts: &[(executive_model::ProcessId, NodeId)],
 ) -> Vec<(String, Event)> {
     let mut out = Vec::new();
-    // A process started from outside starts again once its last instance has ended, as in the
-    // translation (one instance at a time).
+    // The outside starts a process once per run, while no instance of it runs, as the
+    // translation does at its default loop bound (the mission's start gave every primary process
+    // its first instance, which ends at once where the process starts only on events). Bounded
+    // so, a state where the rest of the mission is stuck still shows as a deadlock once the
+    // outside has had its turn.
     for &(p, n) in starts {
-        let running = s
+        let (count, running) = s
             .instances
             .values()
-            .any(|i| i.process == p && i.outcome.is_none());
-        if !running {
+            .filter(|i| i.process == p)
+            .fold((0, false), |(c, r), i| (c + 1, r || i.outcome.is_none()));
+        if !running && count <= 1 {
             out.push((
                 format!("{}.fire", g.node(n).id),
                 Event::InstanceStarted {
