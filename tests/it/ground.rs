@@ -1,9 +1,9 @@
 //! Ground stations as separate processes answering a running mission's user tasks over Zenoh:
 //! every kind of bad answer refused with the reason and nothing applied, two stations racing
 //! (first valid answer wins, the other is told, nobody logs an error), an operator answering
-//! at the terminal through a pseudo-terminal, and restarts: a station killed with a task open answers it by
-//! its policy when restarted on its store, and an answer sent while the executive is down is
-//! sent again until the resumed executive judges it.
+//! at the terminal through a pseudo-terminal, and restarts: a station killed with a task open
+//! answers it by its policy when restarted on its store, and an answer sent while the executive
+//! is down is sent again until the resumed executive judges it.
 
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
@@ -94,13 +94,16 @@ fn setup(name: &str, n: usize) -> PathBuf {
     dir
 }
 
-/// A process's log lines (its standard error), echoed to the test's as they come.
-type Log = Arc<Mutex<Vec<String>>>;
+/// A process's log (its standard error), echoed to the test's as it comes.
+struct Log {
+    lines: Arc<Mutex<Vec<String>>>,
+    reader: std::thread::JoinHandle<()>,
+}
 
 fn echo(stderr: ChildStderr) -> Log {
-    let log = Log::default();
-    let keep = Arc::clone(&log);
-    std::thread::spawn(move || {
+    let lines = Arc::<Mutex<Vec<String>>>::default();
+    let keep = Arc::clone(&lines);
+    let reader = std::thread::spawn(move || {
         for line in std::io::BufReader::new(stderr)
             .lines()
             .map_while(Result::ok)
@@ -109,21 +112,24 @@ fn echo(stderr: ChildStderr) -> Log {
             keep.lock().unwrap_or_else(|p| p.into_inner()).push(line);
         }
     });
-    log
+    Log { lines, reader }
 }
 
-/// The lines of a log at level ERROR.
-fn errors(log: &Log) -> Vec<String> {
-    let lines = log.lock().unwrap_or_else(|p| p.into_inner());
-    lines
-        .iter()
-        .filter(|l| l.contains(" ERROR "))
-        .cloned()
-        .collect()
+impl Log {
+    /// The lines at level ERROR, once the process has ended and its log is read to the end.
+    fn errors(self) -> Vec<String> {
+        let _ = self.reader.join();
+        let lines = self.lines.lock().unwrap_or_else(|p| p.into_inner());
+        lines
+            .iter()
+            .filter(|l| l.contains(" ERROR "))
+            .cloned()
+            .collect()
+    }
 }
 
 /// A running executive (and its log), killed if the test fails before it ends.
-struct Exec(Option<Child>, Log);
+struct Exec(Option<Child>, Option<Log>);
 
 impl Drop for Exec {
     fn drop(&mut self) {
@@ -161,7 +167,7 @@ fn trace(verb: &[&str], dir: &Path, zenoh: &[&str]) -> Exec {
         .spawn()
         .expect("trace starts");
     let log = echo(child.stderr.take().expect("stderr"));
-    Exec(Some(child), log)
+    Exec(Some(child), Some(log))
 }
 
 /// The executive's exit, waited for on a thread so a hang fails the test instead of CI.
@@ -185,7 +191,7 @@ struct Station {
     child: Child,
     lines: mpsc::Receiver<String>,
     seen: Vec<String>,
-    log: Log,
+    log: Option<Log>,
 }
 
 impl Station {
@@ -215,7 +221,7 @@ impl Station {
             child,
             lines,
             seen: Vec::new(),
-            log,
+            log: Some(log),
         };
         s.expect(|l| l.starts_with("ready ground"));
         s
@@ -538,8 +544,8 @@ async fn two_stations_race_and_the_first_valid_answer_wins() {
             .expect("stations up");
         seen.insert(key.expect("token"));
     }
-    let exec = executive(&dir, &["-e", &hub]);
-    let exec_log = Arc::clone(&exec.1);
+    let mut exec = executive(&dir, &["-e", &hub]);
+    let exec_log = exec.1.take().expect("log");
     tokio::task::spawn_blocking(move || exits(exec))
         .await
         .expect("the mission ends");
@@ -594,14 +600,15 @@ async fn two_stations_race_and_the_first_valid_answer_wins() {
             .count();
         assert_eq!(opened, n, "{:#?}", station.seen);
     }
-    // A race is nominal: the answer that lost, and the replies to queries no longer awaited
-    // (a second station's, a query's own timeout), are no error in anybody's log.
-    for (who, log) in [
-        ("executive", &exec_log),
-        ("alpha", &a.log),
-        ("bravo", &b.log),
-    ] {
-        assert_eq!(errors(log), Vec::<String>::new(), "{who} logged errors");
+    // A race is nominal: the answer that lost, and a verdict that arrives after its station was
+    // told it won, are no error in anybody's log (read to the end once each process is gone).
+    let mut logs = vec![("executive", exec_log)];
+    for (who, station) in [("alpha", &mut a), ("bravo", &mut b)] {
+        let _ = (station.child.kill(), station.child.wait());
+        logs.push((who, station.log.take().expect("log")));
+    }
+    for (who, log) in logs {
+        assert_eq!(log.errors(), Vec::<String>::new(), "{who} logged errors");
     }
     router.close().await.expect("router closes");
 }
