@@ -162,7 +162,7 @@ pub(crate) fn take_label(g: &ProcessGraph, gateway: NodeId, flows: &[FlowId]) ->
 
 /// The start events by which the outside starts a mission's process: a message or condition
 /// start of a primary process (a signal start hears the model's own signals instead).
-fn outside_starts(g: &ProcessGraph) -> Vec<(executive_model::ProcessId, NodeId)> {
+pub(crate) fn outside_starts(g: &ProcessGraph) -> Vec<(executive_model::ProcessId, NodeId)> {
     g.primary_processes()
         .into_iter()
         .flat_map(|p| {
@@ -179,6 +179,20 @@ fn outside_starts(g: &ProcessGraph) -> Vec<(executive_model::ProcessId, NodeId)>
         .collect()
 }
 
+/// Whether the outside may start process `p` now: once per run, while no instance of it runs,
+/// as the translation does at its default loop bound (the mission's start gave every primary
+/// process its first instance, which ends at once where the process starts only on events).
+/// Bounded so, a state where the rest of the mission is stuck still shows as a deadlock once
+/// the outside has had its turn.
+pub(crate) fn outside_may_start(s: &State, p: executive_model::ProcessId) -> bool {
+    let (count, running) = s
+        .instances
+        .values()
+        .filter(|i| i.process == p)
+        .fold((0, false), |(c, r), i| (c + 1, r || i.outcome.is_none()));
+    !running && count <= 1
+}
+
 /// What the outside can do in a state.
 fn inputs(
     g: &ProcessGraph,
@@ -187,18 +201,8 @@ fn inputs(
     starts: &[(executive_model::ProcessId, NodeId)],
 ) -> Vec<(String, Event)> {
     let mut out = Vec::new();
-    // The outside starts a process once per run, while no instance of it runs, as the
-    // translation does at its default loop bound (the mission's start gave every primary process
-    // its first instance, which ends at once where the process starts only on events). Bounded
-    // so, a state where the rest of the mission is stuck still shows as a deadlock once the
-    // outside has had its turn.
     for &(p, n) in starts {
-        let (count, running) = s
-            .instances
-            .values()
-            .filter(|i| i.process == p)
-            .fold((0, false), |(c, r), i| (c + 1, r || i.outcome.is_none()));
-        if !running && count <= 1 {
+        if outside_may_start(s, p) {
             out.push((
                 format!("{}.fire", g.node(n).id),
                 Event::InstanceStarted {

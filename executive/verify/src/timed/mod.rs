@@ -373,6 +373,7 @@ fn context<'a>(
             .filter(|n| crate::promela::outside(g, *n))
             .collect(),
         codes: crate::explore::codes(g),
+        starts: crate::explore::outside_starts(g),
         limits,
         counted: atoms()
             .filter_map(|a| match a {

@@ -217,6 +217,8 @@ pub(super) struct Ctx<'a> {
     pub(super) costs: &'a Costs,
     pub(super) hold: BTreeSet<NodeId>,
     pub(super) codes: Vec<String>,
+    /// The start events by which the outside starts a process.
+    pub(super) starts: Vec<(executive_model::ProcessId, NodeId)>,
     pub(super) limits: TimedLimits,
     /// Elements the requirements count, with the count they saturate at.
     pub(super) counted: BTreeMap<NodeId, u8>,
