@@ -4,6 +4,7 @@
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::Path;
+use std::time::{Duration, Instant};
 
 use executive_engine::{Action, Input, State};
 use sled::Transactional;
@@ -19,6 +20,18 @@ pub struct SledStore {
     outbox: sled::Tree,
     done: sled::Tree,
     snapshots: sled::Tree,
+}
+
+/// How long an open waits for the store's lock. sled releases a closed database's lock only when
+/// its flusher thread has exited, after the close returns (spacejam/sled#1234), so an open just
+/// after a close in the same process can find it still held for a moment; a lock held longer is
+/// another process's, and the store is refused as in use.
+const LOCK_WAIT: Duration = Duration::from_secs(1);
+
+/// Whether sled refused to open because the directory's lock is held (sled 0.34 reports it as
+/// an `Other` I/O error with this text, the OS's `WouldBlock` inside).
+fn locked(e: &sled::Error) -> bool {
+    matches!(e, sled::Error::Io(io) if io.to_string().starts_with("could not acquire lock"))
 }
 
 fn io(e: impl std::fmt::Display) -> StoreError {
@@ -66,9 +79,29 @@ impl SledStore {
         }
         // sled reports most damage as errors, but not all of it: a panic while reading a
         // damaged file is turned into a refusal too.
-        let opened = catch_unwind(AssertUnwindSafe(|| sled::Config::new().path(path).open()));
+        let waited = Instant::now();
+        let mut pause = Duration::from_millis(5);
+        let opened = loop {
+            match catch_unwind(AssertUnwindSafe(|| sled::Config::new().path(path).open())) {
+                Ok(Err(e)) if locked(&e) && waited.elapsed() < LOCK_WAIT => {
+                    tracing::debug!(path = %shown, "store locked; waiting for its lock");
+                    std::thread::sleep(pause);
+                    pause = (pause * 2).min(Duration::from_millis(100));
+                }
+                other => break other,
+            }
+        };
         let db = match opened {
             Ok(Ok(db)) => db,
+            Ok(Err(e)) if locked(&e) => {
+                return Err(StoreError::Open {
+                    path: shown,
+                    reason: format!(
+                        "the store is in use: its lock was still held after {} s (another executive on the same store?)",
+                        LOCK_WAIT.as_secs()
+                    ),
+                });
+            }
             Ok(Err(e)) => {
                 return Err(StoreError::Open {
                     path: shown,

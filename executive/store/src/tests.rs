@@ -1,5 +1,5 @@
-//! The sled store against its in-memory twin on random operation sequences, and the refusal of
-//! foreign, damaged and out-of-order input.
+//! The sled store against its in-memory twin on random operation sequences, the refusal of
+//! foreign, damaged, in-use and out-of-order input, and a closed store reopened at once.
 
 use std::path::PathBuf;
 
@@ -172,6 +172,22 @@ fn recovery_starts_at_the_newest_snapshot() {
         r.steps.iter().map(|s| s.input.seq).collect::<Vec<_>>(),
         [4, 5]
     );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_store_in_use_is_refused_and_a_closed_one_reopens_at_once() {
+    let dir = scratch("in-use");
+    let s = SledStore::open(&dir).expect("opens");
+    // Open twice: the lock is held for good, and the second open says so.
+    let e = SledStore::open(&dir).err().expect("refused");
+    assert!(e.to_string().contains("in use"), "{e}");
+    // Closed, it opens again at once, again and again: each open waits out sled's release of
+    // the lock the close before left to its flusher thread.
+    drop(s);
+    for _ in 0..20 {
+        drop(SledStore::open(&dir).expect("reopens"));
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 
