@@ -147,8 +147,9 @@ struct Source<'b> {
 /// activities may call processes of imported BPMN documents.
 ///
 /// The element trees borrow from the decoded texts, so the texts of every document are read
-/// first: an import is parsed once to find its own imports and once more, beside the others,
-/// to build the model. Models seldom import anything; the main model is parsed once.
+/// first: an import is parsed once when it is read (well-formedness, its own imports) and once
+/// more, beside the others, to build the model. Models seldom import anything; the main model
+/// is parsed once.
 pub fn load_bundle(
     bytes: &[u8],
     options: &Options,
@@ -168,28 +169,19 @@ pub fn load_bundle(
         true => parse_part(&main, &bump, limits, &mut sink),
         false => None,
     };
-    let mut imports = main_doc.as_ref().map(import_sources_of).unwrap_or_default();
+    // The imports each document declares, in the order the documents were read (none: nothing
+    // queued, and nothing allocated).
+    let mut declared: std::collections::VecDeque<Vec<Import>> = Default::default();
+    let first = main_doc.as_ref().map(imports_of).unwrap_or_default();
+    if !first.is_empty() {
+        declared.push_back(first);
+    }
     let mut sources: Vec<Source<'static>> = Vec::new();
     // Resolve imports breadth-first; each document gets its own offset range.
     let mut end = main.text.len() + 1;
-    let mut next = 0;
-    while next <= sources.len() && sources.len() < MAX_IMPORTS {
-        let wanted = if next == 0 {
-            std::mem::take(&mut imports)
-        } else {
-            let source = &sources[next - 1];
-            match source.bpmn {
-                true => {
-                    let mut quiet = Sink::default();
-                    parse_part(source, &Bump::new(), limits, &mut quiet)
-                        .as_ref()
-                        .map(import_sources_of)
-                        .unwrap_or_default()
-                }
-                false => Vec::new(),
-            }
-        };
-        next += 1;
+    while sources.len() < MAX_IMPORTS
+        && let Some(wanted) = declared.pop_front()
+    {
         for (offset, location, bpmn) in wanted {
             if sources
                 .iter()
@@ -229,12 +221,16 @@ pub fn load_bundle(
                 base,
                 bpmn,
             };
-            // Well-formedness is checked here (XSD and WSDL too); BPMN documents are parsed
-            // again below, beside the model.
-            let definitions = match readable {
+            // Well-formedness is checked here (XSD and WSDL too), and a BPMN document's own
+            // imports are read; BPMN documents are parsed again below, beside the model.
+            let parsed = match readable {
                 true => parse_part(&source, &Bump::new(), limits, &mut sink)
-                    .map(|d| d.root.is_bpmn("definitions")),
+                    .map(|d| (d.root.is_bpmn("definitions"), imports_of(&d))),
                 false => None,
+            };
+            let (definitions, nested) = match parsed {
+                Some((definitions, nested)) => (Some(definitions), nested),
+                None => (None, Vec::new()),
             };
             match definitions {
                 None => {
@@ -255,6 +251,9 @@ pub fn load_bundle(
                     );
                 }
                 Some(_) => {}
+            }
+            if source.bpmn && !nested.is_empty() {
+                declared.push_back(nested);
             }
             sources.push(source);
         }
@@ -316,8 +315,11 @@ pub fn load_bundle(
     }
 }
 
-/// The imports a document declares: (offset, location, is BPMN).
-fn import_sources_of(doc: &xml::Document<'_>) -> Vec<(usize, String, bool)> {
+/// An import a document declares: offset, location, whether it is BPMN.
+type Import = (usize, String, bool);
+
+/// The imports a document declares.
+fn imports_of(doc: &xml::Document<'_>) -> Vec<Import> {
     doc.root
         .bpmn_children("import")
         .map(|i| {

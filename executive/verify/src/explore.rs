@@ -21,7 +21,7 @@ use executive_model::{
 };
 use serde::Serialize;
 
-use crate::promela::outside;
+use crate::promela::{outside, started_from_outside};
 
 /// What the exploration found.
 #[derive(Clone, Debug, Default, Serialize)]
@@ -161,7 +161,7 @@ pub(crate) fn take_label(g: &ProcessGraph, gateway: NodeId, flows: &[FlowId]) ->
 }
 
 /// The start events by which the outside starts a mission's process: a message or condition
-/// start of a primary process (a signal start hears the model's own signals instead).
+/// start of a primary process.
 pub(crate) fn outside_starts(g: &ProcessGraph) -> Vec<(executive_model::ProcessId, NodeId)> {
     g.primary_processes()
         .into_iter()
@@ -169,28 +169,41 @@ pub(crate) fn outside_starts(g: &ProcessGraph) -> Vec<(executive_model::ProcessI
             g.scope_nodes(executive_model::Scope::Process(p))
                 .iter()
                 .copied()
-                .filter(|n| {
-                    g.node(*n).incoming.is_empty()
-                        && matches!(&g.node(*n).kind, NodeKind::Start(st) if st.triggers.iter().any(
-                            |d| matches!(d, EventDefinition::Message(_) | EventDefinition::Conditional(_))))
-                })
+                .filter(|n| g.node(*n).incoming.is_empty() && started_from_outside(g, *n))
                 .map(move |n| (p, n))
         })
         .collect()
 }
 
-/// Whether the outside may start process `p` now: once per run, while no instance of it runs,
-/// as the translation does at its default loop bound (the mission's start gave every primary
-/// process its first instance, which ends at once where the process starts only on events).
-/// Bounded so, a state where the rest of the mission is stuck still shows as a deadlock once
-/// the outside has had its turn.
-pub(crate) fn outside_may_start(s: &State, p: executive_model::ProcessId) -> bool {
-    let (count, running) = s
-        .instances
-        .values()
-        .filter(|i| i.process == p)
-        .fold((0, false), |(c, r), i| (c + 1, r || i.outcome.is_none()));
-    !running && count <= 1
+/// The starts of `starts` the outside may make in state `s` — each start event with its label
+/// and input. It starts a process once per run, while no instance of it runs, as the
+/// translation does at its default loop bound (the mission's start gave every primary process
+/// its first instance, which ends at once where the process starts only on events). Bounded
+/// so, a state where the rest of the mission is stuck still shows as a deadlock once the
+/// outside has had its turn.
+pub(crate) fn starts_now<'s>(
+    g: &'s ProcessGraph,
+    s: &'s State,
+    starts: &'s [(executive_model::ProcessId, NodeId)],
+) -> impl Iterator<Item = (NodeId, String, Event)> + 's {
+    starts
+        .iter()
+        .filter(|(p, _)| {
+            let (count, running) = s
+                .instances
+                .values()
+                .filter(|i| i.process == *p)
+                .fold((0, false), |(c, r), i| (c + 1, r || i.outcome.is_none()));
+            !running && count <= 1
+        })
+        .map(|&(p, n)| {
+            let start = Event::InstanceStarted {
+                process: g.process(p).id.clone(),
+                vars: Vars::new(),
+                start: Some(g.node(n).id.clone()),
+            };
+            (n, format!("{}.fire", g.node(n).id), start)
+        })
 }
 
 /// What the outside can do in a state.
@@ -201,18 +214,7 @@ fn inputs(
     starts: &[(executive_model::ProcessId, NodeId)],
 ) -> Vec<(String, Event)> {
     let mut out = Vec::new();
-    for &(p, n) in starts {
-        if outside_may_start(s, p) {
-            out.push((
-                format!("{}.fire", g.node(n).id),
-                Event::InstanceStarted {
-                    process: g.process(p).id.clone(),
-                    vars: Vars::new(),
-                    start: Some(g.node(n).id.clone()),
-                },
-            ));
-        }
-    }
+    out.extend(starts_now(g, s, starts).map(|(_, label, event)| (label, event)));
     for (id, t) in &s.tokens {
         let label = g.node(t.node).id.clone();
         match &t.at {

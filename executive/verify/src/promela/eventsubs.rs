@@ -233,9 +233,7 @@ impl Tr<'_> {
     /// A process started by a message or a condition from outside: whenever it is idle, at
     /// most the loop bound times (a signal start hears the model's signals instead).
     pub(super) fn message_start(&mut self, c: usize, start: NodeId) {
-        let from_outside = matches!(&self.g.node(start).kind, NodeKind::Start(st)
-            if st.triggers.iter().any(|d| matches!(d, EventDefinition::Message(_) | EventDefinition::Conditional(_))));
-        if !from_outside || !self.start_ix.contains_key(&(c, start)) {
+        if !started_from_outside(self.g, start) || !self.start_ix.contains_key(&(c, start)) {
             return;
         }
         let mut alt = Alt {

@@ -256,6 +256,13 @@ pub(crate) fn outside(g: &ProcessGraph, n: NodeId) -> bool {
     }
 }
 
+/// The start event is one the outside fires: a message or condition start (a signal start
+/// hears the model's own signals instead).
+pub(crate) fn started_from_outside(g: &ProcessGraph, n: NodeId) -> bool {
+    matches!(&g.node(n).kind, NodeKind::Start(st) if st.triggers.iter().any(
+        |d| matches!(d, EventDefinition::Message(_) | EventDefinition::Conditional(_))))
+}
+
 /// Can `from` reach `to` along sequence flows and attached boundaries (same process)?
 pub(crate) fn reaches(g: &ProcessGraph, from: NodeId, to: NodeId) -> bool {
     let mut seen = BTreeSet::new();

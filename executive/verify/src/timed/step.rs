@@ -84,19 +84,13 @@ pub(super) fn successors(cx: &Ctx, n: &Node) -> Vec<Next> {
     }
     // The outside starts a process with a message or condition start once per run, while it is
     // idle (as in the untimed exploration and the translation).
-    for &(p, start) in &cx.starts {
-        if crate::explore::outside_may_start(s, p) {
-            out.push(Next {
-                label: format!("{}.fire", g.node(start).id),
-                event: Some(Event::InstanceStarted {
-                    process: g.process(p).id.clone(),
-                    vars: Vars::new(),
-                    start: Some(g.node(start).id.clone()),
-                }),
-                when: When::Any,
-                node: Some(start),
-            });
-        }
+    for (start, label, event) in crate::explore::starts_now(g, s, &cx.starts) {
+        out.push(Next {
+            label,
+            event: Some(event),
+            when: When::Any,
+            node: Some(start),
+        });
     }
     for (wid, w) in &s.waits {
         // A non-interrupting event sub-process runs one instance at a time (as in the

@@ -12,10 +12,17 @@ use executive_model::ProcessGraph;
 use super::*;
 use crate::resources::{Costs, TaskCost};
 
-/// A process of `body`, each `<serviceTask id="X"/>` bound to resource `sys.X` (message
-/// `STATUS` defined).
+/// A model of one process `p` of `body` (as [`definitions`]).
 fn mission(body: &str) -> Arc<ProcessGraph> {
-    let mut body = body.to_owned();
+    definitions(&format!(
+        r#"<process id="p" isExecutable="true">{body}</process>"#
+    ))
+}
+
+/// A model of `processes`, each `<serviceTask id="X"/>` bound to resource `sys.X` (message
+/// `STATUS` defined).
+fn definitions(processes: &str) -> Arc<ProcessGraph> {
+    let mut body = processes.to_owned();
     let mut from = 0;
     while let Some(k) = body[from..].find("<serviceTask id=\"") {
         let at = from + k;
@@ -34,7 +41,7 @@ fn mission(body: &str) -> Arc<ProcessGraph> {
         r#"<?xml version="1.0" encoding="UTF-8"?>
 <definitions xmlns="http://www.omg.org/spec/BPMN/20100524/MODEL" xmlns:trace="urn:trace:bpmn:1.0" id="d" targetNamespace="urn:t">
   <message id="STATUS" name="status"/>
-  <process id="p" isExecutable="true">{body}</process>
+  {body}
 </definitions>"#
     );
     let loaded = executive_model::load(xml.as_bytes());
@@ -237,29 +244,21 @@ fn status_reports_beside_the_work_run_one_at_a_time() {
 /// held every bound on energy below its draw.
 #[test]
 fn a_process_the_outside_starts_draws_its_energy_too() {
-    let xml = r#"<?xml version="1.0" encoding="UTF-8"?>
-<definitions xmlns="http://www.omg.org/spec/BPMN/20100524/MODEL" xmlns:trace="urn:trace:bpmn:1.0" id="d" targetNamespace="urn:t">
-  <message id="STATUS" name="status"/>
-  <process id="p" isExecutable="true">
+    let g = definitions(
+        r#"<process id="p" isExecutable="true">
     <startEvent id="s"/>
     <sequenceFlow id="f1" sourceRef="s" targetRef="Drill"/>
-    <serviceTask id="Drill"><extensionElements><trace:task resource="sys.Drill"/></extensionElements></serviceTask>
+    <serviceTask id="Drill"/>
     <sequenceFlow id="f2" sourceRef="Drill" targetRef="e"/>
     <endEvent id="e"/>
   </process>
   <process id="q" isExecutable="true">
     <startEvent id="Asked"><messageEventDefinition messageRef="STATUS"/></startEvent>
     <sequenceFlow id="r1" sourceRef="Asked" targetRef="Relay"/>
-    <serviceTask id="Relay"><extensionElements><trace:task resource="sys.Relay"/></extensionElements></serviceTask>
+    <serviceTask id="Relay"/>
     <sequenceFlow id="r2" sourceRef="Relay" targetRef="Relayed"/>
     <endEvent id="Relayed"/>
-  </process>
-</definitions>"#;
-    let loaded = executive_model::load(xml.as_bytes());
-    let g = Arc::new(
-        loaded
-            .graph
-            .unwrap_or_else(|| panic!("{:?}", loaded.diagnostics)),
+  </process>"#,
     );
     let c = costs(
         &g,
