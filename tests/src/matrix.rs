@@ -560,9 +560,10 @@ pub struct Tally {
     /// Flights that ended as the uninterrupted flight did (outcome and samples analysed).
     pub same: usize,
     /// Flights that ended with the uninterrupted flight's outcome, maybe with fewer samples
-    /// analysed: while a router is down, the ground's approvals cannot arrive, and at
-    /// 100,000x its second of restart is over a mission day — the approvals' six-hour timers
-    /// fire and their sites are skipped, as in flight.
+    /// analysed: while a router is down, the ground's approvals cannot arrive, and while the
+    /// simulator is down no lander activity ends; at 100,000x a second of restart is over a
+    /// mission day — the approvals' six-hour timers fire and their sites are skipped, and the
+    /// deadline comes sooner, as in flight.
     pub ended: usize,
     /// Flights that never ended.
     pub stuck: usize,

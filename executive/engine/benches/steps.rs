@@ -3,7 +3,8 @@
 //! For each workload of `../shared/bench/peers/models` the engine runs one verification
 //! instance (completed flow nodes must match `manifest.json`), then K instances back to back
 //! with service tasks completing at once (`noop`, `inc`, `fail` as the peer harness defines
-//! them); the peers run the same files in the same run. Prints completed flow nodes per second,
+//! them); the peers run the same files in the same run, with the K and warm-ups of the harness's
+//! matrix, each peer's figure the median of three fresh processes as the matrix takes it. Prints completed flow nodes per second,
 //! instances per second and the ratio to the faster peer; then memory per idle instance waiting
 //! on a user task. Run with `cargo bench -p executive-engine --bench steps`
 //! (`STEPS_ONLY=<model>` for one row).
@@ -17,7 +18,7 @@ use executive_engine::{Action, Engine, Entry, Event, Input, Value, Vars};
 
 #[path = "../../model/benches/peers.rs"]
 mod peers;
-use peers::{peers, report, shared};
+use peers::{median, peers, report, shared};
 
 /// Service operation of each service task, from `implementation="${environment.services.op}"`.
 fn operations(xml: &str) -> BTreeMap<String, String> {
@@ -187,23 +188,40 @@ fn main() {
     )
     .expect("manifest json");
     let peers = peers();
-    // (ours, bpmn-engine's file, peer K, bpmn-engine's extra flags as in the peers' matrix)
-    let rows: [(&str, &str, &str, &[&str]); 5] = [
-        ("seq-100.bpmn", "seq-100.bpmn", "20", &[]),
+    // (ours and SpiffWorkflow's file, bpmn-engine's file, bpmn-engine's and SpiffWorkflow's
+    // arguments): K, warm-ups and flags as in the harness's matrix (`rows()` of `run_all.sh`).
+    type Row<'a> = (&'a str, &'a str, &'a [&'a str], &'a [&'a str]);
+    let rows: [Row; 5] = [
+        (
+            "seq-100.bpmn",
+            "seq-100.bpmn",
+            &["10", "--warmup", "1"],
+            &["60", "--warmup", "6"],
+        ),
         (
             "seq-1000.bpmn",
             "seq-1000.bpmn",
-            "2",
-            &["--defer", "nexttick"],
+            &["2", "--defer", "nexttick"],
+            &["1"],
         ),
-        ("par-100.bpmn", "par-100.bpmn", "20", &[]),
+        (
+            "par-100.bpmn",
+            "par-100.bpmn",
+            &["10", "--warmup", "1"],
+            &["10", "--warmup", "1"],
+        ),
         (
             "loop-1000.spiff.bpmn",
             "loop-1000.bpmn-engine.bpmn",
-            "2",
-            &["--defer", "nexttick"],
+            &["2", "--defer", "nexttick"],
+            &["1"],
         ),
-        ("error-boundary.bpmn", "error-boundary.bpmn", "200", &[]),
+        (
+            "error-boundary.bpmn",
+            "error-boundary.bpmn",
+            &["250", "--warmup", "25"],
+            &["3000", "--warmup", "300"],
+        ),
     ];
     println!(
         "{:<22} {:>14} {:>14} {:>14} {:>10} {:>12}",
@@ -211,7 +229,7 @@ fn main() {
     );
     // `STEPS_ONLY=error-boundary` runs the rows whose model name contains it (for profiling).
     let only = std::env::var("STEPS_ONLY").ok();
-    for (file, engine_file, k, flags) in rows {
+    for (file, engine_file, engine_args, spiff_args) in rows {
         if only.as_deref().is_some_and(|o| !file.contains(o)) {
             continue;
         }
@@ -225,15 +243,13 @@ fn main() {
                 continue;
             }
         };
-        let steps = |engine: &str, f: &str, extra: &[&str]| {
-            let args: Vec<&str> = std::iter::once(k).chain(extra.iter().copied()).collect();
+        let steps = |engine: &str, f: &str, args: &[&str]| {
             peers
                 .as_deref()
-                .and_then(|d| report(d, engine, &models.join(f), &args))
-                .and_then(|l| l["steps_per_s"].as_f64())
+                .and_then(|d| median(d, engine, &models.join(f), args, "steps_per_s"))
         };
-        let be = steps("bpmn-engine", engine_file, flags);
-        let sp = steps("spiff", file, &[]);
+        let be = steps("bpmn-engine", engine_file, engine_args);
+        let sp = steps("spiff", file, spiff_args);
         let faster = [be, sp].into_iter().flatten().reduce(f64::max);
         let show = |v: Option<f64>| v.map_or("-".to_owned(), |v| format!("{v:.0}"));
         let ratio = faster.map_or("-".to_owned(), |f| format!("{:.0}x", ours.steps_per_s / f));

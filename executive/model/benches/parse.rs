@@ -2,7 +2,8 @@
 //!
 //! Times `executive_model::load` on a generated 10,000-node model and on the peers'
 //! `seq-1000.bpmn`, then runs the peer harness of `../shared/bench/peers` (parse mode) on the same
-//! files in the same run, and prints each time and the ratio to the faster peer. The limit is
+//! files in the same run (each peer's figure the median of three fresh processes, as the
+//! harness's matrix takes it), and prints each time and the ratio to the faster peer. The limit is
 //! printed beside: quick-xml reading the same bytes, every event and attribute, with no tree
 //! (`raw ms`, and how many times that the loader takes). The peers are
 //! installed once into a scratch copy of the harness (`$TMPDIR/trace-bench-peers`), since
@@ -83,13 +84,11 @@ fn raw(bytes: &[u8], reps: usize) -> f64 {
     times[reps / 2]
 }
 
-/// Warm median parse time (ms) reported by a peer runner in parse mode.
-fn peer(dir: &Path, engine: &str, model: &Path, reps: usize) -> Option<f64> {
-    let reps = reps.to_string();
-    let line = peers::report(dir, engine, model, &[&reps, "--mode", "parse"])?;
-    line["parse_warm_median_ms"]
-        .as_f64()
-        .or_else(|| line["parse_cold_ms"].as_f64())
+/// Warm median parse time (ms) reported by a peer runner in parse mode (six parses, as in the
+/// harness's matrix), the median over [`peers::REPS`] fresh processes.
+fn peer(dir: &Path, engine: &str, model: &Path) -> Option<f64> {
+    let args = ["6", "--mode", "parse"];
+    peers::median(dir, engine, model, &args, "parse_warm_median_ms")
 }
 
 fn main() {
@@ -118,10 +117,8 @@ fn main() {
         let bytes = std::fs::read(path).expect("model");
         let (ms, diagnostics) = ours(&bytes, 21);
         let floor = raw(&bytes, 21);
-        let engine = peers
-            .as_deref()
-            .and_then(|d| peer(d, "bpmn-engine", path, 6));
-        let spiff = peers.as_deref().and_then(|d| peer(d, "spiff", path, 6));
+        let engine = peers.as_deref().and_then(|d| peer(d, "bpmn-engine", path));
+        let spiff = peers.as_deref().and_then(|d| peer(d, "spiff", path));
         let faster = [engine, spiff].into_iter().flatten().reduce(f64::min);
         let show = |v: Option<f64>| v.map_or("-".to_owned(), |v| format!("{v:.2}"));
         let ratio = faster.map_or("-".to_owned(), |f| format!("{:.0}x", f / ms));

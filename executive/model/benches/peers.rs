@@ -90,3 +90,24 @@ pub(crate) fn report(
     }
     Some(line)
 }
+
+/// Fresh processes per peer measurement: the harness's own matrix takes the median over three
+/// (`REPS=3` in `run_all.sh`), as one process's figure moves by half between runs (bpmn-engine
+/// parsing `seq-1000`: 47 to 80 ms in three runs of one hour).
+pub(crate) const REPS: usize = 3;
+
+/// The median of `field` over [`REPS`] fresh runs of a peer (see [`report`]); `None` if every
+/// run failed.
+pub(crate) fn median(
+    dir: &Path,
+    engine: &str,
+    model: &Path,
+    args: &[&str],
+    field: &str,
+) -> Option<f64> {
+    let mut values: Vec<f64> = (0..REPS)
+        .filter_map(|_| report(dir, engine, model, args)?[field].as_f64())
+        .collect();
+    values.sort_by(f64::total_cmp);
+    values.get(values.len() / 2).copied()
+}

@@ -190,7 +190,7 @@ pub(crate) fn build(
             collaborations: Vec::new(),
             warnings: Vec::new(),
             global_tasks: BTreeMap::new(),
-            node_ids: BTreeMap::new(),
+            node_ids: Vec::new(),
             process_ids: BTreeMap::new(),
         },
         node_src: Vec::new(),
@@ -265,6 +265,7 @@ pub(crate) fn build(
         }
     }
     b.unknown_definitions_children(root);
+    b.g.index_nodes();
     Some(b.g)
 }
 
@@ -556,7 +557,6 @@ impl<'d> Builder<'d, '_> {
                         id
                     }
                 };
-                self.g.node_ids.entry(id.clone()).or_insert(nid);
                 if let Some(xml_id) = xml_id {
                     self.scoped_nodes
                         .insert((self.doc_of(child.offset), xml_id), nid);

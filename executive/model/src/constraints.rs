@@ -219,6 +219,10 @@ struct Index<'d> {
     process_of: HashMap<&'d str, &'d str>,
     /// Participant of each process.
     pool_of_process: HashMap<&'d str, &'d str>,
+    /// Sequence flows among `elements`.
+    flows: usize,
+    /// Whether some id is given to more than one element.
+    duplicate_ids: bool,
 }
 
 impl<'d> Index<'d> {
@@ -228,6 +232,8 @@ impl<'d> Index<'d> {
             elements: Vec::with_capacity(ids),
             process_of: HashMap::with_capacity(ids),
             pool_of_process: HashMap::new(),
+            flows: 0,
+            duplicate_ids: false,
         };
         let mut stack: Vec<(&Element, Option<&str>)> = vec![(root, None)];
         while let Some((el, process)) = stack.pop() {
@@ -237,9 +243,13 @@ impl<'d> Index<'d> {
             let id = el.attr("id");
             let process = if el.name == "process" { id } else { process };
             if let Some(id) = id {
-                if let std::collections::hash_map::Entry::Vacant(v) = ix.by_id.entry(id) {
-                    v.insert(el);
-                    ix.elements.push(el);
+                match ix.by_id.entry(id) {
+                    std::collections::hash_map::Entry::Vacant(v) => {
+                        v.insert(el);
+                        ix.elements.push(el);
+                        ix.flows += usize::from(el.name == "sequenceFlow");
+                    }
+                    std::collections::hash_map::Entry::Occupied(_) => ix.duplicate_ids = true,
                 }
                 if let Some(p) = process {
                     ix.process_of.insert(id, p);
@@ -329,6 +339,8 @@ pub(crate) fn check(doc: &Document<'_>, sink: &mut Sink) {
         Option<&'e str>,
     );
     let mut stack: Vec<Visit<'_>> = vec![(root, None, false, false, None)];
+    // Flow ends listed by the node at that end (see `flow_node_refs`).
+    let mut listed = 0;
     while let Some((el, parent, executable, declared, process)) = stack.pop() {
         if el.ns != Ns::Bpmn {
             continue;
@@ -401,7 +413,7 @@ pub(crate) fn check(doc: &Document<'_>, sink: &mut Sink) {
             }
         }
         if FLOW_NODES.contains(&el.name) {
-            flow_node_refs(el, &ix, &mut err);
+            listed += flow_node_refs(el, &ix, &mut err);
         }
         match el.name {
             "documentation" | "textAnnotation" => {
@@ -656,7 +668,11 @@ pub(crate) fn check(doc: &Document<'_>, sink: &mut Sink) {
                 .map(|c| (c, Some(el), executable, declared, process)),
         );
     }
-    listed_flows(&ix, sink);
+    // Every end of every flow listed (ids unique, so no listing is counted twice): nothing for
+    // `listed_flows` to find.
+    if ix.duplicate_ids || listed != 2 * ix.flows {
+        listed_flows(&ix, sink);
+    }
     event_data(root, &ix, sink);
 }
 
@@ -724,19 +740,29 @@ fn check_ref(
 }
 
 /// `<incoming>` / `<outgoing>` must list flows that really enter / leave the node (EXT.023).
+/// Returns how many flows the node lists rightly (each once), so that [`check`] can tell
+/// whether every flow is listed at both ends without looking each one up again.
 fn flow_node_refs(
     el: &Element,
     ix: &Index<'_>,
     err: &mut impl FnMut(&'static str, &'static str, String),
-) {
-    let id = el.attr("id").unwrap_or_default();
+) -> usize {
+    let id = el.attr("id");
+    let mut listed = 0;
     for (child, attr) in [("incoming", "targetRef"), ("outgoing", "sourceRef")] {
-        for r in el.bpmn_children(child) {
+        for (i, r) in el.bpmn_children(child).enumerate() {
             let f = local_ref(r.text);
-            if let Some(flow) = ix.by_id.get(f)
-                && flow.name == "sequenceFlow"
-                && flow.attr(attr).map(local_ref) != Some(id)
-            {
+            let Some(flow) = ix.by_id.get(f).filter(|flow| flow.name == "sequenceFlow") else {
+                continue;
+            };
+            if flow.attr(attr).map(local_ref) == Some(id.unwrap_or_default()) {
+                // Once per flow, and only with an id (without one, no flow ends here).
+                let first = !el
+                    .bpmn_children(child)
+                    .take(i)
+                    .any(|earlier| local_ref(earlier.text) == f);
+                listed += usize::from(id.is_some() && first);
+            } else {
                 err(
                     "flow-mismatch",
                     "EXT.023",
@@ -747,6 +773,7 @@ fn flow_node_refs(
             }
         }
     }
+    listed
 }
 
 fn message_flow(

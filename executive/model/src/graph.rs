@@ -89,7 +89,9 @@ pub struct ProcessGraph {
     pub warnings: Vec<Diagnostic>,
     /// Global tasks (`globalScriptTask`, …) by id, run by call activities.
     pub global_tasks: BTreeMap<String, Task>,
-    pub(crate) node_ids: BTreeMap<String, NodeId>,
+    /// Every node, sorted by BPMN id (the first of equal ids only): the index of
+    /// [`ProcessGraph::node_by_id`], holding no second copy of the ids.
+    pub(crate) node_ids: Vec<NodeId>,
     pub(crate) process_ids: BTreeMap<String, ProcessId>,
 }
 
@@ -111,7 +113,21 @@ impl ProcessGraph {
 
     /// Looks a flow node up by its BPMN id.
     pub fn node_by_id(&self, id: &str) -> Option<NodeId> {
-        self.node_ids.get(id).copied()
+        let at = self
+            .node_ids
+            .binary_search_by(|n| self.nodes[n.index()].id.as_str().cmp(id))
+            .ok()?;
+        Some(self.node_ids[at])
+    }
+
+    /// Sorts [`ProcessGraph::node_ids`] once every node is in, keeping the first node of an id
+    /// drawn twice.
+    pub(crate) fn index_nodes(&mut self) {
+        let nodes = &self.nodes;
+        let mut ids: Vec<NodeId> = (0..nodes.len()).map(|i| NodeId(i as u32)).collect();
+        ids.sort_unstable_by(|a, b| nodes[a.index()].id.cmp(&nodes[b.index()].id).then(a.cmp(b)));
+        ids.dedup_by(|later, first| nodes[later.index()].id == nodes[first.index()].id);
+        self.node_ids = ids;
     }
 
     /// Looks a process up by its BPMN id.

@@ -451,6 +451,41 @@ fn bent_rules_are_read_as_the_warning_says() {
 }
 
 #[test]
+fn a_flow_not_listed_at_one_end_is_named_even_when_another_listing_repeats() {
+    // Where one node lists a flow twice, the listings still add up to "every end listed".
+    let flows = |s_out: &str, x_out: &str| {
+        let loaded = load(
+            around(&format!(
+                r#"<bpmn:task id="x"><bpmn:incoming>f1</bpmn:incoming>{x_out}</bpmn:task>"#
+            ))
+            .replace(
+                r#"<bpmn:startEvent id="s"/>"#,
+                &format!(r#"<bpmn:startEvent id="s">{s_out}</bpmn:startEvent>"#),
+            )
+            .replace(
+                r#"<bpmn:endEvent id="e"/>"#,
+                r#"<bpmn:endEvent id="e"><bpmn:incoming>f2</bpmn:incoming></bpmn:endEvent>"#,
+            )
+            .as_bytes(),
+        );
+        assert!(loaded.graph.is_some(), "{:#?}", loaded.diagnostics);
+        loaded
+            .diagnostics
+            .iter()
+            .filter(|d| d.code == "flow-mismatch")
+            .map(|d| (d.element.clone().unwrap_or_default(), d.constraint))
+            .collect::<Vec<_>>()
+    };
+    let out = |f: &str| format!("<bpmn:outgoing>{f}</bpmn:outgoing>");
+    assert_eq!(flows(&out("f1"), &out("f2")), []);
+    assert_eq!(
+        flows(&(out("f1") + &out("f1")), ""),
+        [("x".to_owned(), Some("EXT.023"))]
+    );
+    assert_eq!(flows("", &out("f2")), [("s".to_owned(), Some("EXT.101"))]);
+}
+
+#[test]
 fn expressions_in_other_languages_are_execution_problems_naming_the_language() {
     let cond = |attrs: &str, text: &str| {
         doc(
