@@ -10,6 +10,10 @@ use ground_station::policy::Policy;
 use ground_station::station::{Station, say};
 use ground_station::{forms, terminal};
 
+/// The allocator every TRACE binary runs with (why: the `trace` command's `main.rs`).
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 /// The forms the Europa mission uses, built in (`deploy/ground/forms.json`).
 const DEFAULT_FORMS: &str = include_str!("../../deploy/ground/forms.json");
 

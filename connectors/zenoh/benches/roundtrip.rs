@@ -14,6 +14,11 @@ use connector_zenoh::{
 };
 use zenoh::Wait;
 
+/// The allocator the TRACE binaries run with (see the `trace` command's `main.rs`), so that the
+/// bench measures what ships.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 fn pct(sorted: &[Duration], p: f64) -> Duration {
     sorted[((sorted.len() as f64 - 1.0) * p).round() as usize]
 }

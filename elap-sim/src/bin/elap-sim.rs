@@ -19,6 +19,10 @@ use serde::{Deserialize, Serialize};
 use serde_json::json;
 use tokio::sync::watch;
 
+/// The allocator every TRACE binary runs with (why: the `trace` command's `main.rs`).
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 /// The ELAP lander simulator.
 #[derive(Parser)]
 #[command(name = "elap-sim", version, about)]

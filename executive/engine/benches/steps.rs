@@ -20,6 +20,11 @@ use executive_engine::{Action, Engine, Entry, Event, Input, Value, Vars};
 mod peers;
 use peers::{median, peers, report, shared};
 
+/// The allocator the TRACE binaries run with (see the `trace` command's `main.rs`), so that the
+/// bench measures what ships.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 /// Service operation of each service task, from `implementation="${environment.services.op}"`.
 fn operations(xml: &str) -> BTreeMap<String, String> {
     let mut ops = BTreeMap::new();

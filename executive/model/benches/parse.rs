@@ -16,6 +16,11 @@ use std::time::Instant;
 mod peers;
 use peers::{peers, shared};
 
+/// The allocator the TRACE binaries run with (see the `trace` command's `main.rs`), so that the
+/// bench measures what ships.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 /// start -> `n - 2` service tasks -> end, bound for both us and the peers.
 fn generated(n: usize) -> String {
     let mut s = String::from(concat!(

@@ -792,7 +792,14 @@ impl Checker<'_> {
             .iter()
             .any(|n| matches!(g.node(*n).kind, NodeKind::Start(_)));
         let adhoc = matches!(scope, Scope::SubProcess(s) if matches!(&g.node(s).kind, NodeKind::SubProcess(SubProcess { kind: SubProcessKind::AdHoc { .. }, .. })));
-        let mut seen: BTreeSet<NodeId> = BTreeSet::new();
+        // A bit per node of the model: small (1.3 KB for 10,000 nodes) and freed at once.
+        let mut seen = vec![0u64; g.nodes.len().div_ceil(64)];
+        let mut newly_seen = |n: NodeId| {
+            let (word, bit) = (n.index() / 64, 1u64 << (n.index() % 64));
+            let first = seen[word] & bit == 0;
+            seen[word] |= bit;
+            first
+        };
         let mut work: Vec<NodeId> = nodes
             .iter()
             .copied()
@@ -810,7 +817,7 @@ impl Checker<'_> {
             work.extend(nodes.iter().copied().filter(|n| matches!(&g.node(*n).kind, NodeKind::Catch(c) if g.node(*n).incoming.is_empty() && !c.triggers.iter().any(|d| matches!(d, EventDefinition::Link(_))))));
         }
         while let Some(n) = work.pop() {
-            if !seen.insert(n) {
+            if !newly_seen(n) {
                 continue;
             }
             let node = g.node(n);
@@ -827,11 +834,12 @@ impl Checker<'_> {
         // Compensation handlers are reached through their boundary event's association.
         for n in nodes {
             if let Some(h) = g.node(*n).compensation_handler {
-                seen.insert(h);
+                newly_seen(h);
             }
         }
         for n in nodes {
-            if !seen.contains(n) {
+            // Not seen from any start: unreachable.
+            if newly_seen(*n) {
                 let node = g.node(*n);
                 let msg = format!(
                     "{} `{}` can never be reached: no path leads to it from a start event, so it never runs",

@@ -13,6 +13,11 @@ use std::time::Instant;
 use executive_engine::{Action, Engine, Event, Input, Vars};
 use executive_store::{SledStore, Store};
 
+/// The allocator the TRACE binaries run with (see the `trace` command's `main.rs`), so that the
+/// bench measures what ships.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 /// start -> `n` service tasks in sequence -> end.
 fn model(n: usize) -> Arc<executive_model::ProcessGraph> {
     let mut s = String::from(

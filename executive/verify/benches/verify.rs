@@ -10,6 +10,11 @@ use std::time::Instant;
 
 use executive_verify::{Atom, Bounds, Limits, Ltl, Translation};
 
+/// The allocator the TRACE binaries run with (see the `trace` command's `main.rs`), so that the
+/// bench measures what ships.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 fn load(text: &str) -> executive_model::ProcessGraph {
     executive_model::load(text.as_bytes())
         .graph
