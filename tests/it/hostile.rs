@@ -1,5 +1,6 @@
 //! Hostile and broken input: entity bombs, XXE, deep nesting, huge files, attribute floods and
-//! random bytes are refused with a clear message in bounded time, never a panic.
+//! random bytes are refused with a clear message in bounded time, never a panic; a flood of
+//! flows listed on their nodes is checked in linear time.
 
 use executive_model::{Limits, Options, load, load_with};
 use mission_tests::repo;
@@ -71,6 +72,42 @@ fn oversized_input_and_attribute_floods_are_refused() {
         "<bpmn:definitions xmlns:bpmn=\"http://www.omg.org/spec/BPMN/20100524/MODEL\" xmlns:custom=\"urn:x\"><bpmn:startEvent{attrs}/></bpmn:definitions>"
     );
     assert!(refused(flood.as_bytes()).contains("attributes"));
+}
+
+#[test]
+fn twenty_thousand_flows_listed_at_both_ends_are_checked_in_linear_time() {
+    // Each listing is looked up once; none is compared with every other listing of its node.
+    let model = |unlisted: usize| {
+        let n = 20_000;
+        let ids = |skip: usize| -> String {
+            (0..n)
+                .filter(|i| *i != skip)
+                .map(|i| format!("<bpmn:incoming>f{i}</bpmn:incoming>"))
+                .collect()
+        };
+        let outgoing = ids(n).replace("incoming>", "outgoing>");
+        let flows: String = (0..n)
+            .map(|i| format!(r#"<bpmn:sequenceFlow id="f{i}" sourceRef="s" targetRef="e"/>"#))
+            .collect();
+        format!(
+            r#"<bpmn:definitions xmlns:bpmn="http://www.omg.org/spec/BPMN/20100524/MODEL" id="d"><bpmn:process id="p" isExecutable="true"><bpmn:startEvent id="s">{outgoing}</bpmn:startEvent><bpmn:endEvent id="e">{}</bpmn:endEvent>{flows}</bpmn:process></bpmn:definitions>"#,
+            ids(unlisted)
+        )
+    };
+    let mismatches = |xml: String| {
+        let loaded = load(xml.as_bytes());
+        assert!(loaded.graph.is_some(), "{:?}", loaded.errors().next());
+        loaded
+            .diagnostics
+            .iter()
+            .filter(|d| d.code == "flow-mismatch")
+            .map(|d| d.message.clone())
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(mismatches(model(usize::MAX)), Vec::<String>::new());
+    let one = mismatches(model(12_345));
+    assert_eq!(one.len(), 1, "{one:?}");
+    assert!(one[0].contains("`f12345`"), "{one:?}");
 }
 
 proptest! {

@@ -4,9 +4,9 @@
 //! instance (completed flow nodes must match `manifest.json`), then K instances back to back
 //! with service tasks completing at once (`noop`, `inc`, `fail` as the peer harness defines
 //! them); the peers run the same files in the same run, with the K and warm-ups of the harness's
-//! matrix, each peer's figure the median of three fresh processes as the matrix takes it. Prints completed flow nodes per second,
-//! instances per second and the ratio to the faster peer; then memory per idle instance waiting
-//! on a user task. Run with `cargo bench -p executive-engine --bench steps`
+//! matrix, each peer's figure the median of three fresh processes as the matrix takes it.
+//! Prints completed flow nodes per second, instances per second and the ratio to the faster
+//! peer; then memory per idle instance waiting on a user task. Run with `cargo bench -p executive-engine --bench steps`
 //! (`STEPS_ONLY=<model>` for one row).
 
 use std::collections::{BTreeMap, VecDeque};

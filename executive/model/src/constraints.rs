@@ -9,7 +9,7 @@
 
 use std::collections::BTreeSet;
 
-use foldhash::{HashMap, HashMapExt};
+use foldhash::{HashMap, HashMapExt, HashSet, HashSetExt};
 
 use crate::build::local_ref;
 use crate::build::{ACTIVITIES, FLOW_NODES};
@@ -678,10 +678,22 @@ pub(crate) fn check(doc: &Document<'_>, sink: &mut Sink) {
 
 /// Where a document lists `<incoming>`/`<outgoing>` on its flow nodes, every sequence flow must
 /// be listed at both of its ends (EXT.101 for start events, EXT.107 for end events).
+/// Linear in the listings and flows, however many one node lists.
 fn listed_flows(ix: &Index<'_>, sink: &mut Sink) {
-    let lists =
-        |el: &Element| el.bpmn_child("incoming").is_some() || el.bpmn_child("outgoing").is_some();
-    if !ix.elements.iter().any(|el| lists(el)) {
+    // Every listing once: (the listing element's id, `incoming` or `outgoing`, the flow).
+    let mut listings = HashSet::new();
+    for el in &ix.elements {
+        let Some(id) = el.attr("id") else {
+            continue;
+        };
+        for child in ["incoming", "outgoing"] {
+            listings.extend(
+                el.bpmn_children(child)
+                    .map(|r| (id, child, local_ref(r.text))),
+            );
+        }
+    }
+    if listings.is_empty() {
         return;
     }
     for f in ix.elements.iter().filter(|el| el.name == "sequenceFlow") {
@@ -693,8 +705,7 @@ fn listed_flows(ix: &Index<'_>, sink: &mut Sink) {
             let Some(n) = ix.by_id.get(node) else {
                 continue;
             };
-            let listed = lists(n) && n.bpmn_children(child).any(|r| local_ref(r.text) == fid);
-            if !listed {
+            if !listings.contains(&(node, child, fid)) {
                 let c = match (n.name, child) {
                     ("startEvent", "outgoing") => "EXT.101",
                     ("endEvent", "incoming") => "EXT.107",
@@ -739,9 +750,14 @@ fn check_ref(
     }
 }
 
+/// Listings of one kind on one node that [`flow_node_refs`] counts, comparing each with those
+/// before it.
+const SHORT_LIST: usize = 16;
+
 /// `<incoming>` / `<outgoing>` must list flows that really enter / leave the node (EXT.023).
-/// Returns how many flows the node lists rightly (each once), so that [`check`] can tell
-/// whether every flow is listed at both ends without looking each one up again.
+/// Returns how many flows the node lists rightly (each once, among its first [`SHORT_LIST`]
+/// listings of a kind), so that [`check`] can tell whether every flow is listed at both ends
+/// without looking each one up again.
 fn flow_node_refs(
     el: &Element,
     ix: &Index<'_>,
@@ -756,11 +772,14 @@ fn flow_node_refs(
                 continue;
             };
             if flow.attr(attr).map(local_ref) == Some(id.unwrap_or_default()) {
-                // Once per flow, and only with an id (without one, no flow ends here).
-                let first = !el
-                    .bpmn_children(child)
-                    .take(i)
-                    .any(|earlier| local_ref(earlier.text) == f);
+                // Once per flow, and only with an id (without one, no flow ends here). Past
+                // `SHORT_LIST` listings the count is given up (pairs would grow quadratically):
+                // `check` then runs `listed_flows`.
+                let first = i < SHORT_LIST
+                    && !el
+                        .bpmn_children(child)
+                        .take(i)
+                        .any(|earlier| local_ref(earlier.text) == f);
                 listed += usize::from(id.is_some() && first);
             } else {
                 err(

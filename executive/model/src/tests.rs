@@ -483,6 +483,12 @@ fn a_flow_not_listed_at_one_end_is_named_even_when_another_listing_repeats() {
         [("x".to_owned(), Some("EXT.023"))]
     );
     assert_eq!(flows("", &out("f2")), [("s".to_owned(), Some("EXT.101"))]);
+    // Past the listings the walk compares pairwise, every flow is looked up.
+    assert_eq!(
+        flows(&out("f1").repeat(40), ""),
+        [("x".to_owned(), Some("EXT.023"))]
+    );
+    assert_eq!(flows(&out("f1").repeat(40), &out("f2")), []);
 }
 
 #[test]
