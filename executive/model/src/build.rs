@@ -747,11 +747,10 @@ impl<'d> Builder<'d, '_> {
     /// A process by id: in document `doc` first (or last, when `prefer_other`), else anywhere.
     fn find_process(&self, doc: usize, id: &str, prefer_other: bool) -> Option<ProcessId> {
         let own = self.scoped_processes.get(&(doc, id)).copied();
-        let other = self
-            .scoped_processes
-            .iter()
-            .find(|((d, i), _)| *d != doc && *i == id)
-            .map(|(_, p)| *p);
+        // One lookup per other document of the bundle, not a scan of every process.
+        let other = (0..self.bases.len())
+            .filter(|d| *d != doc)
+            .find_map(|d| self.scoped_processes.get(&(d, id)).copied());
         if prefer_other {
             other.or(own)
         } else {

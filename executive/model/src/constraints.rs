@@ -7,6 +7,7 @@
 //! reason (e.g. EXT.128: WSDL `operationRef` on message events; the executive correlates
 //! messages by name).
 
+use std::cell::OnceCell;
 use std::collections::BTreeSet;
 
 use foldhash::{HashMap, HashMapExt, HashSet, HashSetExt};
@@ -223,6 +224,11 @@ struct Index<'d> {
     flows: usize,
     /// Whether some id is given to more than one element.
     duplicate_ids: bool,
+    /// The root, for walks done only when a check needs them.
+    root: &'d Element<'d>,
+    /// What holds each data input and output, by id: the element that declares it in its
+    /// ioSpecification (`true`) or directly, as events do (`false`). Built when first asked.
+    holders: OnceCell<HashMap<&'d str, (&'d Element<'d>, bool)>>,
 }
 
 impl<'d> Index<'d> {
@@ -234,6 +240,8 @@ impl<'d> Index<'d> {
             pool_of_process: HashMap::new(),
             flows: 0,
             duplicate_ids: false,
+            root,
+            holders: OnceCell::new(),
         };
         let mut stack: Vec<(&Element, Option<&str>)> = vec![(root, None)];
         while let Some((el, process)) = stack.pop() {
@@ -263,6 +271,37 @@ impl<'d> Index<'d> {
             stack.extend(el.children.iter().map(|c| (c, process)));
         }
         ix
+    }
+
+    /// What holds the data input or output `id` (see `holders`).
+    fn holder(&self, id: &str) -> Option<(&'d Element<'d>, bool)> {
+        let holders = self.holders.get_or_init(|| {
+            let data =
+                |c: &Element| c.ns == Ns::Bpmn && matches!(c.name, "dataInput" | "dataOutput");
+            let mut holders = HashMap::new();
+            let mut stack = vec![self.root];
+            while let Some(el) = stack.pop() {
+                if el.ns != Ns::Bpmn {
+                    continue;
+                }
+                for c in el.children {
+                    if data(c) {
+                        if let Some(id) = c.attr("id") {
+                            holders.entry(id).or_insert((el, false));
+                        }
+                    } else if c.ns == Ns::Bpmn && c.name == "ioSpecification" {
+                        for d in c.children.iter().filter(|d| data(d)) {
+                            if let Some(id) = d.attr("id") {
+                                holders.entry(id).or_insert((el, true));
+                            }
+                        }
+                    }
+                }
+                stack.extend(el.children.iter());
+            }
+            holders
+        });
+        holders.get(id).copied()
     }
 
     fn kind(&self, id: &str) -> Option<&'d str> {
@@ -896,16 +935,15 @@ fn data_association(
     }
     let input = el.name == "dataInputAssociation";
     let owner_id = owner.and_then(|o| o.attr("id")).unwrap_or_default();
-    // Inputs declared by the owner's own ioSpecification (or directly, for events).
-    let own: BTreeSet<&str> = owner
-        .map(|o| {
-            let direct = o.bpmn_children(if input { "dataInput" } else { "dataOutput" });
-            let spec = o
-                .bpmn_children("ioSpecification")
-                .flat_map(|s| s.bpmn_children(if input { "dataInput" } else { "dataOutput" }));
-            direct.chain(spec).filter_map(|d| d.attr("id")).collect()
-        })
-        .unwrap_or_default();
+    // An input (output) the owner declares in its ioSpecification, or directly as events do.
+    // Looked up, not scanned for: an activity may hold thousands of associations.
+    let own = |r: &str, kind: &str| {
+        kind == if input { "dataInput" } else { "dataOutput" }
+            && ix
+                .holder(r)
+                .zip(owner)
+                .is_some_and(|((holder, _), o)| std::ptr::eq(holder, o))
+    };
     let outside: Vec<&str> = if input {
         sources.clone()
     } else {
@@ -935,12 +973,15 @@ fn data_association(
             );
         }
         // A sub-process's own data inputs/outputs are not visible to the activities inside it.
-        if matches!(kind, "dataInput" | "dataOutput") && !own.contains(r) {
-            let holder_is_process = ix.process_of.get(r).is_some_and(|p| {
-                ix.by_id.get(p).is_some_and(|pe| {
-                    pe.bpmn_children("ioSpecification")
-                        .any(|s| s.children.iter().any(|d| d.attr("id") == Some(r)))
-                })
+        if matches!(kind, "dataInput" | "dataOutput") && !own(r, kind) {
+            // Declared in its process's ioSpecification: the process's data, visible inside it.
+            let holder_is_process = ix.holder(r).is_some_and(|(holder, in_spec)| {
+                in_spec
+                    && holder.name == "process"
+                    && ix
+                        .process_of
+                        .get(r)
+                        .is_some_and(|p| holder.attr("id") == Some(*p))
             });
             if !holder_is_process {
                 err(

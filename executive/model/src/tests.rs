@@ -296,6 +296,37 @@ fn collaborations_lanes_and_data() {
 }
 
 #[test]
+fn data_inputs_are_visible_to_their_activity_and_inside_their_process_only() {
+    // The process declares `pin`; task `a` declares `ain`; task `x` reads `source` into its own
+    // input `xin`.
+    let model = |source: &str| {
+        let io = |id: &str| {
+            format!(
+                r#"<bpmn:ioSpecification><bpmn:dataInput id="{id}"/><bpmn:inputSet><bpmn:dataInputRefs>{id}</bpmn:dataInputRefs></bpmn:inputSet><bpmn:outputSet/></bpmn:ioSpecification>"#
+            )
+        };
+        format!(
+            r#"{HEAD}<bpmn:process id="p" isExecutable="true">{}<bpmn:startEvent id="s"/><bpmn:task id="a">{}</bpmn:task>
+            <bpmn:task id="x">{}<bpmn:dataInputAssociation id="da"><bpmn:sourceRef>{source}</bpmn:sourceRef><bpmn:targetRef>xin</bpmn:targetRef></bpmn:dataInputAssociation></bpmn:task>
+            <bpmn:endEvent id="e"/><bpmn:sequenceFlow id="f1" sourceRef="s" targetRef="a"/><bpmn:sequenceFlow id="f2" sourceRef="a" targetRef="x"/><bpmn:sequenceFlow id="f3" sourceRef="x" targetRef="e"/></bpmn:process></bpmn:definitions>"#,
+            io("pin"),
+            io("ain"),
+            io("xin")
+        )
+    };
+    let codes = |source: &str| -> Vec<&'static str> {
+        load(model(source).as_bytes())
+            .diagnostics
+            .iter()
+            .map(|d| d.code)
+            .collect()
+    };
+    assert_eq!(codes("pin"), Vec::<&str>::new(), "the process's own input");
+    assert_eq!(codes("xin"), Vec::<&str>::new(), "the task's own input");
+    assert_eq!(codes("ain"), ["invisible-data"], "another task's input");
+}
+
+#[test]
 fn each_diagnostic_fires_on_its_minimal_model() {
     let cases: Vec<(&str, String)> = vec![
         ("duplicate-id", around(r#"<bpmn:task id="x"/><bpmn:task id="x"/>"#)),

@@ -7,7 +7,7 @@
 //! descriptive one), and `bent` (a rule bent harmlessly, such as an implicit end or an
 //! unreachable node: a warning naming the rule, an error only when reading strictly).
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 
 use crate::diagnostic::Sink;
 use crate::graph::*;
@@ -16,6 +16,11 @@ use crate::xml::Element;
 pub(crate) struct Checker<'a> {
     pub(crate) g: &'a ProcessGraph,
     pub(crate) sink: &'a mut Sink,
+    /// The nodes reached in the scope being checked: those marked with `scope_mark`. One array
+    /// for every scope, so that many scopes cost no more than one.
+    pub(crate) reached: Vec<u32>,
+    /// The mark of the scope being checked (0: none yet).
+    pub(crate) scope_mark: u32,
 }
 
 fn has_trigger(triggers: &[EventDefinition], f: impl Fn(&EventDefinition) -> bool) -> bool {
@@ -792,14 +797,30 @@ impl Checker<'_> {
             .iter()
             .any(|n| matches!(g.node(*n).kind, NodeKind::Start(_)));
         let adhoc = matches!(scope, Scope::SubProcess(s) if matches!(&g.node(s).kind, NodeKind::SubProcess(SubProcess { kind: SubProcessKind::AdHoc { .. }, .. })));
-        // A bit per node of the model: small (1.3 KB for 10,000 nodes) and freed at once.
-        let mut seen = vec![0u64; g.nodes.len().div_ceil(64)];
+        if self.reached.len() < g.nodes.len() {
+            self.reached = vec![0; g.nodes.len()];
+        }
+        self.scope_mark += 1;
+        let (reached, mark) = (&mut self.reached, self.scope_mark);
         let mut newly_seen = |n: NodeId| {
-            let (word, bit) = (n.index() / 64, 1u64 << (n.index() % 64));
-            let first = seen[word] & bit == 0;
-            seen[word] |= bit;
+            let first = reached[n.index()] != mark;
+            reached[n.index()] = mark;
             first
         };
+        // The catch events of each link name, looked up as throws are reached (a scan of the
+        // scope per throw would be quadratic in the links).
+        let mut link_catches: BTreeMap<&str, Vec<NodeId>> = BTreeMap::new();
+        if !links_thrown.is_empty() {
+            for n in nodes {
+                if let NodeKind::Catch(c) = &g.node(*n).kind {
+                    for t in &c.triggers {
+                        if let EventDefinition::Link(l) = t {
+                            link_catches.entry(l.as_str()).or_default().push(*n);
+                        }
+                    }
+                }
+            }
+        }
         let mut work: Vec<NodeId> = nodes
             .iter()
             .copied()
@@ -826,7 +847,7 @@ impl Checker<'_> {
             if let NodeKind::Throw(r) = &node.kind {
                 for d in r {
                     if let EventDefinition::Link(name) = d {
-                        work.extend(nodes.iter().copied().filter(|c| matches!(&g.node(*c).kind, NodeKind::Catch(cc) if cc.triggers.iter().any(|t| matches!(t, EventDefinition::Link(l) if l == name)))));
+                        work.extend(link_catches.get(name.as_str()).into_iter().flatten());
                     }
                 }
             }
@@ -837,17 +858,16 @@ impl Checker<'_> {
                 newly_seen(h);
             }
         }
-        for n in nodes {
-            // Not seen from any start: unreachable.
-            if newly_seen(*n) {
-                let node = g.node(*n);
-                let msg = format!(
-                    "{} `{}` can never be reached: no path leads to it from a start event, so it never runs",
-                    node.kind.element_name(),
-                    node.label()
-                );
-                self.bent_executable(*n, "unreachable", "EXT.150", msg);
-            }
+        // Not seen from any start: unreachable.
+        let unreachable: Vec<NodeId> = nodes.iter().copied().filter(|n| newly_seen(*n)).collect();
+        for n in unreachable {
+            let node = g.node(n);
+            let msg = format!(
+                "{} `{}` can never be reached: no path leads to it from a start event, so it never runs",
+                node.kind.element_name(),
+                node.label()
+            );
+            self.bent_executable(n, "unreachable", "EXT.150", msg);
         }
         // Start and end events come together at one process level (EXT.097, EXT.105).
         let has_end = nodes.iter().any(|n| match &g.node(*n).kind {
