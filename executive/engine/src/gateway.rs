@@ -287,6 +287,8 @@ impl Run<'_> {
         except: &[TokenId],
         filled: &BTreeSet<FlowId>,
     ) -> bool {
+        // A set: a wide join has as many waiting tokens as tokens that may come.
+        let except: BTreeSet<TokenId> = except.iter().copied().collect();
         let others: BTreeSet<NodeId> = self
             .tokens_in(scope)
             .into_iter()

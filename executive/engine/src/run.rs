@@ -1,7 +1,7 @@
 //! Moving tokens to quiescence: arriving at nodes, leaving them, consuming tokens, incidents.
 
 use std::borrow::Cow;
-use std::collections::VecDeque;
+use std::collections::{BTreeSet, VecDeque};
 
 use executive_model::{
     EventDefinition, FlowId, NodeId, NodeKind, ProcessGraph, Scope, SubProcessKind, TaskKind,
@@ -888,9 +888,23 @@ impl<'a> Run<'a> {
         }
         let waiting: Vec<TokenId> = self.s.joins.iter().copied().collect();
         let mut fired = false;
+        // Gateways whose join was found waiting this round: every token waiting there sees the
+        // same tokens that may still come, so one answer holds for all of them (asking each
+        // made a wide inclusive join cost the cube of its branches).
+        let mut held: BTreeSet<(ScopeId, NodeId)> = BTreeSet::new();
         for t in waiting {
-            if self.s.tokens.get(&t).is_some_and(|t| t.at == At::Joining) && self.try_join(t) {
+            let Some(tok) = self.s.tokens.get(&t).filter(|t| t.at == At::Joining) else {
+                continue;
+            };
+            let at = (tok.scope, tok.node);
+            let gateway = matches!(self.g.node(tok.node).kind, NodeKind::Gateway(_));
+            if gateway && held.contains(&at) {
+                continue;
+            }
+            if self.try_join(t) {
                 fired = true;
+            } else if gateway && self.s.tokens.get(&t).is_some_and(|t| t.at == At::Joining) {
+                held.insert(at);
             }
         }
         fired

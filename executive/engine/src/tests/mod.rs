@@ -420,6 +420,34 @@ fn inclusive_join_waits_only_for_tokens_that_can_still_arrive() {
 }
 
 #[test]
+fn a_wide_inclusive_join_fires_once_when_its_last_taken_branch_arrives() {
+    // 300 branches, the first 200 taken: every arrival asks whether a token may still come
+    // (once per join and step, not once per waiting token).
+    let mut body = format!(
+        r#"<process id="p" isExecutable="true"><startEvent id="s"/>{}<inclusiveGateway id="fork"/><inclusiveGateway id="join"/>{}<endEvent id="e"/>"#,
+        flow("f0", "s", "fork"),
+        flow("fz", "join", "e"),
+    );
+    for i in 0..300 {
+        body += &cond_flow(
+            &format!("x{i}"),
+            "fork",
+            &format!("t{i}"),
+            &format!("n &gt; {i}"),
+        );
+        body += &task(&format!("t{i}"), "", "");
+        body += &flow(&format!("y{i}"), &format!("t{i}"), "join");
+    }
+    body += "</process>";
+    let mut d = Driver::new(&body);
+    assert_eq!(d.start(&[("n", Value::Int(200))]).len(), 200);
+    for i in (1..200).rev() {
+        assert_eq!(d.complete(&format!("t{i}"), &[]), Vec::<String>::new());
+    }
+    assert_eq!(d.complete("t0", &[]), ["completed"]);
+}
+
+#[test]
 fn error_boundary_catches_a_task_failure_by_code() {
     let mut d = Driver::new(&format!(
         r#"<error id="stuck" errorCode="TOOL_STUCK"/><process id="p" isExecutable="true"><startEvent id="s"/>{}{}
