@@ -4,6 +4,7 @@
 
 use std::process::{Command, Stdio};
 
+use crate::protocol::tempdir;
 use mission_tests::fuzz::{TARGETS, seed};
 
 #[test]
@@ -140,11 +141,4 @@ fn a_snapshot_damaged_into_another_shape_is_refused_on_resume_with_the_entry_nam
         "{stderr}"
     );
     assert!(!stderr.contains("panicked"), "{stderr}");
-}
-
-fn tempdir(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("trace-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
 }

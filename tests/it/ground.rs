@@ -6,7 +6,7 @@
 //! is down is sent again until the resumed executive judges it.
 
 use std::io::BufRead;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, ChildStderr, Command, Stdio};
 use std::sync::{Arc, Mutex, mpsc};
 use std::time::Duration;
@@ -87,7 +87,7 @@ grace_ms = 600000
 "#;
 
 /// A mission of `n` user tasks, ready to run in `dir`.
-fn setup(name: &str, n: usize) -> PathBuf {
+fn setup(name: &str, n: usize) -> crate::protocol::Scratch {
     let dir = tempdir(name);
     std::fs::write(dir.join("mission.bpmn"), mission(n)).expect("mission");
     std::fs::write(dir.join("connectors.toml"), CONNECTORS).expect("connectors");

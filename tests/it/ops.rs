@@ -106,7 +106,7 @@ fn operations_follow_a_flying_mission_on_its_diagram() {
         let c = page.browser().await;
         let flight = Flight {
             fly,
-            dir: dir.clone(),
+            dir: dir.to_path_buf(),
             said,
             join: join.clone(),
         };

@@ -510,11 +510,37 @@ async fn a_server_killed_mid_goal_yields_connector_lost() {
     );
 }
 
-pub(crate) fn tempdir(name: &str) -> std::path::PathBuf {
+/// A test's own directory under the system's temp dir, removed when the test passes (kept, with
+/// what the test left there, when it fails): flights copy binaries and stores into theirs, and
+/// a suite that kept them all filled 30 GB of a developer's disk in a day.
+pub(crate) struct Scratch(std::path::PathBuf);
+
+impl std::ops::Deref for Scratch {
+    type Target = std::path::Path;
+    fn deref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl AsRef<std::path::Path> for Scratch {
+    fn as_ref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}
+
+pub(crate) fn tempdir(name: &str) -> Scratch {
     let d = std::env::temp_dir().join(format!("trace-it-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).expect("temp dir");
-    d
+    Scratch(d)
 }
 
 pub(crate) async fn router(port: u16) -> Session {
