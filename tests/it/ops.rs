@@ -99,6 +99,9 @@ fn operations_follow_a_flying_mission_on_its_diagram() {
         .enable_all()
         .build()
         .expect("runtime");
+    // The scratch directory stays with the test (it is removed when dropped): the block gets
+    // its path.
+    let path = dir.to_path_buf();
     rt.block_on(async move {
         let session = crate::protocol::open(&[], std::slice::from_ref(&hub)).await;
         let keys = connector_api::Keys::deployed(connector_api::keys::DEFAULT_ROOT, &deployment)
@@ -106,7 +109,7 @@ fn operations_follow_a_flying_mission_on_its_diagram() {
         let c = page.browser().await;
         let flight = Flight {
             fly,
-            dir: dir.to_path_buf(),
+            dir: path,
             said,
             join: join.clone(),
         };

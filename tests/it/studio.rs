@@ -151,10 +151,13 @@ fn the_studio_opens_checks_edits_and_saves_a_mission_in_headless_chromium() {
         .enable_all()
         .build()
         .expect("runtime");
+    // The scratch directory stays with the test (it is removed when dropped): the block gets
+    // its path.
+    let path = dir.to_path_buf();
     rt.block_on(async move {
         let c = page.browser().await;
         // A failing scenario still ends the session, or Chromium outlives the test.
-        let outcome = tokio::spawn(scenario(c.clone(), page.url.clone(), dir.to_path_buf())).await;
+        let outcome = tokio::spawn(scenario(c.clone(), page.url.clone(), path)).await;
         let _ = c.close().await;
         if let Err(e) = outcome {
             std::panic::resume_unwind(e.into_panic());
