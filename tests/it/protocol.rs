@@ -512,7 +512,7 @@ async fn a_server_killed_mid_goal_yields_connector_lost() {
 
 /// A test's own directory under the system's temp dir, removed when the test passes (kept, with
 /// what the test left there, when it fails): flights copy binaries and stores into theirs, and
-/// a suite that kept them all filled 30 GB of a developer's disk in a day.
+/// the leftovers of many runs filled this machine's disk.
 pub(crate) struct Scratch(std::path::PathBuf);
 
 impl std::ops::Deref for Scratch {
