@@ -8,7 +8,7 @@ use clap::{Parser, Subcommand};
 /// The allocator: mimalloc, as in every TRACE binary. glibc's malloc gives the heap's top back to
 /// the kernel after large frees, so a process loading models again and again (the studio, the
 /// daemon's checks) faulted its pages back in on every load: 326,000 page faults for 100 loads of
-/// a 10,000-node model against 19,000, 25-28 ms a load against 18-21 ms, depending only on the
+/// a 10,000-node model against 19,000, medians of 25-28 ms a load against 20-22 ms, depending on the
 /// order of frees. mimalloc keeps freed pages for reuse and is also cheaper per small allocation
 /// (an engine step allocates a few strings per record entry).
 #[global_allocator]

@@ -274,13 +274,7 @@ pub fn load_bundle(
             }
             let built = build::build(&docs, &mut sink, options);
             if let Some(g) = &built {
-                validate::Checker {
-                    g,
-                    sink: &mut sink,
-                    reached: Vec::new(),
-                    scope_mark: 0,
-                }
-                .run();
+                validate::Checker::new(g, &mut sink).run();
                 for d in &docs {
                     constraints::check(d, &mut sink);
                 }

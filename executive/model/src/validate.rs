@@ -14,13 +14,24 @@ use crate::graph::*;
 use crate::xml::Element;
 
 pub(crate) struct Checker<'a> {
-    pub(crate) g: &'a ProcessGraph,
-    pub(crate) sink: &'a mut Sink,
+    g: &'a ProcessGraph,
+    sink: &'a mut Sink,
     /// The nodes reached in the scope being checked: those marked with `scope_mark`. One array
     /// for every scope, so that many scopes cost no more than one.
-    pub(crate) reached: Vec<u32>,
+    reached: Vec<u32>,
     /// The mark of the scope being checked (0: none yet).
-    pub(crate) scope_mark: u32,
+    scope_mark: u32,
+}
+
+impl<'a> Checker<'a> {
+    pub(crate) fn new(g: &'a ProcessGraph, sink: &'a mut Sink) -> Checker<'a> {
+        Checker {
+            g,
+            sink,
+            reached: vec![0; g.nodes.len()],
+            scope_mark: 0,
+        }
+    }
 }
 
 fn has_trigger(triggers: &[EventDefinition], f: impl Fn(&EventDefinition) -> bool) -> bool {
@@ -797,9 +808,6 @@ impl Checker<'_> {
             .iter()
             .any(|n| matches!(g.node(*n).kind, NodeKind::Start(_)));
         let adhoc = matches!(scope, Scope::SubProcess(s) if matches!(&g.node(s).kind, NodeKind::SubProcess(SubProcess { kind: SubProcessKind::AdHoc { .. }, .. })));
-        if self.reached.len() < g.nodes.len() {
-            self.reached = vec![0; g.nodes.len()];
-        }
         self.scope_mark += 1;
         let (reached, mark) = (&mut self.reached, self.scope_mark);
         let mut newly_seen = |n: NodeId| {

@@ -199,27 +199,30 @@ fn the_battery_running_out_ends_the_run() {
     );
 }
 
+/// Start, an hour's drilling (`Drill`), end: the work beside which the ground asks for things.
+const DRILL: &str = r#"
+    <startEvent id="s"/>
+    <sequenceFlow id="f1" sourceRef="s" targetRef="Drill"/>
+    <serviceTask id="Drill"/>
+    <sequenceFlow id="f2" sourceRef="Drill" targetRef="e"/>
+    <endEvent id="e"/>"#;
+
 /// An hour's drilling while the ground may ask for status reports: a non-interrupting message
 /// event sub-process with a 10-minute report. Requests are heard one at a time, as in the
 /// translation; before, every request heard while one ran added an instance, and the
 /// exploration ran into its bound instead of deciding.
 #[test]
 fn status_reports_beside_the_work_run_one_at_a_time() {
-    let g = mission(
-        r#"
-    <startEvent id="s"/>
-    <sequenceFlow id="f1" sourceRef="s" targetRef="Drill"/>
-    <serviceTask id="Drill"/>
-    <sequenceFlow id="f2" sourceRef="Drill" targetRef="e"/>
-    <endEvent id="e"/>
+    let g = mission(&format!(
+        r#"{DRILL}
     <subProcess id="OnStatus" triggeredByEvent="true">
       <startEvent id="Asked" isInterrupting="false"><messageEventDefinition messageRef="STATUS"/></startEvent>
       <sequenceFlow id="r1" sourceRef="Asked" targetRef="Report"/>
       <serviceTask id="Report"/>
       <sequenceFlow id="r2" sourceRef="Report" targetRef="Reported"/>
       <endEvent id="Reported"/>
-    </subProcess>"#,
-    );
+    </subProcess>"#
+    ));
     let c = costs(
         &g,
         1000.0,
@@ -244,13 +247,8 @@ fn status_reports_beside_the_work_run_one_at_a_time() {
 /// held every bound on energy below its draw.
 #[test]
 fn a_process_the_outside_starts_draws_its_energy_too() {
-    let g = definitions(
-        r#"<process id="p" isExecutable="true">
-    <startEvent id="s"/>
-    <sequenceFlow id="f1" sourceRef="s" targetRef="Drill"/>
-    <serviceTask id="Drill"/>
-    <sequenceFlow id="f2" sourceRef="Drill" targetRef="e"/>
-    <endEvent id="e"/>
+    let g = definitions(&format!(
+        r#"<process id="p" isExecutable="true">{DRILL}
   </process>
   <process id="q" isExecutable="true">
     <startEvent id="Asked"><messageEventDefinition messageRef="STATUS"/></startEvent>
@@ -258,8 +256,8 @@ fn a_process_the_outside_starts_draws_its_energy_too() {
     <serviceTask id="Relay"/>
     <sequenceFlow id="r2" sourceRef="Relay" targetRef="Relayed"/>
     <endEvent id="Relayed"/>
-  </process>"#,
-    );
+  </process>"#
+    ));
     let c = costs(
         &g,
         1000.0,
