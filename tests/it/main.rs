@@ -11,6 +11,7 @@ mod durability;
 mod engine;
 mod europa;
 mod feel;
+mod fleet;
 mod fly;
 mod fuzz;
 mod ground;

@@ -121,6 +121,8 @@ fn fly(graph: Arc<ProcessGraph>, budget: u64) {
                     name,
                     correlation: None,
                     payload,
+                    flow: None,
+                    key: None,
                 },
                 _ => continue,
             };

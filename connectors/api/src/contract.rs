@@ -85,6 +85,29 @@ pub enum Report {
         /// Where the executive's verdict goes.
         verdict: Verdict,
     },
+    /// A message from the executive of another pool (a fleet): the executive steps it and
+    /// gives its verdict once committed (or refused), which is the sender's acknowledgement.
+    Letter {
+        /// The message.
+        letter: crate::wire::Letter,
+        /// Where the executive's verdict goes.
+        verdict: Verdict,
+    },
+    /// The receiver of a message this executive sent gave its verdict: `None` applied (now or
+    /// before), or the reason it was refused. The message is not sent again.
+    Delivered {
+        /// The letter's key.
+        key: String,
+        /// Why it was refused, if it was.
+        refused: Option<String>,
+    },
+    /// The executive of another pool appeared, went, or ended its part.
+    Peer {
+        /// The pool's id.
+        pool: String,
+        /// Its state now.
+        state: PeerState,
+    },
     /// The system's mission clock: mission time `mission_ms` at the moment of the report,
     /// running `speed` times faster than wall time.
     Clock {
@@ -93,6 +116,19 @@ pub enum Report {
         /// Mission ms per wall ms.
         speed: f64,
     },
+}
+
+/// The state of another pool's executive, from its liveliness token.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PeerState {
+    /// Its part of the mission runs.
+    Running,
+    /// Its part has ended and every message it sent was acknowledged (it stays done when it
+    /// leaves afterwards).
+    Done,
+    /// It went away while running (stopped or crashed): its messages wait for its return.
+    Absent,
 }
 
 /// The executive's verdict on an [`Report::Answer`]: `Ok` once the answer is committed,

@@ -196,6 +196,38 @@ impl Keys {
         format!("{}/act/{server}/*/answer/{mission}.$*", self.root)
     }
 
+    /// `<root>/fleet/<pool>/message/<key>`: one message along a message flow into `pool`,
+    /// sent by the executive of another pool as a query; the reply is its receiver's verdict.
+    pub fn fleet_message(&self, pool: &str, key: &str) -> String {
+        format!("{}/fleet/{pool}/message/{key}", self.root)
+    }
+
+    /// `<root>/fleet/<pool>/message/*`: what the executive running `pool` declares to receive
+    /// its messages.
+    pub fn fleet_inbox(&self, pool: &str) -> String {
+        format!("{}/fleet/{pool}/message/*", self.root)
+    }
+
+    /// `<root>/fleet/<pool>/alive/<state>`: the liveliness token of the executive running
+    /// `pool`, `running` while its part of the mission runs, `done` once it has ended and every
+    /// message it sent was acknowledged.
+    pub fn fleet_alive(&self, pool: &str, state: &str) -> String {
+        format!("{}/fleet/{pool}/alive/{state}", self.root)
+    }
+
+    /// `<root>/fleet/*/alive/*`: every fleet executive's liveliness token.
+    pub fn fleet_alive_all(&self) -> String {
+        format!("{}/fleet/*/alive/*", self.root)
+    }
+
+    /// The pool and state named by a key under [`Keys::fleet_alive_all`].
+    pub fn fleet_pool_of<'k>(&self, key: &'k str) -> Option<(&'k str, &'k str)> {
+        let rest = key.strip_prefix(&self.root)?.strip_prefix("/fleet/")?;
+        let (pool, tail) = rest.split_once('/')?;
+        let state = tail.strip_prefix("alive/")?;
+        (!state.contains('/')).then_some((pool, state))
+    }
+
     /// The action named by a key under [`Keys::alive_actions_of`] or a stream key.
     pub fn action_of<'k>(&self, key: &'k str) -> Option<&'k str> {
         let rest = key.strip_prefix(&self.root)?.strip_prefix('/')?;

@@ -29,7 +29,7 @@ pub mod wire;
 
 pub use catalogue::{ActionSpec, Catalogue, Type};
 pub use check::{Mismatch, TaskUse, check};
-pub use contract::{Command, Connector, ConnectorError, Report, Reports, Verdict};
+pub use contract::{Command, Connector, ConnectorError, PeerState, Report, Reports, Verdict};
 pub use keys::{Channel, Keys};
 pub use routes::{ConnectorConfig, ConnectorsConfig, Kind, Route};
 pub use wire::{Fields, Status};

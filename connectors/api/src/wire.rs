@@ -245,6 +245,44 @@ pub struct Telemetry {
     pub values: Fields,
 }
 
+/// `get <root>/fleet/<to>/message/<key>` payload: a message along a message flow, sent by
+/// the executive of pool `from` to the executive of pool `to` (`docs/protocol.md` §11). Sent
+/// again until a reply gives its verdict; the key makes a repetition harmless.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Letter {
+    /// `<sender's mission id>.m<number>`: unique per sender, the same on every resend (also
+    /// the last key chunk).
+    pub key: String,
+    /// The sending pool's id.
+    pub from: String,
+    /// The receiving pool's id.
+    pub to: String,
+    /// The message flow's id (the same model on both sides).
+    pub flow: String,
+    /// The message name.
+    pub name: String,
+    /// The sender's value of the message's correlation key, if the message has one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub correlation: Option<Value>,
+    /// The message's fields.
+    pub payload: Fields,
+}
+
+/// Reply to a [`Letter`]: committed by its receiver (now, or before: a resend), or refused
+/// with the reason; either is final and the sender stops sending.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LetterReply {
+    /// The letter's key.
+    pub key: String,
+    /// The receiver committed it.
+    pub applied: bool,
+    /// Why it was refused (no such flow, its target does not wait for it, …).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
+}
+
 /// The encoding schema suffix for a payload type, e.g. `trace.goal/1`.
 pub fn schema(kind: &str) -> String {
     format!("trace.{kind}/{VERSION}")

@@ -10,6 +10,8 @@
 //! - [`ActionServer`]: the reusable server side for any system (the lander simulator, the
 //!   ground station, test servers);
 //! - [`send_answer`]: a ground station's answer to a user task, and the executive's verdict;
+//! - [`Fleet`]: the executive of one pool of a collaboration among the others: presence, and
+//!   the messages of its message flows, sent until acknowledged, committed before the reply;
 //! - [`replies`]: the reply handler of every query, which drops a reply that arrives after
 //!   its query stopped being awaited without logging it as an error;
 //! - [`ZenohArgs`]: the Zenoh flags and embedded defaults every TRACE binary shares;
@@ -29,6 +31,7 @@ mod answer;
 mod client;
 mod codec;
 mod drops;
+mod fleet;
 pub mod mock;
 mod replies;
 pub mod router;
@@ -37,6 +40,7 @@ mod session;
 
 pub use answer::{AnswerError, send_answer};
 pub use client::{ClientOptions, ZenohConnector};
+pub use fleet::{Fleet, FleetError};
 pub use replies::{Replies, replies};
 pub use server::{AcceptFn, ActionServer, GoalHandle, Request, ServerError, ServerOptions};
 pub use session::{DEFAULT_HUB, Role, SessionError, ZenohArgs, log_to_stderr};

@@ -194,6 +194,12 @@ struct RunArgs {
     /// seconds of wall time (it is said at once when the wait starts or changes); 0: never.
     #[arg(long, default_value_t = 30.0, value_name = "SECONDS")]
     report_waiting: f64,
+    /// Run only this pool (id or name) of the model's collaboration, as one executive of a
+    /// fleet: each other pool with a process must be run by its own `trace run --participant`
+    /// in the same deployment, and messages along message flows between pools cross over
+    /// Zenoh, exactly once. Kept in the store: `trace resume` runs the same pool.
+    #[arg(long, value_name = "POOL")]
+    participant: Option<String>,
     #[command(flatten)]
     zenoh: connector_zenoh::ZenohArgs,
 }
@@ -649,6 +655,7 @@ fn drive(mission: Option<PathBuf>, args: RunArgs, start: StartArgs) -> anyhow::R
         catalogue_wait: std::time::Duration::from_secs_f64(args.catalogue_wait.min(3600.0)),
         speed,
         snapshot_every,
+        participant: args.participant,
     };
     let extras = extras(start, args.report_waiting)?;
     let summary = match executive::driver::run_with(&opts, &extras) {

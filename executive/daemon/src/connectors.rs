@@ -67,6 +67,9 @@ pub struct Setup<'a> {
     /// The virtual mission clock: scripted connectors answer on it when every connector is
     /// scripted (no outside system); otherwise they sleep on the wall clock.
     pub agenda: Option<crate::script::Agenda>,
+    /// The run is one executive of a fleet: Zenoh is opened for the fleet link even when no
+    /// connector needs it.
+    pub fleet: bool,
 }
 
 fn read_config(path: &Path) -> Result<ConnectorsConfig, SetupError> {
@@ -123,7 +126,7 @@ impl Connectors {
             }
             None => Script::default(),
         };
-        let session = if config.connectors.iter().any(|c| c.kind == Kind::Zenoh) {
+        let session = if setup.fleet || config.connectors.iter().any(|c| c.kind == Kind::Zenoh) {
             Some(setup.zenoh.open(Role::Hub).await?)
         } else {
             None

@@ -33,6 +33,9 @@ use crate::record::RecordWriter;
 use crate::script::{Agenda, Due};
 use crate::waiting::{Assessment, Item, Outside, What};
 
+mod fleet;
+pub use fleet::Counts as FleetCounts;
+
 /// A wait this close (wall time) is not reported: the run is busy, not waiting.
 pub const SOON: Duration = Duration::from_secs(5);
 
@@ -58,6 +61,10 @@ pub struct RunOptions {
     pub speed: f64,
     /// A snapshot is written every this many steps.
     pub snapshot_every: u64,
+    /// Run only this pool (its id or name) of the model's collaboration, as one executive of
+    /// a fleet: the other pools are run by other executives of the same deployment, and their
+    /// message flows cross over Zenoh (`docs/protocol.md` §11). `None`: every pool here.
+    pub participant: Option<String>,
 }
 
 /// What `trace run` adds to [`RunOptions`]: the start variables, the mission clock's start,
@@ -84,6 +91,8 @@ pub struct Summary {
     pub reboots: u64,
     /// Where the execution record is.
     pub record: PathBuf,
+    /// The pool this executive ran, and what crossed the fleet link (`--participant`).
+    pub fleet: Option<(String, FleetCounts)>,
     /// Stopped by a signal before the mission ended.
     pub interrupted: bool,
     /// Ended because nothing could move and nothing was awaited: the incidents and dead
@@ -145,6 +154,30 @@ pub enum RunError {
     /// A file could not be read or written.
     #[error("{0}")]
     Io(String),
+    /// `--participant` names no pool with a process.
+    #[error("--participant: {0}")]
+    Participant(String),
+    /// The store holds the run of another pool.
+    #[error("the store holds the run of pool `{held}`, not `{given}`; use another --store")]
+    DifferentParticipant {
+        /// The pool in the store.
+        held: String,
+        /// The pool given.
+        given: String,
+    },
+    /// Pools of the collaboration that no executive runs.
+    #[error(
+        "{} run by no executive in deployment `{deployment}` (waited {waited:?}): start each with `trace run MISSION --participant POOL` in the same deployment",
+        .pools.iter().map(|p| format!("pool `{p}` is")).collect::<Vec<_>>().join(", ")
+    )]
+    PeersAbsent {
+        /// The pools.
+        pools: Vec<String>,
+        /// The deployment.
+        deployment: String,
+        /// How long the run waited for them.
+        waited: Duration,
+    },
 }
 
 /// A command in flight on a connector.
@@ -396,6 +429,26 @@ struct Driver {
     /// so the same answer sent again is confirmed rather than refused.
     answered: HashMap<String, (String, Vars)>,
     snapshot_every: u64,
+    /// The fleet link, when this executive runs one pool of a fleet.
+    post: Option<fleet::Post>,
+}
+
+/// Fault injection for the crash tests: with `TRACE_CRASH_AT=<point>` in its environment, the
+/// executive aborts at that point (no destructor runs, nothing more is written), as a SIGKILL
+/// there would. The points are the fleet link's: `message-committed` (a step that sends a
+/// message is committed, nothing sent yet), `message-acknowledged` (its receiver's verdict
+/// arrived, not yet marked done) and `letter-committed` (a received message's step is
+/// committed, not yet acknowledged).
+fn crash_point(point: &str) {
+    static AT: std::sync::OnceLock<Option<String>> = std::sync::OnceLock::new();
+    if AT
+        .get_or_init(|| std::env::var("TRACE_CRASH_AT").ok())
+        .as_deref()
+        == Some(point)
+    {
+        eprintln!("TRACE_CRASH_AT={point}: aborting here");
+        std::process::abort();
+    }
 }
 
 fn meta(rec: &executive_store::Recovered, key: &str) -> Option<String> {
@@ -441,9 +494,39 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
     let resumed = rec.snapshot.is_some() || !rec.steps.is_empty();
     // The mission id prefixes every goal id; minted once, kept in the store.
     let mission = meta(&rec, "mission").unwrap_or_else(|| mint_mission(&model));
+    // One pool of a fleet: the store remembers which.
+    let participant = match (&opts.participant, meta(&rec, "participant")) {
+        (Some(given), held) => {
+            let (id, remote) = fleet::resolve(&graph, given)?;
+            if let Some(held) = held.filter(|h| *h != id) {
+                return Err(RunError::DifferentParticipant { held, given: id });
+            }
+            Some((id, remote))
+        }
+        (None, Some(held)) => Some(fleet::resolve(&graph, &held)?),
+        (None, None) => None,
+    };
+    let remote = participant
+        .as_ref()
+        .map(|(_, r)| r.clone())
+        .unwrap_or_default();
+    let engine_of = |state: Option<executive_engine::State>| -> Engine {
+        let e = match state {
+            Some(s) => Engine::restore(Arc::clone(&graph), s),
+            None => Engine::new(Arc::clone(&graph)),
+        };
+        match &participant {
+            // Resolved above: the pool exists and has a process.
+            Some((id, _)) => e
+                .participant(id)
+                .unwrap_or_else(|_| Engine::new(Arc::clone(&graph))),
+            None => e,
+        }
+    };
 
     // Connectors first: a mission that does not match its systems never starts.
     let (reports_tx, mut reports) = mpsc::unbounded_channel();
+    let fleet_reports = reports_tx.clone();
     let effects = opts.store.join("effects.jsonl");
     let agenda = Agenda::default();
     let mut connectors = Connectors::open(
@@ -455,7 +538,9 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
             zenoh: &opts.zenoh,
             mission: mission.clone(),
             catalogue_wait: opts.catalogue_wait,
-            agenda: Some(agenda.clone()),
+            // In a fleet the other executives are outside systems: no virtual clock.
+            agenda: participant.is_none().then(|| agenda.clone()),
+            fleet: participant.is_some(),
         },
         reports_tx,
     )
@@ -464,14 +549,49 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
         connectors.close().await;
         return Err(e.into());
     }
+    let post = match &participant {
+        Some((pool, remote)) => {
+            let joined = match (connectors.session(), opts.zenoh.keys()) {
+                (Some(session), Ok(keys)) => {
+                    fleet::Post::join(
+                        session,
+                        keys,
+                        pool,
+                        remote,
+                        fleet_reports,
+                        opts.catalogue_wait,
+                        !resumed,
+                    )
+                    .await
+                }
+                (_, Err(e)) => Err(RunError::Io(e.to_string())),
+                (None, _) => Err(RunError::Io(
+                    "the fleet link has no Zenoh session".to_owned(),
+                )),
+            };
+            match joined {
+                Ok(p) => Some(p),
+                Err(e) => {
+                    connectors.close().await;
+                    return Err(e);
+                }
+            }
+        }
+        None => {
+            drop(fleet_reports);
+            None
+        }
+    };
     let all_scripted = connectors
         .config
         .connectors
         .iter()
         .all(|c| c.kind == connector_api::Kind::Script);
-    let agenda = all_scripted.then_some(agenda);
+    // The virtual clock only without outside systems: the fleet's other executives are one.
+    let agenda = (all_scripted && post.is_none()).then_some(agenda);
     let outside = Outside {
-        messages: false,
+        // In a fleet, the other pools' executives send messages.
+        messages: post.is_some(),
         signals: false,
         data: connectors
             .config
@@ -482,10 +602,11 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
     // Processes that start only on a trigger are not started empty: they wait for it. If
     // nothing would start at all, and nothing outside can give the trigger, refuse now,
     // before anything is journaled.
-    let probe = Engine::new(Arc::clone(&graph));
+    let probe = engine_of(None);
     let (untriggered, triggered): (Vec<_>, Vec<_>) = graph
         .primary_processes()
         .into_iter()
+        .filter(|p| !remote.contains_key(p))
         .partition(|p| probe.starts_untriggered(*p));
     if !resumed && untriggered.is_empty() && !triggered.is_empty() {
         let a = crate::waiting::assess(&graph, probe.state(), outside, &|_| None, &triggered);
@@ -563,6 +684,9 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
     };
     store.set_meta("model", &model.display().to_string())?;
     store.set_meta("digest", &given)?;
+    if let Some((pool, _)) = &participant {
+        store.set_meta("participant", pool)?;
+    }
 
     // Restore and replay: the journal after the snapshot must give the committed actions.
     if let Some((seq, state)) = &rec.snapshot {
@@ -572,10 +696,7 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
             reason: format!("the state does not fit the mission model: {reason}"),
         })?;
     }
-    let mut engine = match &rec.snapshot {
-        Some((_, state)) => Engine::restore(Arc::clone(&graph), state.clone()),
-        None => Engine::new(Arc::clone(&graph)),
-    };
+    let mut engine = engine_of(rec.snapshot.as_ref().map(|(_, state)| state.clone()));
     let mut seq = rec.snapshot.as_ref().map_or(0, |(s, _)| *s);
     for step in &rec.steps {
         let again = engine.step(step.input.clone());
@@ -672,6 +793,7 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
         report_every: extras.report_every,
         reported: None,
         told: BTreeSet::new(),
+        post,
     };
     if let Some(c) = system_clock {
         d.set_clock(c);
@@ -715,6 +837,9 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
                 }
             }
         }
+        if let Some(post) = d.post.as_mut() {
+            post.resend(meta(&rec, fleet::UNSENT));
+        }
         for a in in_flight {
             match &a {
                 Action::DispatchTask { task, .. } | Action::OpenUserTask { task, .. } => {
@@ -749,10 +874,13 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
     let mut int = signal(SignalKind::interrupt())
         .map_err(|e| RunError::Io(format!("cannot watch SIGINT: {e}")))?;
     let mut stuck = None;
-    while !d.finished() {
+    loop {
+        if d.part_done().await {
+            break;
+        }
         let a = d.assess();
         // Nothing awaited and nothing queued: no input can ever come.
-        if a.stuck() && rx.is_empty() && d.answers.is_empty() {
+        if a.stuck() && rx.is_empty() && d.answers.is_empty() && d.quiet_link() {
             tracing::info!(
                 incidents = a.incidents.len(),
                 dead = a.dead.len(),
@@ -808,7 +936,11 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
         d.mark_acked()?;
         d.feed_all(events)?;
         d.apply_answers()?;
+        d.apply_letters()?;
     }
+    // Acknowledged messages are marked done before the store closes: a resume of an ended
+    // mission sends nothing again.
+    d.mark_acked()?;
     d.store.flush()?;
     // Answers that arrived too late are refused, so their stations hear it before we leave.
     reports.close();
@@ -819,6 +951,13 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
     }
     for (_, _, verdict) in d.answers.drain(..) {
         verdict.give(Err("the mission has ended".to_owned()));
+    }
+    for (_, verdict) in d.post.iter_mut().flat_map(|p| p.letters.drain(..)) {
+        drop(verdict);
+    }
+    let fleet = d.post.as_ref().map(|p| (p.pool.clone(), p.counts));
+    if let Some(p) = d.post.as_mut() {
+        p.fleet.close().await;
     }
     d.connectors.close().await;
     let outcomes = d
@@ -840,6 +979,7 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
         steps: d.seq,
         reboots,
         record: record_path,
+        fleet,
         interrupted,
         stuck,
         not_started,
@@ -849,7 +989,84 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
 impl Driver {
     fn finished(&self) -> bool {
         let i = &self.engine.state().instances;
-        !i.is_empty() && i.values().all(|i| i.outcome.is_some())
+        !i.is_empty() && i.values().all(|i| i.outcome.is_some()) && self.quiet_link()
+    }
+
+    /// Whether the run ends: every instance has ended and, in a fleet, every message was
+    /// acknowledged and every other pool's executive has ended its part too (until then this
+    /// one stays, done, and takes their messages: a peer that resumes may send again what this
+    /// one already applied, and it needs the acknowledgement).
+    async fn part_done(&mut self) -> bool {
+        let own = self.finished();
+        let Some(post) = self.post.as_mut() else {
+            return own;
+        };
+        post.fleet.set_done(own).await;
+        if !own {
+            return false;
+        }
+        let running = post.peers_running();
+        if running.is_empty() {
+            return true;
+        }
+        if self.told.insert((0, "fleet".to_owned(), running.join(","))) {
+            tracing::info!(pools = ?running, "this part has ended; waiting for the other pools' executives to end theirs");
+            eprintln!(
+                "this pool's part has ended; waiting for {} to end theirs",
+                running
+                    .iter()
+                    .map(|p| format!("pool `{p}`"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        }
+        false
+    }
+
+    /// No message of the fleet link waits to be stepped or acknowledged.
+    fn quiet_link(&self) -> bool {
+        self.post
+            .as_ref()
+            .is_none_or(|p| p.unsent.is_empty() && p.letters.is_empty())
+    }
+
+    /// Messages from other executives, one step each: the verdict goes back once the step is
+    /// committed, or with the engine's refusal (nothing changed).
+    fn apply_letters(&mut self) -> Result<(), RunError> {
+        let letters = match self.post.as_mut() {
+            Some(p) => std::mem::take(&mut p.letters),
+            None => return Ok(()),
+        };
+        for (event, verdict) in letters {
+            let key = match &event {
+                Event::MessageReceived { key, .. } => key.clone().unwrap_or_default(),
+                _ => String::new(),
+            };
+            let refused = self.feed_all(vec![event])?.pop().flatten();
+            if refused.is_none() {
+                crash_point("letter-committed");
+            }
+            let Some(post) = self.post.as_mut() else {
+                break;
+            };
+            let given = post.verdict(refused);
+            if let Err(why) = &given {
+                tracing::warn!(key, "message refused: {why}");
+                self.fleet_line(
+                    "message_refused",
+                    serde_json::json!({"key": key, "reason": why, "by": "receiver"}),
+                );
+            }
+            verdict.give(given);
+        }
+        Ok(())
+    }
+
+    /// A line of the execution record about the fleet link (not a step).
+    fn fleet_line(&mut self, kind: &str, body: serde_json::Value) {
+        if let Err(e) = self.record.fleet(kind, self.clock.now(), wall_ms(), body) {
+            tracing::warn!(error = %e, "record line not written");
+        }
     }
 
     /// What the run waits for now.
@@ -1027,6 +1244,34 @@ impl Driver {
                 self.note("feedback", task, &goal_id, body);
                 None
             }
+            Report::Letter { letter, verdict } => {
+                if let Some(p) = self.post.as_mut() {
+                    p.received(&self.g, letter, verdict);
+                } else {
+                    verdict.give(Err("this executive runs no pool of a fleet".to_owned()));
+                }
+                None
+            }
+            Report::Delivered { key, refused } => {
+                crash_point("message-acknowledged");
+                let mark = self.post.as_mut().and_then(|p| p.delivered(&key, &refused));
+                self.acked.extend(mark);
+                match &refused {
+                    None => self.fleet_line("message_delivered", serde_json::json!({"key": key})),
+                    Some(why) => {
+                        tracing::warn!(key, "message refused by its receiver: {why}");
+                        self.fleet_line(
+                            "message_refused",
+                            serde_json::json!({"key": key, "reason": why, "by": "sender"}),
+                        );
+                    }
+                }
+                None
+            }
+            Report::Peer { pool, state } => {
+                self.fleet_line("peer", serde_json::json!({"pool": pool, "state": state}));
+                None
+            }
             Report::Canceled { goal_id } => {
                 tracing::debug!(goal_id, "goal cancelled");
                 None
@@ -1135,7 +1380,11 @@ impl Driver {
                 } => Some((operator.clone(), answer.clone())),
                 _ => None,
             };
-            let refused = self.feed_all(vec![event])?.pop().flatten();
+            let refused = self
+                .feed_all(vec![event])?
+                .pop()
+                .flatten()
+                .map(|r| r.to_string());
             match refused {
                 None => {
                     self.answered.extend(applied.map(|a| (goal_id, a)));
@@ -1155,7 +1404,7 @@ impl Driver {
 
     /// Inputs stepped in order, committed together (one flush), then acted on. Returns, per
     /// input, why the engine refused it (`None`: stepped).
-    fn feed_all(&mut self, events: Vec<Event>) -> Result<Vec<Option<String>>, RunError> {
+    fn feed_all(&mut self, events: Vec<Event>) -> Result<Vec<Option<Rejected>>, RunError> {
         let mut steps = Vec::with_capacity(events.len());
         let mut refusals = Vec::with_capacity(events.len());
         for event in events {
@@ -1179,7 +1428,9 @@ impl Driver {
                     // the cancel of its task, is a race the engine settles: not news.
                     if matches!(
                         rejected,
-                        Rejected::UnknownTimer(_) | Rejected::UnknownTask(_)
+                        Rejected::UnknownTimer(_)
+                            | Rejected::UnknownTask(_)
+                            | Rejected::AlreadyDelivered(_)
                     ) {
                         tracing::debug!(%rejected, "input refused (a harmless race)");
                     } else {
@@ -1192,7 +1443,7 @@ impl Driver {
                         self.refused
                             .insert(*task, format!("its result was refused: {rejected}"));
                     }
-                    refusals.push(Some(rejected.to_string()));
+                    refusals.push(Some(rejected));
                 }
             }
         }
@@ -1218,6 +1469,9 @@ impl Driver {
                 .collect();
             let unacked = serde_json::to_string(&unacked).unwrap_or_else(|_| "[]".to_owned());
             self.store.set_meta(UNACKED, &unacked)?;
+            if let Some(p) = &self.post {
+                self.store.set_meta(fleet::UNSENT, &p.unsent_json())?;
+            }
             self.store.snapshot(self.seq, self.engine.state())?;
         }
         Ok(refusals)
@@ -1266,15 +1520,39 @@ impl Driver {
                 .record
                 .write(seq, index, wall_ms(), &r)
                 .map_err(|e| RunError::Io(e.to_string()))?,
-            Action::SendMessage { name, payload } => match self.connectors.config.route(&name) {
-                Some(route) => {
-                    let payload = serde_json::to_value(&payload).unwrap_or_default();
-                    self.connectors.list[route.connector].notify(&route.action, payload);
+            Action::SendMessage {
+                name,
+                payload,
+                to: Some(to),
+                flow: Some(flow),
+                correlation,
+                number: Some(number),
+            } if self.post.as_ref().is_some_and(|p| p.peers.contains(&to)) => {
+                let Some(post) = self.post.as_mut() else {
+                    return Ok(());
+                };
+                let letter =
+                    post.letter(&self.mission, number, to, flow, name, correlation, &payload);
+                let mark = (index != usize::MAX).then_some((seq, index as u32));
+                crash_point("message-committed");
+                let line = serde_json::json!({"seq": seq, "idx": index, "key": letter.key,
+                    "to": letter.to, "flow": letter.flow, "name": letter.name});
+                post.send(letter, mark);
+                self.fleet_line("message_sent", line);
+                // Done once its receiver gives a verdict.
+                return Ok(());
+            }
+            Action::SendMessage { name, payload, .. } => {
+                match self.connectors.config.route(&name) {
+                    Some(route) => {
+                        let payload = serde_json::to_value(&payload).unwrap_or_default();
+                        self.connectors.list[route.connector].notify(&route.action, payload);
+                    }
+                    None => {
+                        tracing::info!(%name, "message sent out of the mission (no connector routes it)")
+                    }
                 }
-                None => {
-                    tracing::info!(%name, "message sent out of the mission (no connector routes it)")
-                }
-            },
+            }
             Action::InstanceFinished { instance, outcome } => {
                 tracing::info!(instance = instance.0, ?outcome, "instance finished");
             }

@@ -495,6 +495,7 @@ fn fly_in(opts: &FlyOptions, dir: &Path) -> Result<(), FlyError> {
         catalogue_wait: Duration::from_secs(30),
         speed: 1.0,
         snapshot_every: 1000,
+        participant: None,
     });
     stop.store(true, Ordering::SeqCst);
     let _ = watcher.join();

@@ -93,6 +93,27 @@ impl RecordWriter {
         self.line(&line)
     }
 
+    /// Writes a line about the fleet link that is not an engine step (`message_sent`,
+    /// `message_delivered`, `message_refused`, `peer`): times, and `body`'s fields.
+    pub fn fleet(
+        &mut self,
+        kind: &str,
+        mission_ms: i64,
+        wall_ms: i64,
+        body: Value,
+    ) -> std::io::Result<()> {
+        let mut line = json!({
+            "v": RECORD_VERSION,
+            "kind": kind,
+            "mission_ms": mission_ms,
+            "wall": wall(wall_ms),
+        });
+        if let (Some(o), Value::Object(b)) = (line.as_object_mut(), body) {
+            o.extend(b);
+        }
+        self.line(&line)
+    }
+
     /// Every line written from now on is also handed to `mirror` (live monitoring).
     pub fn mirror(&mut self, mirror: Mirror) {
         self.mirror = Some(mirror);

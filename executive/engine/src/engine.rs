@@ -34,6 +34,8 @@ pub struct Engine {
     ready: std::collections::VecDeque<crate::io::TokenId>,
     trace_moves: bool,
     game: Option<Game>,
+    /// The processes of pools other executives run, with their pool's id (a fleet).
+    remote: BTreeMap<executive_model::ProcessId, String>,
 }
 
 impl Engine {
@@ -51,7 +53,23 @@ impl Engine {
             ready: Default::default(),
             trace_moves: true,
             game: None,
+            remote: BTreeMap::new(),
         }
+    }
+
+    /// Runs only the pool `participant` (its id or name) of the model's collaboration, as one
+    /// executive of a fleet: the other pools' processes never run here, and a message flow
+    /// into them leaves the engine as a numbered [`Action::SendMessage`] naming the pool.
+    /// Errs, naming the pools there are, when no pool of that id or name has a process.
+    pub fn participant(mut self, participant: &str) -> Result<Engine, String> {
+        self.remote = crate::messages::remote_processes(&self.graph, participant)?;
+        Ok(self)
+    }
+
+    /// The processes this engine leaves to other executives, with their pool's id (empty
+    /// unless [`Engine::participant`] chose a pool).
+    pub fn remote(&self) -> &BTreeMap<executive_model::ProcessId, String> {
+        &self.remote
     }
 
     /// Switches token-game mode on: tasks complete at once unless held ([`Game::hold`]: they
@@ -127,8 +145,6 @@ impl Engine {
             });
         }
         self.check(&input.event)?;
-        self.state.last_seq = input.seq;
-        self.state.now = self.state.now.max(input.at);
         let mut ready = std::mem::take(&mut self.ready);
         ready.clear();
         let mut run = Run {
@@ -144,7 +160,32 @@ impl Engine {
             game: self.game.as_ref(),
             throw_now: Default::default(),
             reach: &mut self.reach,
+            remote: &self.remote,
         };
+        // A message from another executive: its key and its receiver are checked before
+        // anything changes.
+        if let Event::MessageReceived {
+            name,
+            correlation,
+            flow,
+            key,
+            ..
+        } = &input.event
+        {
+            let refused = match (key, flow) {
+                (Some(k), _) if run.s.delivered.contains(k) => {
+                    Some(Rejected::AlreadyDelivered(k.clone()))
+                }
+                (_, Some(f)) => run.flow_receiver(f, name, correlation.as_ref()).err(),
+                _ => None,
+            };
+            if let Some(r) = refused {
+                self.ready = run.ready;
+                return Err(r);
+            }
+        }
+        run.s.last_seq = input.seq;
+        run.s.now = run.s.now.max(input.at);
         apply(&mut run, input.event);
         run.quiesce();
         self.ready = run.ready;
@@ -162,6 +203,12 @@ impl Engine {
                     .process_by_id(process)
                     .filter(|p| game || g.process(*p).executable)
                     .ok_or_else(|| Rejected::UnknownProcess(process.clone()))?;
+                if let Some(pool) = self.remote.get(&p) {
+                    return Err(Rejected::Unsupported {
+                        element: process.clone(),
+                        reason: format!("its pool `{pool}` is run by another executive"),
+                    });
+                }
                 if let Some(start) = start {
                     let ok = g.node_by_id(start).is_some_and(|n| {
                         g.node(n).scope == executive_model::Scope::Process(p)
@@ -212,6 +259,8 @@ impl Engine {
                 Some(On::Timer { key, .. }) if key == timer => Ok(()),
                 _ => Err(Rejected::UnknownTimer(*timer)),
             },
+            // Along a flow: its target is checked in `step`, where expressions can be evaluated.
+            Event::MessageReceived { flow: Some(_), .. } => Ok(()),
             Event::MessageReceived { name, .. } => {
                 let waiting = s
                     .waits
@@ -386,8 +435,22 @@ fn apply(run: &mut Run<'_>, event: Event) {
             name,
             correlation,
             payload,
+            flow,
+            key,
         } => {
-            run.deliver_message(&name, correlation.as_ref(), &payload);
+            if let Some(k) = key {
+                run.s.delivered.insert(k);
+            }
+            match flow {
+                Some(f) => {
+                    if let Ok(r) = run.flow_receiver(&f, &name, correlation.as_ref()) {
+                        run.deliver_to(r, &f, &name, correlation.as_ref(), &payload);
+                    }
+                }
+                None => {
+                    run.deliver_message(&name, correlation.as_ref(), &payload);
+                }
+            }
         }
         Event::SignalReceived { name } => {
             let instance = crate::io::InstanceId(0);

@@ -125,6 +125,15 @@ pub enum Event {
         correlation: Option<Value>,
         /// The message's fields, merged into the receiving scope.
         payload: Vars,
+        /// The message flow it came along, from the executive of another pool (a fleet): only
+        /// that flow's target takes it, and a message it cannot take is refused
+        /// ([`Rejected::Undeliverable`]) with the state unchanged.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        flow: Option<String>,
+        /// The sender's key for it (`<sender mission>.<message number>`): a key already
+        /// delivered is refused as [`Rejected::AlreadyDelivered`], so a resend is harmless.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        key: Option<String>,
     },
     /// A signal arrived from outside; it is broadcast to every waiting catcher.
     SignalReceived {
@@ -206,12 +215,27 @@ pub enum Action {
         /// Which arming.
         timer: TimerKey,
     },
-    /// Deliver a message outside the engine (no catcher inside waited for it).
+    /// Deliver a message outside the engine: along a message flow to a pool this engine does
+    /// not run (another executive's, or a black box), or, with no flow, because no catcher
+    /// inside waited for it.
     SendMessage {
         /// The message name.
         name: String,
         /// Its fields.
         payload: Vars,
+        /// The participant (pool) it goes to, when a message flow names one.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        to: Option<String>,
+        /// The message flow it goes along.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        flow: Option<String>,
+        /// The sender's value of the message's correlation key, if it has one.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        correlation: Option<Value>,
+        /// The message's number, minted by this engine (one more per message sent along a
+        /// flow): with the mission id, the key that makes sending it again harmless.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        number: Option<u64>,
     },
     /// Append an entry to the execution record.
     Record(Record),
@@ -467,6 +491,19 @@ pub enum Rejected {
     /// Nothing waits for this message and no process starts on it.
     #[error("nothing waits for message `{0}` and no process starts on it")]
     NoReceiver(String),
+    /// A message sent along a message flow that its target cannot take now.
+    #[error("message `{name}` along flow `{flow}`: {reason}")]
+    Undeliverable {
+        /// The message name.
+        name: String,
+        /// The message flow.
+        flow: String,
+        /// Why, naming the target.
+        reason: String,
+    },
+    /// A message whose key was delivered before (a resend): nothing changes.
+    #[error("message {0} was already delivered")]
+    AlreadyDelivered(String),
     /// A user-task answer does not fit the task's form.
     #[error("answer to user task {task}: {reason}")]
     BadAnswer {

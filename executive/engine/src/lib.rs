@@ -29,6 +29,7 @@ mod feel;
 mod gateway;
 mod io;
 mod looping;
+mod messages;
 mod run;
 mod scope;
 mod state;
@@ -40,6 +41,7 @@ pub use io::{
     Action, Entry, Event, Input, InstanceId, Millis, Outcome, Record, Rejected, ScopeId, TaskKey,
     TimerKey, TokenId, Trigger, WaitId,
 };
+pub use messages::remote_processes;
 pub use run::implicit_starts;
 pub use state::{
     At, Compensable, CompensationRun, Handler, Instance, Loop, On, ScopeKind, ScopeState, State,

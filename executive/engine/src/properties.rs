@@ -233,7 +233,7 @@ proptest! {
                     },
                     None => continue,
                 },
-                Op::Message => Event::MessageReceived { name: "GO".into(), correlation: None, payload: Vars::new() },
+                Op::Message => Event::MessageReceived { name: "GO".into(), correlation: None, payload: Vars::new(), flow: None, key: None },
                 Op::Signal => Event::SignalReceived { name: "ALERT".into() },
                 Op::Cancel(i) => match pick(&p.instances, i) {
                     Some(instance) => Event::CancelRequested { instance },

@@ -31,6 +31,8 @@ pub(crate) struct Run<'a> {
     /// The incoming flows of a join reachable from a node, memoised (derived from the graph
     /// only, not state).
     pub(crate) reach: &'a mut std::collections::BTreeMap<(NodeId, NodeId, bool), Vec<FlowId>>,
+    /// The processes of pools other executives run, with their pool's id.
+    pub(crate) remote: &'a std::collections::BTreeMap<executive_model::ProcessId, String>,
 }
 
 /// Conditional events re-evaluated this many rounds in one step at most (a condition that keeps

@@ -39,6 +39,12 @@ pub struct State {
     /// evaluation (a new instance starts on false -> true only).
     #[serde(default)]
     pub start_conditions: BTreeSet<NodeId>,
+    /// Messages sent along message flows to pools other executives run: the last number minted.
+    #[serde(default)]
+    pub sent: u64,
+    /// Keys of the messages delivered from other executives (each applied once).
+    #[serde(default)]
+    pub delivered: BTreeSet<String>,
 }
 
 /// One process instance.

@@ -602,6 +602,8 @@ impl Simulation {
             name,
             correlation: None,
             payload: Vars::new(),
+            flow: None,
+            key: None,
         };
         self.apply(event, &subject)
     }

@@ -11,6 +11,7 @@ mod cycles;
 mod data;
 mod event_subprocesses;
 mod feel;
+mod fleet;
 mod message_flows;
 mod signals;
 mod transactions;
@@ -262,6 +263,8 @@ impl Driver {
             name: name.into(),
             correlation,
             payload: vars(payload),
+            flow: None,
+            key: None,
         })
     }
 

@@ -1,0 +1,267 @@
+//! One executive of a fleet (`trace run --participant POOL`): the driver's side of the fleet
+//! link. The engine runs only the pool's process; a message flow into another pool's process
+//! leaves the engine as a numbered `SendMessage`, committed with its step before it is sent,
+//! sent until its receiver gives a verdict, and marked done only then (a restart sends the
+//! unacknowledged ones again). A message from another executive is stepped like any input and
+//! acknowledged once its step is committed; the engine refuses a key it has applied before
+//! (acknowledged again as applied) and a message whose flow's target cannot take it (refused
+//! with the reason, recorded and logged).
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::time::Duration;
+
+use connector_api::Verdict;
+use connector_api::wire::Letter;
+use connector_zenoh::Fleet;
+use executive_engine::{Event, Rejected, Value, Vars};
+use executive_model::{ProcessGraph, ProcessId};
+
+use super::RunError;
+
+/// The store's meta key listing, as of the newest snapshot, the messages no receiver had
+/// acknowledged: their steps may be pruned after that snapshot, so a restart learns from here
+/// that they must be sent again.
+pub(super) const UNSENT: &str = "fleet-unsent";
+
+/// The pool `given` (its id or name) of `g`'s collaboration, and the processes of the other
+/// pools, each with its pool's id.
+pub(super) fn resolve(
+    g: &ProcessGraph,
+    given: &str,
+) -> Result<(String, BTreeMap<ProcessId, String>), RunError> {
+    let remote = executive_engine::remote_processes(g, given).map_err(RunError::Participant)?;
+    let id = g
+        .collaborations
+        .iter()
+        .flat_map(|c| &c.participants)
+        .find(|p| p.id == given || p.name.as_deref() == Some(given))
+        .map_or_else(|| given.to_owned(), |p| p.id.clone());
+    Ok((id, remote))
+}
+
+/// The fleet link of a running executive.
+pub(super) struct Post {
+    pub(super) fleet: Fleet,
+    /// This executive's pool.
+    pub(super) pool: String,
+    /// The pools other executives run.
+    pub(super) peers: BTreeSet<String>,
+    /// Messages sent and not yet given a verdict, by key, with their place in the store
+    /// (marked done once acknowledged).
+    pub(super) unsent: BTreeMap<String, (Letter, Option<(u64, u32)>)>,
+    /// Messages received, waiting to be stepped, with the verdict their sender waits for.
+    pub(super) letters: Vec<(Event, Verdict)>,
+    /// Messages sent and acknowledged, and received and applied, in this run.
+    pub(super) counts: Counts,
+}
+
+/// What crossed the fleet link in this run.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Counts {
+    /// Messages sent and applied by their receiver.
+    pub delivered: u64,
+    /// Messages sent and refused by their receiver.
+    pub refused: u64,
+    /// Messages received and applied (a resend counted once).
+    pub received: u64,
+}
+
+impl Post {
+    /// Joins the fleet as `pool` and waits at most `wait` for the executives of every other
+    /// pool with a process. At a first start (`required`), a pool nothing runs is refused,
+    /// named; a resumed part carries on without it (what it sends waits for it).
+    pub(super) async fn join(
+        session: &zenoh::Session,
+        keys: connector_api::Keys,
+        pool: &str,
+        remote: &BTreeMap<ProcessId, String>,
+        reports: connector_api::Reports,
+        wait: Duration,
+        required: bool,
+    ) -> Result<Post, RunError> {
+        let mut fleet = Fleet::join(session, keys.clone(), pool, reports)
+            .await
+            .map_err(|e| RunError::Io(format!("fleet link: {e}")))?;
+        let peers: BTreeSet<String> = remote.values().cloned().collect();
+        let list: Vec<String> = peers.iter().cloned().collect();
+        let missing = fleet.wait_for(&list, wait).await;
+        if !missing.is_empty() && !required {
+            tracing::warn!(pools = ?missing, "resuming without these pools' executives; their messages wait for them");
+        } else if !missing.is_empty() {
+            fleet.close().await;
+            return Err(RunError::PeersAbsent {
+                pools: missing,
+                deployment: keys.deployment().to_owned(),
+                waited: wait,
+            });
+        }
+        tracing::info!(pool, peers = ?list, "every pool of the collaboration has its executive");
+        Ok(Post {
+            fleet,
+            pool: pool.to_owned(),
+            peers,
+            unsent: BTreeMap::new(),
+            letters: Vec::new(),
+            counts: Counts::default(),
+        })
+    }
+
+    /// The pools whose executives have not ended their part (running or away).
+    pub(super) fn peers_running(&self) -> Vec<String> {
+        let states = self.fleet.peers();
+        self.peers
+            .iter()
+            .filter(|p| states.get(*p) != Some(&connector_api::PeerState::Done))
+            .cloned()
+            .collect()
+    }
+
+    /// The letter for a message the engine sent to `to` along `flow`, keyed by the mission
+    /// id and the engine's message number.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn letter(
+        &self,
+        mission: &str,
+        number: u64,
+        to: String,
+        flow: String,
+        name: String,
+        correlation: Option<Value>,
+        payload: &Vars,
+    ) -> Letter {
+        let payload = match serde_json::to_value(payload) {
+            Ok(serde_json::Value::Object(m)) => m,
+            _ => serde_json::Map::new(),
+        };
+        Letter {
+            key: format!("{mission}.m{number}"),
+            from: self.pool.clone(),
+            to,
+            flow,
+            name,
+            correlation: correlation.and_then(|c| serde_json::to_value(c).ok()),
+            payload,
+        }
+    }
+
+    /// Sends `letter` until acknowledged; `mark` is its action's place in the store.
+    pub(super) fn send(&mut self, letter: Letter, mark: Option<(u64, u32)>) {
+        let key = letter.key.clone();
+        let entry = self
+            .unsent
+            .entry(key)
+            .or_insert_with(|| (letter.clone(), mark));
+        entry.1 = entry.1.or(mark);
+        self.fleet.send(letter);
+    }
+
+    /// The unacknowledged letters, for the snapshot's meta.
+    pub(super) fn unsent_json(&self) -> String {
+        let letters: Vec<&Letter> = self.unsent.values().map(|(l, _)| l).collect();
+        serde_json::to_string(&letters).unwrap_or_else(|_| "[]".to_owned())
+    }
+
+    /// Sends again the letters listed at the newest snapshot.
+    pub(super) fn resend(&mut self, listed: Option<String>) {
+        let letters: Vec<Letter> = listed
+            .and_then(|l| serde_json::from_str(&l).ok())
+            .unwrap_or_default();
+        for l in letters {
+            self.send(l, None);
+        }
+    }
+
+    /// A letter's verdict arrived: its place in the store, to be marked done.
+    pub(super) fn delivered(&mut self, key: &str, refused: &Option<String>) -> Option<(u64, u32)> {
+        let (_, mark) = self.unsent.remove(key)?;
+        match refused {
+            None => self.counts.delivered += 1,
+            Some(_) => self.counts.refused += 1,
+        }
+        mark
+    }
+
+    /// A letter from another executive: the input it is, queued with its verdict; or refused
+    /// at once when it cannot have come along its flow.
+    pub(super) fn received(&mut self, g: &ProcessGraph, letter: Letter, verdict: Verdict) {
+        if let Err(why) = self.check(g, &letter) {
+            tracing::warn!(
+                key = letter.key,
+                from = letter.from,
+                flow = letter.flow,
+                "message refused: {why}"
+            );
+            verdict.give(Err(why));
+            return;
+        }
+        let payload: Vars = match serde_json::from_value(serde_json::Value::Object(letter.payload))
+        {
+            Ok(v) => v,
+            Err(e) => {
+                return verdict.give(Err(format!("the payload's values do not convert: {e}")));
+            }
+        };
+        let correlation = match letter.correlation.map(serde_json::from_value::<Value>) {
+            None => None,
+            Some(Ok(c)) => Some(c),
+            Some(Err(e)) => {
+                return verdict.give(Err(format!("the correlation value does not convert: {e}")));
+            }
+        };
+        self.letters.push((
+            Event::MessageReceived {
+                name: letter.name,
+                correlation,
+                payload,
+                flow: Some(letter.flow),
+                key: Some(letter.key),
+            },
+            verdict,
+        ));
+    }
+
+    /// A letter must come from another pool of the collaboration, along a message flow that
+    /// leaves that pool (at one of its elements or at the pool itself).
+    fn check(&self, g: &ProcessGraph, letter: &Letter) -> Result<(), String> {
+        if !self.peers.contains(&letter.from) {
+            return Err(format!(
+                "`{}` is not another pool of this collaboration",
+                letter.from
+            ));
+        }
+        let flow = g
+            .collaborations
+            .iter()
+            .flat_map(|c| &c.message_flows)
+            .find(|m| m.id == letter.flow)
+            .ok_or_else(|| format!("the model has no message flow `{}`", letter.flow))?;
+        let pool = g
+            .collaborations
+            .iter()
+            .flat_map(|c| &c.participants)
+            .find(|p| p.id == letter.from);
+        let from_pool = flow.source == letter.from
+            || g.node_by_id(&flow.source)
+                .is_some_and(|n| pool.and_then(|p| p.process) == Some(g.process_of(n)));
+        if from_pool {
+            Ok(())
+        } else {
+            Err(format!(
+                "message flow `{}` does not leave pool `{}`",
+                letter.flow, letter.from
+            ))
+        }
+    }
+
+    /// The engine's refusal, as the sender's verdict: a key applied before is applied.
+    pub(super) fn verdict(&mut self, refused: Option<Rejected>) -> Result<(), String> {
+        match refused {
+            None => {
+                self.counts.received += 1;
+                Ok(())
+            }
+            Some(Rejected::AlreadyDelivered(_)) => Ok(()),
+            Some(r) => Err(r.to_string()),
+        }
+    }
+}

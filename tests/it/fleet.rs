@@ -1,0 +1,252 @@
+//! A fleet: two `trace run --participant` processes, one per pool of a collaboration, exchange
+//! the messages of its message flows over Zenoh, exactly once, across a SIGKILL-like abort of
+//! either executive at each point of the exchange; and an executive whose peer pool nothing
+//! runs is refused before it starts, naming the pool.
+
+use std::path::Path;
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::time::{Duration, Instant};
+
+use mission_tests::bin;
+
+use crate::protocol::{endpoint, port, tempdir};
+
+/// The lander asks the scout to survey `site` and waits an hour for its report, correlated by
+/// `site`; the scout starts on the request, surveys and reports.
+pub(crate) const SURVEY: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
+<definitions xmlns="http://www.omg.org/spec/BPMN/20100524/MODEL" xmlns:trace="urn:trace:bpmn:1.0"
+  xmlns:zeebe="http://camunda.org/schema/zeebe/1.0" id="D" targetNamespace="t">
+  <message id="req" name="survey_request"/>
+  <message id="rep" name="survey_report">
+    <extensionElements><zeebe:subscription correlationKey="=site"/></extensionElements>
+  </message>
+  <collaboration id="C">
+    <participant id="lander" name="Lander" processRef="LanderP"/>
+    <participant id="scout" name="Scout" processRef="ScoutP"/>
+    <messageFlow id="ask" sourceRef="Ask" targetRef="Asked" messageRef="req"/>
+    <messageFlow id="tell" sourceRef="Tell" targetRef="Heard" messageRef="rep"/>
+  </collaboration>
+  <process id="LanderP" isExecutable="true">
+    <startEvent id="LS"/>
+    <sequenceFlow id="l1" sourceRef="LS" targetRef="Ask"/>
+    <intermediateThrowEvent id="Ask"><messageEventDefinition messageRef="req"/></intermediateThrowEvent>
+    <sequenceFlow id="l2" sourceRef="Ask" targetRef="Wait"/>
+    <eventBasedGateway id="Wait"/>
+    <sequenceFlow id="l3" sourceRef="Wait" targetRef="Heard"/>
+    <intermediateCatchEvent id="Heard"><messageEventDefinition messageRef="rep"/></intermediateCatchEvent>
+    <sequenceFlow id="l4" sourceRef="Heard" targetRef="Choose"/>
+    <serviceTask id="Choose"><extensionElements><trace:task resource="lander.choose"/></extensionElements></serviceTask>
+    <sequenceFlow id="l5" sourceRef="Choose" targetRef="LE"/>
+    <endEvent id="LE"/>
+    <sequenceFlow id="l6" sourceRef="Wait" targetRef="Silence"/>
+    <intermediateCatchEvent id="Silence"><timerEventDefinition><timeDuration>PT1H</timeDuration></timerEventDefinition></intermediateCatchEvent>
+    <sequenceFlow id="l7" sourceRef="Silence" targetRef="NoReport"/>
+    <endEvent id="NoReport"/>
+  </process>
+  <process id="ScoutP" isExecutable="true">
+    <startEvent id="Asked"><messageEventDefinition messageRef="req"/></startEvent>
+    <sequenceFlow id="s1" sourceRef="Asked" targetRef="Survey"/>
+    <serviceTask id="Survey"><extensionElements><trace:task resource="scout.survey"/></extensionElements></serviceTask>
+    <sequenceFlow id="s2" sourceRef="Survey" targetRef="Tell"/>
+    <intermediateThrowEvent id="Tell"><messageEventDefinition messageRef="rep"/></intermediateThrowEvent>
+    <sequenceFlow id="s3" sourceRef="Tell" targetRef="SE"/>
+    <endEvent id="SE"/>
+  </process>
+</definitions>"#;
+
+/// One executive of the fleet: `trace run` of `pool` (or `trace resume` of its store), listening
+/// on `listen` and connecting to `connect`; `crash` is the `TRACE_CRASH_AT` point, if any.
+fn executive(
+    dir: &Path,
+    pool: &str,
+    resume: bool,
+    listen: &str,
+    connect: &str,
+    crash: Option<&str>,
+) -> Child {
+    let mut c = Command::new(bin("trace"));
+    if resume {
+        c.arg("resume");
+    } else {
+        c.arg("run")
+            .arg(dir.join("fleet.bpmn"))
+            .args(["--participant", pool, "--var", "site=3"]);
+    }
+    c.arg("--store")
+        .arg(dir.join(pool.to_lowercase()))
+        .args(["--catalogue-wait", "30"])
+        .args(["-l", listen, "-e", connect, "--no-multicast-scouting"])
+        .env_remove("TRACE_CRASH_AT")
+        .stdout(Stdio::null())
+        .stderr(Stdio::inherit());
+    if let Some(point) = crash {
+        c.env("TRACE_CRASH_AT", point);
+    }
+    c.spawn().expect("trace starts")
+}
+
+/// Waits for `child` to end, at most two minutes (then kills it and fails).
+fn ends(child: &mut Child, what: &str) -> ExitStatus {
+    let deadline = Instant::now() + Duration::from_secs(120);
+    loop {
+        if let Some(status) = child.try_wait().expect("wait") {
+            return status;
+        }
+        if Instant::now() > deadline {
+            let _ = (child.kill(), child.wait());
+            panic!("{what} did not end within two minutes");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// A record's lines, each line written again after a restart (same `seq` and `idx`) once.
+fn lines(record: &Path) -> Vec<serde_json::Value> {
+    let mut reader = executive::record::Reader::default();
+    std::fs::read_to_string(record)
+        .unwrap_or_default()
+        .lines()
+        .filter_map(|l| reader.read(l))
+        .collect()
+}
+
+/// How many of a record's lines match `pred`.
+fn count(record: &Path, pred: impl Fn(&serde_json::Value) -> bool) -> usize {
+    lines(record).iter().filter(|v| pred(v)).count()
+}
+
+/// Flies the survey with the `crashing` pool's executive aborting at `point` (if any), resumed
+/// once it has; checks that each message was applied exactly once, to the right instance.
+fn fly(name: &str, crash: Option<(&str, &str)>) {
+    let dir = tempdir(name);
+    std::fs::write(dir.join("fleet.bpmn"), SURVEY).expect("mission");
+    let (a, b) = (endpoint(port()), endpoint(port()));
+    let point = |pool: &str| crash.filter(|(p, _)| *p == pool).map(|(_, at)| at);
+    let mut lander = executive(&dir, "lander", false, &a, &b, point("lander"));
+    let mut scout = executive(&dir, "Scout", false, &b, &a, point("scout"));
+    if let Some((pool, at)) = crash {
+        let (child, listen, connect) = match pool {
+            "lander" => (&mut lander, &a, &b),
+            _ => (&mut scout, &b, &a),
+        };
+        let status = ends(child, pool);
+        assert!(!status.success(), "{pool} did not stop at {at}: {status}");
+        *child = executive(&dir, pool, true, listen, connect, None);
+    }
+    let l = ends(&mut lander, "the lander");
+    let s = ends(&mut scout, "the scout");
+    assert!(l.success() && s.success(), "lander {l}, scout {s}");
+    let (lr, sr) = (
+        dir.join("lander/record.jsonl"),
+        dir.join("scout/record.jsonl"),
+    );
+    // The request started exactly one scout instance, with the lander's site.
+    let started: Vec<serde_json::Value> = lines(&sr)
+        .into_iter()
+        .filter(|v| v["kind"] == "instance_started")
+        .collect();
+    assert_eq!(started.len(), 1, "{started:#?}");
+    assert_eq!(started[0]["process"], "ScoutP");
+    assert_eq!(started[0]["vars"]["site"], 3);
+    // The report released the lander's wait once, at the message catch, not the timer.
+    let caught = count(&lr, |v| {
+        v["kind"] == "caught" && v["name"] == "survey_report"
+    });
+    assert_eq!(caught, 1);
+    assert_eq!(count(&lr, |v| v["kind"] == "timer_fired"), 0);
+    for record in [&lr, &sr] {
+        let ends: Vec<serde_json::Value> = lines(record)
+            .into_iter()
+            .filter(|v| v["kind"] == "instance_finished")
+            .collect();
+        assert_eq!(ends.len(), 1, "{ends:#?}");
+        assert_eq!(ends[0]["outcome"]["type"], "completed", "{ends:#?}");
+        // Each message was sent under one key and acknowledged.
+        let sent: std::collections::BTreeSet<String> = lines(record)
+            .iter()
+            .filter(|v| v["kind"] == "message_sent")
+            .map(|v| v["key"].as_str().unwrap_or_default().to_owned())
+            .collect();
+        let delivered: std::collections::BTreeSet<String> = lines(record)
+            .iter()
+            .filter(|v| v["kind"] == "message_delivered")
+            .map(|v| v["key"].as_str().unwrap_or_default().to_owned())
+            .collect();
+        assert_eq!(sent.len(), 1, "{}", record.display());
+        assert_eq!(sent, delivered, "{}", record.display());
+    }
+}
+
+#[test]
+fn two_executives_fly_one_collaboration_over_zenoh() {
+    fly("fleet-plain", None);
+}
+
+// Each crash point of the exchange, on each side: the sender before it sends and after its
+// receiver acknowledged; the receiver after it committed, before it acknowledged.
+#[test]
+fn the_lander_aborted_after_committing_its_request_sends_it_on_resume() {
+    fly("fleet-l-committed", Some(("lander", "message-committed")));
+}
+
+#[test]
+fn the_lander_aborted_after_its_request_was_acknowledged_does_not_apply_it_twice() {
+    fly("fleet-l-acked", Some(("lander", "message-acknowledged")));
+}
+
+#[test]
+fn the_lander_aborted_after_committing_the_report_acknowledges_the_resend() {
+    fly("fleet-l-letter", Some(("lander", "letter-committed")));
+}
+
+#[test]
+fn the_scout_aborted_after_committing_the_request_acknowledges_the_resend() {
+    fly("fleet-s-letter", Some(("scout", "letter-committed")));
+}
+
+#[test]
+fn the_scout_aborted_after_committing_its_report_sends_it_on_resume() {
+    fly("fleet-s-committed", Some(("scout", "message-committed")));
+}
+
+#[test]
+fn the_scout_aborted_after_its_report_was_acknowledged_does_not_apply_it_twice() {
+    fly("fleet-s-acked", Some(("scout", "message-acknowledged")));
+}
+
+// Before anything starts, a pool of the collaboration that no executive runs is named.
+#[test]
+fn a_pool_nothing_runs_is_refused_before_the_mission_starts() {
+    let dir = tempdir("fleet-alone");
+    std::fs::write(dir.join("fleet.bpmn"), SURVEY).expect("mission");
+    let out = Command::new(bin("trace"))
+        .arg("run")
+        .arg(dir.join("fleet.bpmn"))
+        .args(["--participant", "Lander", "--catalogue-wait", "0.5"])
+        .arg("--store")
+        .arg(dir.join("lander"))
+        .args(["-l", &endpoint(port()), "--no-multicast-scouting"])
+        .output()
+        .expect("trace runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    assert!(
+        err.contains("pool `scout` is run by no executive in deployment `default`"),
+        "{err}"
+    );
+    // Nothing was journaled: the lander never started.
+    assert!(!dir.join("lander/record.jsonl").exists());
+    let wrong = Command::new(bin("trace"))
+        .arg("run")
+        .arg(dir.join("fleet.bpmn"))
+        .args(["--participant", "Rover"])
+        .arg("--store")
+        .arg(dir.join("rover"))
+        .output()
+        .expect("trace runs");
+    let err = String::from_utf8_lossy(&wrong.stderr);
+    assert!(
+        err.contains("no pool is named `Rover`") && err.contains("`scout` (Scout)"),
+        "{err}"
+    );
+}
