@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
 use crate::faults::{Profile, Script};
-use crate::world::{HOUR_MS, Material, Product, Sample, Site, World};
+use crate::world::{HOUR_MS, Material, Product, Sample, Site, Vehicle, World};
 
 /// What an activity will do, decided when it starts.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -128,6 +128,19 @@ impl Sim {
 
     /// Decides an activity starting now. Faults are drawn here.
     pub fn plan(&mut self, action: &str, goal: &Fields) -> Result<Plan, Refused> {
+        // Each vehicle does its own activities (the scout's are `hop.*` and `survey.*`, and it
+        // reads its battery).
+        let scouting = action.starts_with("hop.") || action.starts_with("survey.");
+        let own = match self.world.vehicle {
+            Vehicle::Lander => !scouting,
+            Vehicle::Scout => scouting || action == "power.read_battery",
+        };
+        if !own {
+            return Err(Refused(format!(
+                "the {} has no activity `{action}`",
+                self.world.vehicle
+            )));
+        }
         let call = {
             let c = self.calls.entry(action.to_owned()).or_default();
             *c += 1;
@@ -495,7 +508,57 @@ impl Sim {
                         Ok(obj(json!({"product_id": id, "events": 0}))),
                     )
                 }
-                other => return Err(Refused(format!("the lander has no activity `{other}`"))),
+                // The scout (`--vehicle scout`): a hopper that surveys candidate sites.
+                "hop.to_site" => {
+                    let site = i(goal, "site_id").unwrap_or(0);
+                    let r = if fail(self, "HOP_ABORTED", 0.03) {
+                        Err((
+                            "HOP_ABORTED".into(),
+                            format!("landing zone at site {site} unsafe to touch down"),
+                        ))
+                    } else {
+                        Ok(obj(
+                            json!({"arrived": true, "distance_m": 40.0 + 3.0 * site as f64}),
+                        ))
+                    };
+                    (min(10), 300.0, r)
+                }
+                "survey.site" => {
+                    let site = i(goal, "site_id").unwrap_or(0);
+                    let r = if self.world.soc_pct() < crate::world::SCOUT_RESERVE_PCT {
+                        Err((
+                            "LOW_BATTERY".into(),
+                            format!(
+                                "battery at {:.0} %, below the {:.0} % reserve",
+                                self.world.soc_pct(),
+                                crate::world::SCOUT_RESERVE_PCT
+                            ),
+                        ))
+                    } else if fail(self, "SENSOR_FAULT", 0.02) {
+                        Err((
+                            "SENSOR_FAULT".into(),
+                            "ground-penetrating radar fault".into(),
+                        ))
+                    } else {
+                        // What the scout sees of a site: drawn from the seeded generator, so
+                        // a seed gives the same report.
+                        let safe = match forced_code.as_deref() {
+                            Some("UNSAFE") => false,
+                            Some("SAFE") => true,
+                            _ => !self.world.rng.chance(0.3),
+                        };
+                        let ice = 5.0 + 40.0 * self.world.rng.unit();
+                        Ok(obj(json!({"survey": {"site_id": site, "safe": safe,
+                            "ice_depth_cm": ice, "slope_deg": if safe { 4.0 } else { 19.0 }}})))
+                    };
+                    (min(15), 60.0, r)
+                }
+                other => {
+                    return Err(Refused(format!(
+                        "the {} has no activity `{other}`",
+                        self.world.vehicle
+                    )));
+                }
             };
         // A scripted stall: the activity makes no progress and draws nothing extra until it
         // is cancelled (a wedged mechanism the mission deadline must rescue).

@@ -13,6 +13,45 @@ use serde_json::json;
 /// The server id.
 pub const SERVER: &str = "lander_sim";
 
+/// The catalogue `vehicle` serves.
+pub fn of(vehicle: crate::world::Vehicle) -> Catalogue {
+    match vehicle {
+        crate::world::Vehicle::Lander => catalogue(),
+        crate::world::Vehicle::Scout => scout(),
+    }
+}
+
+/// The scout's activities (`elap-sim --vehicle scout`, server `scout_sim`): hop to a site,
+/// survey it, read the battery.
+pub fn scout() -> Catalogue {
+    let actions = json!([
+        {"name": "hop.to_site", "goal": {"site_id": "int"},
+         "result": {"arrived": "bool", "distance_m": "f64"},
+         "errors": {"HOP_ABORTED": "the landing zone is unsafe"},
+         "cost": {"duration_s": 600, "power_w": 300}},
+        {"name": "survey.site", "goal": {"site_id": "int"},
+         "result": {"survey": {"site_id": "int", "safe": "bool", "ice_depth_cm": "f64", "slope_deg": "f64"}},
+         "errors": {"LOW_BATTERY": "battery below the survey reserve", "SENSOR_FAULT": "radar fault"},
+         "cost": {"duration_s": 900, "power_w": 60}},
+        {"name": "power.read_battery",
+         "result": {"battery": {"soc_pct": "f64", "energy_wh": "f64", "temp_k": "f64", "rul_h": "f64"}},
+         "cost": {"duration_s": 0, "reads": {"battery.soc_pct": "soc_pct", "battery.energy_wh": "energy_wh"}}}
+    ]);
+    Catalogue {
+        server: crate::world::Vehicle::Scout.server().into(),
+        actions: serde_json::from_value(actions).unwrap_or_default(),
+        telemetry: serde_json::from_value(json!({
+            "battery_soc_pct": "f64",
+            "battery_energy_wh": "f64",
+        }))
+        .unwrap_or_default(),
+        battery: Some(Battery {
+            capacity_wh: crate::world::SCOUT_CAPACITY_WH,
+            idle_w: crate::world::SCOUT_IDLE_W,
+        }),
+    }
+}
+
 /// Every activity the simulator serves.
 pub fn catalogue() -> Catalogue {
     let actions = json!([

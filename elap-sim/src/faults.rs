@@ -38,7 +38,7 @@ pub struct Scripted {
     pub call: Option<u32>,
     /// The error code; or `HIGH_POWER_DRAW` (adds `draw_w` to the idle draw, no failure);
     /// or `STALL` (the activity never finishes on its own); or `SLUMP` (assess_slump detects
-    /// one).
+    /// one); or, for the scout's `survey.site`, `UNSAFE` or `SAFE` (what it finds).
     pub code: String,
     /// For `HIGH_POWER_DRAW`: extra watts.
     #[serde(default)]

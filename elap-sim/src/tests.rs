@@ -257,3 +257,80 @@ fn every_planned_activity_lies_within_the_catalogue_cost() {
     }
     assert!(checked > 10_000, "{checked} plans checked");
 }
+
+#[test]
+fn the_scout_serves_its_catalogue_within_its_costs_and_keeps_its_reserve() {
+    use crate::world::{SCOUT_RESERVE_PCT, Vehicle};
+    let cat = crate::catalogue::of(Vehicle::Scout);
+    let battery = cat.battery.clone().expect("battery declared");
+    let w = World::scout(0, 1);
+    assert_eq!(
+        (battery.capacity_wh, battery.idle_w),
+        (w.capacity_wh, w.idle_w)
+    );
+    let mut safe = 0;
+    for seed in 0..50u64 {
+        let mut s = Sim::new(World::scout(0, seed), Profile::Demanding, Script::default());
+        for spec in &cat.actions {
+            let goal = fields(json!({"site_id": 4}));
+            let plan = s.plan(&spec.name, &goal).expect("served");
+            let cost = spec.cost.as_ref().expect("cost");
+            let cost = match &plan.outcome {
+                Err((code, _)) => {
+                    assert!(
+                        spec.errors.contains_key(code),
+                        "{}: undeclared {code}",
+                        spec.name
+                    );
+                    cost.errors.get(code).unwrap_or(cost)
+                }
+                Ok(out) => {
+                    assert!(spec.check_result(out).is_ok(), "{}: {out:?}", spec.name);
+                    safe += usize::from(
+                        out.get("survey").and_then(|v| v.get("safe")) == Some(&json!(true)),
+                    );
+                    cost
+                }
+            };
+            let field = |f: &str| Ok(goal.get(f).and_then(serde_json::Value::as_f64));
+            let (lo, hi) = cost.duration_s.range(field).expect("duration");
+            let secs = plan.duration_ms as f64 / 1000.0;
+            assert!(lo <= secs && secs <= hi, "{}: {secs} s", spec.name);
+        }
+    }
+    // Most sites are safe, not all: the lander has something to learn from the scout.
+    assert!((20..50).contains(&safe), "{safe} of 50 surveys safe");
+    // Below its reserve the scout refuses to survey, saying why.
+    let mut s = Sim::new(World::scout(0, 1), Profile::Quiet, Script::default());
+    s.world
+        .draw(s.world.capacity_wh * (1.0 - SCOUT_RESERVE_PCT / 100.0) + 1.0);
+    let plan = s
+        .plan("survey.site", &fields(json!({"site_id": 2})))
+        .expect("served");
+    assert!(
+        matches!(&plan.outcome, Err((code, why)) if code == "LOW_BATTERY" && why.contains("reserve")),
+        "{:?}",
+        plan.outcome
+    );
+    // What it finds can be scripted, as faults are.
+    let script: Script = serde_json::from_value(
+        json!({"faults": [{"action": "survey.site", "call": 1, "code": "UNSAFE"}]}),
+    )
+    .expect("script");
+    let mut s = Sim::new(World::scout(0, 1), Profile::Quiet, script);
+    let plan = s
+        .plan("survey.site", &fields(json!({"site_id": 2})))
+        .expect("served");
+    let out = plan.outcome.expect("surveyed");
+    assert_eq!(
+        out.get("survey").and_then(|v| v.get("safe")),
+        Some(&json!(false))
+    );
+    // The lander has no scout activities.
+    let mut lander = Sim::new(World::new(0, 1), Profile::Quiet, Script::default());
+    let refused = lander.plan("hop.to_site", &fields(json!({"site_id": 2})));
+    assert!(
+        matches!(&refused, Err(e) if e.0.contains("the lander has no activity")),
+        "{refused:?}"
+    );
+}

@@ -15,6 +15,43 @@ pub const CAPACITY_WH: f64 = 45_000.0;
 /// Hotel loads and survival heaters, W, drawn all the time (the catalogue declares it too).
 pub const IDLE_W: f64 = 55.0;
 
+/// The scout's battery, Wh, and its idle draw, W (its catalogue declares them too).
+pub const SCOUT_CAPACITY_WH: f64 = 600.0;
+/// The scout's idle draw, W.
+pub const SCOUT_IDLE_W: f64 = 4.0;
+/// Below this state of charge the scout refuses to survey, %.
+pub const SCOUT_RESERVE_PCT: f64 = 20.0;
+
+/// Which vehicle the simulator is: the lander, or the scout that surveys sites for it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Vehicle {
+    /// The Europa lander (server `lander_sim`).
+    #[default]
+    Lander,
+    /// A small hopper that flies to candidate sites and surveys them (server `scout_sim`).
+    Scout,
+}
+
+impl Vehicle {
+    /// The server id it serves as.
+    pub fn server(self) -> &'static str {
+        match self {
+            Vehicle::Lander => "lander_sim",
+            Vehicle::Scout => "scout_sim",
+        }
+    }
+}
+
+impl std::fmt::Display for Vehicle {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Vehicle::Lander => "lander",
+            Vehicle::Scout => "scout",
+        })
+    }
+}
+
 /// Surface material of a site (drives slump and dig rate).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -121,6 +158,9 @@ pub struct World {
     pub next_id: i64,
     /// The fault generator.
     pub rng: Rng,
+    /// Which vehicle this is.
+    #[serde(default)]
+    pub vehicle: Vehicle,
 }
 
 impl World {
@@ -140,6 +180,26 @@ impl World {
             start_ms,
             next_id: 1,
             rng: Rng::new(seed),
+            vehicle: Vehicle::Lander,
+        }
+    }
+
+    /// The scout, ready at `start_ms` beside the lander, battery full.
+    pub fn scout(start_ms: i64, seed: u64) -> World {
+        World {
+            capacity_wh: SCOUT_CAPACITY_WH,
+            energy_wh: SCOUT_CAPACITY_WH,
+            idle_w: SCOUT_IDLE_W,
+            vehicle: Vehicle::Scout,
+            ..World::new(start_ms, seed)
+        }
+    }
+
+    /// A `vehicle` at `start_ms`.
+    pub fn of(vehicle: Vehicle, start_ms: i64, seed: u64) -> World {
+        match vehicle {
+            Vehicle::Lander => World::new(start_ms, seed),
+            Vehicle::Scout => World::scout(start_ms, seed),
         }
     }
 

@@ -250,3 +250,92 @@ fn a_pool_nothing_runs_is_refused_before_the_mission_starts() {
         "{err}"
     );
 }
+
+/// `trace fly --fleet` in `dir` with `extra` flags; its standard output.
+fn fly_fleet(dir: &Path, extra: &[&str]) -> String {
+    let out = Command::new(bin("trace"))
+        .args(["fly", "--fleet", "--dir"])
+        .arg(dir)
+        .args(extra)
+        .output()
+        .expect("trace fly runs");
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{text}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    text
+}
+
+/// The sites the lander's excavation was commanded at.
+fn dug(record: &Path) -> Vec<i64> {
+    lines(record)
+        .iter()
+        .filter(|v| v["kind"] == "dispatched" && v["resource"] == "excavation.excavate")
+        .filter_map(|v| v["request"]["site_id"].as_i64())
+        .collect()
+}
+
+// The two-vehicle Europa mission flown as a fleet: five processes, each vehicle's part ends,
+// the scout's report reaches the lander, and the summary is per vehicle.
+#[test]
+fn trace_fly_flies_the_fleet_mission_to_its_end() {
+    let dir = tempdir("fleet-fly");
+    let out = fly_fleet(&dir.join("flight"), &[]);
+    assert!(out.contains("as a fleet"), "{out}");
+    let lander = dir.join("flight/store/record.jsonl");
+    let scout = dir.join("flight/scout/record.jsonl");
+    for (name, record) in [("lander", &lander), ("scout", &scout)] {
+        assert!(
+            out.lines().any(|l| l.trim_start().starts_with(name)
+                && l.contains("completed")
+                && l.contains("1 sent (1 delivered, 0 refused), 1 received")),
+            "{out}"
+        );
+        assert_eq!(
+            count(record, |v| v["kind"] == "instance_finished"
+                && v["outcome"]["type"] == "completed"),
+            1,
+            "{name}"
+        );
+    }
+    // The lander decided on the scout's report (read at its gateway), and dug once.
+    let decided: Vec<serde_json::Value> = lines(&lander)
+        .into_iter()
+        .filter(|v| v["kind"] == "decided" && v["element"]["id"] == "SiteUnsafe")
+        .collect();
+    assert_eq!(decided.len(), 1, "{decided:#?}");
+    assert!(decided[0]["read"]["report_status"].is_string());
+    assert_eq!(dug(&lander).len(), 1);
+}
+
+// The scout finds the first site unsafe: the lander excludes it, asks about the next site it
+// selects, and digs there; the scout ran once per request.
+#[test]
+fn a_site_the_scout_reports_unsafe_is_never_dug() {
+    let dir = tempdir("fleet-unsafe");
+    let faults = dir.join("scout-faults.json");
+    std::fs::write(
+        &faults,
+        r#"{"faults": [{"action": "survey.site", "call": 1, "code": "UNSAFE"},
+                       {"action": "survey.site", "call": 2, "code": "SAFE"}]}"#,
+    )
+    .expect("faults");
+    let faults = faults.display().to_string();
+    fly_fleet(
+        &dir.join("flight"),
+        &["--profile", "quiet", "--scout-faults", &faults],
+    );
+    let lander = dir.join("flight/store/record.jsonl");
+    let scout = dir.join("flight/scout/record.jsonl");
+    let surveyed: Vec<i64> = lines(&scout)
+        .iter()
+        .filter(|v| v["kind"] == "dispatched" && v["resource"] == "survey.site")
+        .filter_map(|v| v["request"]["site_id"].as_i64())
+        .collect();
+    assert_eq!(surveyed.len(), 2, "{surveyed:?}");
+    assert_ne!(surveyed[0], surveyed[1]);
+    assert_eq!(dug(&lander), [surveyed[1]]);
+    assert_eq!(count(&scout, |v| v["kind"] == "instance_started"), 2);
+}

@@ -268,7 +268,10 @@ async fn scenario(c: Client, url: String, dir: std::path::PathBuf) {
     let verdict = js(&c, "return document.body.dataset.verdict", vec![]).await;
     assert_eq!(verdict, "valid", "Europa as the studio checks it");
     let systems = js(&c, "return document.body.dataset.systems", vec![]).await;
-    assert_eq!(systems, "lander_sim (file) · ground (file)");
+    assert_eq!(
+        systems,
+        "lander_sim (file) · scout_sim (file) · ground (file)"
+    );
     let shapes = js(
         &c,
         "return studio.modeler.get('elementRegistry').getAll().length",

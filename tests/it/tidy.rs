@@ -1,5 +1,5 @@
 //! Tidy checks on the repository itself: every Rust source file starts with a `//!` line
-//! saying what it holds, and the lander's catalogue file is what the simulator serves.
+//! saying what it holds, and each vehicle's catalogue file is what the simulator serves.
 
 use mission_tests::repo;
 
@@ -44,19 +44,21 @@ fn every_source_file_says_what_it_holds() {
 }
 
 #[test]
-fn the_lander_catalogue_file_is_what_the_simulator_serves() {
-    let out = std::process::Command::new(mission_tests::bin("elap-sim"))
-        .arg("--print-catalogue")
-        .output()
-        .expect("elap-sim runs");
-    assert!(out.status.success());
-    let file = std::fs::read_to_string(repo().join("deploy/catalogues/lander_sim.json"))
-        .expect("deploy/catalogues/lander_sim.json");
-    let served: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
-    let kept: serde_json::Value = serde_json::from_str(&file).expect("JSON");
-    assert!(
-        served == kept,
-        "deploy/catalogues/lander_sim.json is out of date: write it again with \
-         `elap-sim --print-catalogue > deploy/catalogues/lander_sim.json`"
-    );
+fn each_vehicles_catalogue_file_is_what_the_simulator_serves() {
+    for vehicle in ["lander", "scout"] {
+        let out = std::process::Command::new(mission_tests::bin("elap-sim"))
+            .args(["--vehicle", vehicle, "--print-catalogue"])
+            .output()
+            .expect("elap-sim runs");
+        assert!(out.status.success());
+        let path = format!("deploy/catalogues/{vehicle}_sim.json");
+        let file = std::fs::read_to_string(repo().join(&path)).expect("the catalogue file");
+        let served: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+        let kept: serde_json::Value = serde_json::from_str(&file).expect("JSON");
+        assert!(
+            served == kept,
+            "{path} is out of date: write it again with \
+             `elap-sim --vehicle {vehicle} --print-catalogue > {path}`"
+        );
+    }
 }

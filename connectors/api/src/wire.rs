@@ -246,7 +246,7 @@ pub struct Telemetry {
 }
 
 /// `get <root>/fleet/<to>/message/<key>` payload: a message along a message flow, sent by
-/// the executive of pool `from` to the executive of pool `to` (`docs/protocol.md` §11). Sent
+/// the executive of pool `from` to the executive of pool `to` (`docs/protocol.md` §8c). Sent
 /// again until a reply gives its verdict; the key makes a repetition harmless.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -1,4 +1,4 @@
-//! The fleet link (`docs/protocol.md` §11): the executive of one pool of a collaboration, its
+//! The fleet link (`docs/protocol.md` §8c): the executive of one pool of a collaboration, its
 //! presence, and the messages its message flows carry to and from the executives of the other
 //! pools.
 //!
@@ -421,7 +421,7 @@ impl Shared {
         };
         if let Err(e) = query
             .reply(query.key_expr().clone(), json(&reply))
-            .encoding(encoding("letter-reply"))
+            .encoding(encoding("letter_reply"))
             .await
         {
             tracing::debug!(key, error = %e, "letter verdict not sent (the sender will try again)");

@@ -13,8 +13,8 @@ use clap::Parser;
 use connector_api::Status;
 use connector_api::wire::Telemetry;
 use connector_zenoh::{ActionServer, GoalHandle, Request, Role, ServerOptions, ZenohArgs};
-use elap_sim::catalogue::{SERVER, catalogue};
-use elap_sim::{Ended, Profile, Script, Sim, World};
+use elap_sim::catalogue;
+use elap_sim::{Ended, Profile, Script, Sim, Vehicle, World};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 use tokio::sync::watch;
@@ -46,9 +46,13 @@ struct Cli {
     #[arg(long)]
     start_ms: Option<i64>,
     /// Print the catalogue the simulator serves (JSON, `docs/protocol.md` §3) and exit: what
-    /// `deploy/catalogues/lander_sim.json` holds for tools that work without a running system.
+    /// `deploy/catalogues/<server>.json` holds for tools that work without a running system.
     #[arg(long)]
     print_catalogue: bool,
+    /// Which vehicle to simulate: the lander (server `lander_sim`), or the scout that surveys
+    /// sites for it (server `scout_sim`). A restarted simulator keeps the vehicle it was.
+    #[arg(long, value_enum, default_value = "lander")]
+    vehicle: Vehicle,
     #[command(flatten)]
     zenoh: ZenohArgs,
 }
@@ -169,7 +173,10 @@ async fn main() -> anyhow::Result<()> {
     connector_zenoh::log_to_stderr();
     let cli = Cli::parse();
     if cli.print_catalogue {
-        println!("{}", serde_json::to_string_pretty(&catalogue())?);
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&catalogue::of(cli.vehicle))?
+        );
         return Ok(());
     }
     anyhow::ensure!(
@@ -195,11 +202,17 @@ async fn main() -> anyhow::Result<()> {
                     .duration_since(std::time::UNIX_EPOCH)
                     .map_or(0, |d| d.as_millis() as i64)
             });
-            Sim::new(World::new(start, cli.seed), cli.profile, script)
+            Sim::new(World::of(cli.vehicle, start, cli.seed), cli.profile, script)
         }
     };
     // A clock that was running before a restart ran on through the downtime.
     let anchor = saved::<Anchor>(tree.as_ref(), "clock", "clock")?;
+    // A saved world is the vehicle it was.
+    let vehicle = sim.world.vehicle;
+    if vehicle != cli.vehicle {
+        tracing::warn!(saved = %vehicle, given = %cli.vehicle, "the store holds another vehicle; simulating the saved one");
+    }
+    let served = vehicle.server();
     let base_ms = match anchor {
         Some(a) => {
             let downtime = (wall_now_ms() - a.wall_ms).max(0) as f64 * a.speed;
@@ -225,7 +238,7 @@ async fn main() -> anyhow::Result<()> {
     let joined = format!("deployment {} (keys {}/…)", keys.deployment(), keys.root());
     let _alive = session
         .liveliness()
-        .declare_token(keys.alive("lander_sim", &format!("sim-{}", std::process::id())))
+        .declare_token(keys.alive(served, &format!("sim-{}", std::process::id())))
         .await
         .map_err(|e| anyhow::anyhow!("{e}"))?;
     tokio::spawn(telemetry(
@@ -237,7 +250,7 @@ async fn main() -> anyhow::Result<()> {
         &session,
         ServerOptions {
             keys,
-            catalogue: catalogue(),
+            catalogue: catalogue::of(vehicle),
             store: goals,
             accept: None,
             instance: None,
@@ -274,7 +287,7 @@ async fn main() -> anyhow::Result<()> {
     // Watched from before `ready` on, so a Ctrl-C between two requests is never missed.
     let mut interrupt = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::interrupt())?;
     // The startup line (`trace fly` waits for `ready`): what is served and where.
-    println!("ready {SERVER} — {joined}");
+    println!("ready {served} — {joined}");
     loop {
         tokio::select! {
             r = requests.recv() => match r {
@@ -388,7 +401,7 @@ async fn telemetry(session: zenoh::Session, keys: connector_api::Keys, shared: A
             let mut sim = shared.sim();
             sim.world.advance(now);
             let w = &sim.world;
-            [
+            let all = [
                 ("clock", json!({"speed": shared.clock.rate()})),
                 (
                     "power",
@@ -396,8 +409,18 @@ async fn telemetry(session: zenoh::Session, keys: connector_api::Keys, shared: A
                 ),
                 ("thermal", json!({"arm_temp_c": w.arm_temp_k - 273.15})),
                 ("comm", json!({"comm_window_open": w.window_open(now)})),
-            ]
+            ];
+            // The scout has a battery, no arm and no Earth link of its own.
+            let kept = match w.vehicle {
+                Vehicle::Lander => 4,
+                Vehicle::Scout => 2,
+            };
+            (
+                w.vehicle.server(),
+                all.into_iter().take(kept).collect::<Vec<_>>(),
+            )
         };
+        let (server, values) = values;
         for (channel, v) in values {
             let t = Telemetry {
                 mission_ms: now,
@@ -405,7 +428,7 @@ async fn telemetry(session: zenoh::Session, keys: connector_api::Keys, shared: A
             };
             let body = serde_json::to_vec(&t).unwrap_or_default();
             if session
-                .put(keys.telemetry(SERVER, channel), body)
+                .put(keys.telemetry(server, channel), body)
                 .await
                 .is_err()
             {

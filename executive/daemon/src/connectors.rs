@@ -181,8 +181,14 @@ impl Connectors {
         })
     }
 
-    /// Checks the mission against every connector's catalogue; all problems at once.
-    pub async fn check(&mut self, g: &ProcessGraph) -> Result<(), SetupError> {
+    /// Checks the mission against every connector's catalogue; all problems at once. The
+    /// tasks of `remote` processes (other pools of a fleet, run by other executives) are not
+    /// this run's.
+    pub async fn check(
+        &mut self,
+        g: &ProcessGraph,
+        remote: &std::collections::BTreeMap<executive_model::ProcessId, String>,
+    ) -> Result<(), SetupError> {
         let mut catalogues: Vec<Option<Catalogue>> = Vec::new();
         for c in &mut self.list {
             let name = c.name().to_owned();
@@ -191,7 +197,14 @@ impl Connectors {
                 reason: e.to_string(),
             })?);
         }
-        let mismatches = connector_api::check(&task_uses(g), &self.config, &catalogues);
+        let uses: Vec<TaskUse> = task_uses(g)
+            .into_iter()
+            .filter(|u| {
+                g.node_by_id(&u.task)
+                    .is_none_or(|n| !remote.contains_key(&g.process_of(n)))
+            })
+            .collect();
+        let mismatches = connector_api::check(&uses, &self.config, &catalogues);
         if mismatches.is_empty() {
             Ok(())
         } else {

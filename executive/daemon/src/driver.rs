@@ -545,7 +545,7 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
         reports_tx,
     )
     .await?;
-    if let Err(e) = connectors.check(&graph).await {
+    if let Err(e) = connectors.check(&graph, &remote).await {
         connectors.close().await;
         return Err(e.into());
     }

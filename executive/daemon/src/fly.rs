@@ -21,6 +21,9 @@ use std::time::Duration;
 
 use serde_json::Value;
 
+mod fleet;
+pub use fleet::vehicles;
+
 /// The demo mission, built in: its file name (the mission id's stem) and text.
 const MISSION: (&str, &str) = (
     "europa-bsm1.bpmn",
@@ -97,6 +100,16 @@ pub struct FlyOptions {
     /// Scripted faults for the simulator (JSON).
     #[arg(long)]
     pub faults: Option<PathBuf>,
+    /// Fly the two-vehicle mission (default: the built-in deploy/missions/europa-fleet.bpmn)
+    /// as a fleet: the lander's and the scout's simulators and executives, each its own
+    /// process, cooperating through the mission's message flows; `--connectors` is then the
+    /// lander's.
+    #[arg(long)]
+    pub fleet: bool,
+    /// With `--fleet`: scripted faults for the scout's simulator (JSON; `survey.site` also
+    /// takes the codes `UNSAFE` and `SAFE`, what the scout finds).
+    #[arg(long, requires = "fleet")]
+    pub scout_faults: Option<PathBuf>,
     /// A scenario (seed, profile and scripted faults): a built-in name (battery-abort,
     /// deadline, nominal, slump, stuck-tool-abandoned, stuck-tool-recovered) or a JSON file
     /// of the same shape; overrides --seed, --profile and --faults.
@@ -282,10 +295,15 @@ pub fn fly(opts: &FlyOptions) -> Result<(), FlyError> {
     let stamp = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.as_secs());
+    let built = if opts.fleet {
+        fleet::MISSION.0
+    } else {
+        MISSION.0
+    };
     let stem = opts
         .mission
         .as_deref()
-        .unwrap_or(Path::new(MISSION.0))
+        .unwrap_or(Path::new(built))
         .file_stem()
         .map_or_else(|| "mission".into(), |s| s.to_string_lossy().into_owned());
     let flight = chunk(&format!("{stem}-{stamp}-{}", std::process::id()));
@@ -411,6 +429,9 @@ fn fly_in(opts: &FlyOptions, dir: &Path) -> Result<(), FlyError> {
         )));
     }
     std::fs::create_dir_all(dir).map_err(|e| FlyError::Dir(format!("{}: {e}", dir.display())))?;
+    if opts.fleet {
+        return fleet::fly(opts, dir);
+    }
     let (mission, shown) = match &opts.mission {
         Some(m) => (m.clone(), m.display().to_string()),
         None => (
