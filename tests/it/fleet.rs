@@ -339,3 +339,108 @@ fn a_site_the_scout_reports_unsafe_is_never_dug() {
     assert_eq!(dug(&lander), [surveyed[1]]);
     assert_eq!(count(&scout, |v| v["kind"] == "instance_started"), 2);
 }
+
+/// The survey of [`SURVEY`] with a flaw seeded across the two pools: the lander waits for the
+/// report with no timer, and a scout short of charge ends without sending one.
+fn seeded_deadlock() -> String {
+    SURVEY
+        .replace(
+            r#"<sequenceFlow id="l6" sourceRef="Wait" targetRef="Silence"/>"#,
+            "",
+        )
+        .replace(
+            r#"<intermediateCatchEvent id="Silence"><timerEventDefinition><timeDuration>PT1H</timeDuration></timerEventDefinition></intermediateCatchEvent>"#,
+            "",
+        )
+        .replace(r#"<sequenceFlow id="l7" sourceRef="Silence" targetRef="NoReport"/>"#, "")
+        .replace(r#"<endEvent id="NoReport"/>"#, "")
+        .replace(
+            r#"<sequenceFlow id="s1" sourceRef="Asked" targetRef="Survey"/>"#,
+            r#"<sequenceFlow id="s1" sourceRef="Asked" targetRef="Charged"/>
+    <exclusiveGateway id="Charged" default="s0"/>
+    <sequenceFlow id="s4" sourceRef="Charged" targetRef="Survey"><conditionExpression>charge &gt;= 40</conditionExpression></sequenceFlow>
+    <sequenceFlow id="s0" sourceRef="Charged" targetRef="TooLow"/>
+    <endEvent id="TooLow"/>"#,
+        )
+}
+
+// The two-vehicle mission is verified as a whole: every pool together, Spin and the engine's
+// own exploration agreeing on it.
+#[test]
+fn the_fleet_mission_verifies_as_a_whole_and_spin_agrees_with_the_engine() {
+    let path = mission_tests::repo().join("deploy/missions/europa-fleet.bpmn");
+    let out = Command::new(bin("trace"))
+        .arg("verify")
+        .arg(&path)
+        .arg("--native")
+        .output()
+        .expect("trace verify runs");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}");
+    for p in ["no_deadlock", "safe", "no_dead_activities", "completes"] {
+        assert!(
+            text.lines().any(|l| l.contains("holds") && l.contains(p)),
+            "{p}: {text}"
+        );
+    }
+    let graph = executive_model::load(&std::fs::read(&path).expect("mission"))
+        .graph
+        .expect("it loads");
+    let dir = tempdir("fleet-compare");
+    match crate::verify::compare(graph, &dir) {
+        crate::verify::Compared::Done(c) => {
+            assert!(c.how.is_empty(), "{:?}", c.how);
+            assert!(c.ends.contains("SiteExcavated") && c.ends.contains("SurveyDone"));
+        }
+        _ => panic!("the fleet mission is translated and explored without data"),
+    }
+}
+
+// A deadlock between the vehicles — the lander waits for a report the scout never sends — is
+// found by Spin and by the engine's exploration, each with a run through both vehicles' steps.
+#[test]
+fn a_deadlock_between_the_vehicles_is_found_by_spin_and_by_the_engine() {
+    let dir = tempdir("fleet-deadlock");
+    let model = dir.join("seeded.bpmn");
+    std::fs::write(&model, seeded_deadlock()).expect("model");
+    let out = Command::new(bin("trace"))
+        .arg("verify")
+        .arg(&model)
+        .args(["--json", "--dir"])
+        .arg(dir.join("work"))
+        .output()
+        .expect("trace verify runs");
+    assert_eq!(
+        out.status.code(),
+        Some(1),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    let deadlock = report["properties"]
+        .as_array()
+        .expect("properties")
+        .iter()
+        .find(|p| p["name"] == "no_deadlock")
+        .expect("no_deadlock")
+        .clone();
+    assert_eq!(deadlock["verdict"], "violated", "{deadlock:#}");
+    let steps: Vec<String> = deadlock["counterexample"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter_map(|s| s["step"]["element"].as_str().map(str::to_owned))
+        .collect();
+    // The lander asked; the scout, short of charge, ended without a word.
+    assert!(steps.iter().any(|s| s == "Ask"), "{steps:?}");
+    assert!(steps.iter().any(|s| s == "Charged"), "{steps:?}");
+    let graph = executive_model::load(seeded_deadlock().as_bytes())
+        .graph
+        .expect("it loads");
+    let native = executive_verify::explore(std::sync::Arc::new(graph), 100_000);
+    // The mission's start sends the request and starts the scout; its choice strands the
+    // lander.
+    let run = native.deadlock.expect("the engine's exploration finds it");
+    assert_eq!(run, ["Charged.take[s0]"]);
+    assert!(native.ends.contains("TooLow") && native.ends.contains("LE"));
+}

@@ -360,8 +360,12 @@ impl Run<'_> {
 
     /// Whether message subscription `w` takes a message of `name` with `correlation`: without a
     /// correlation key or value, any; with both, when the key evaluates to the value in the
-    /// subscriber's scope.
+    /// subscriber's scope. Explored without data ([`crate::Game::decide`]), any: keys read
+    /// data the exploration does not have, and verification abstracts correlation away.
     fn correlates(&self, w: WaitId, name: &str, correlation: Option<&Value>) -> bool {
+        if self.decides() {
+            return self.s.waits.contains_key(&w);
+        }
         let key = self
             .g
             .messages

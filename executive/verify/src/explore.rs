@@ -3,7 +3,8 @@
 //! catches, each armed timer, message or condition fires, each diverging gateway takes each of
 //! its branches — under the same abstractions as the PROMELA translation (no data; conditions
 //! chosen; timers untimed; the outside starts a process once per run; a non-interrupting event
-//! sub-process runs one instance at a time), with no translation in between. It checks the
+//! sub-process, and a process started by an event, runs one instance at a time), with no
+//! translation in between. It checks the
 //! built-in properties on the engine's real semantics and gives the end events each run can
 //! reach, so the Spin verdicts can be cross-checked against it (the differential test).
 //!
@@ -21,7 +22,7 @@ use executive_model::{
 };
 use serde::Serialize;
 
-use crate::promela::{outside, started_from_outside};
+use crate::promela::{inner_message, outside, started_from_outside};
 
 /// What the exploration found.
 #[derive(Clone, Debug, Default, Serialize)]
@@ -96,11 +97,24 @@ pub(crate) fn shape(g: &ProcessGraph, s: &State) -> String {
         .map(|w| format!("{}|{}", g.node(w.node).id, path(Some(w.scope))))
         .collect();
     waits.sort();
-    let outcomes: Vec<String> = s
-        .instances
-        .values()
-        .map(|i| format!("{:?}", i.outcome.as_ref().map(std::mem::discriminant)))
-        .collect();
+    // How the instances of each process ended. How many ended counts only for a process the
+    // outside starts (once per run): a process the model starts itself (a message flow from
+    // another pool) may be started once per round of a loop, and the loop would never
+    // converge if each ended instance made a new state; what follows does not depend on it.
+    let by_outside: BTreeSet<executive_model::ProcessId> =
+        outside_starts(g).into_iter().map(|(p, _)| p).collect();
+    let mut outcomes: BTreeMap<String, usize> = BTreeMap::new();
+    for i in s.instances.values() {
+        let key = format!(
+            "{}:{:?}",
+            g.process(i.process).id,
+            i.outcome.as_ref().map(std::mem::discriminant)
+        );
+        let n = outcomes.entry(key).or_default();
+        if by_outside.contains(&i.process) || i.outcome.is_none() || *n == 0 {
+            *n += 1;
+        }
+    }
     format!("{tokens:?}{waits:?}{outcomes:?}")
 }
 
@@ -169,7 +183,11 @@ pub(crate) fn outside_starts(g: &ProcessGraph) -> Vec<(executive_model::ProcessI
             g.scope_nodes(executive_model::Scope::Process(p))
                 .iter()
                 .copied()
-                .filter(|n| g.node(*n).incoming.is_empty() && started_from_outside(g, *n))
+                .filter(|n| {
+                    g.node(*n).incoming.is_empty()
+                        && started_from_outside(g, *n)
+                        && !inner_message(g, *n)
+                })
                 .map(move |n| (p, n))
         })
         .collect()
@@ -262,12 +280,13 @@ fn inputs(
             }),
             _ => false,
         };
-        let fires = !later
-            && !running_beside(g, s, w)
-            && matches!(
-                w.on,
-                On::Timer { .. } | On::Message(..) | On::Condition { .. } | On::Manual
-            );
+        // A message the model's own senders send is theirs to give, not the outside's.
+        let from_outside = match w.on {
+            On::Message(..) => !inner_message(g, w.node),
+            On::Timer { .. } | On::Condition { .. } | On::Manual => true,
+            _ => false,
+        };
+        let fires = !later && !running_beside(g, s, w) && from_outside;
         if fires {
             // A timer fires as the engine fires it (a duration once, a cycle as often as it
             // repeats); other events by hand.
@@ -279,6 +298,15 @@ fn inputs(
         }
     }
     out
+}
+
+/// Whether a process started by an event (`evented`) runs two instances at once.
+fn twice(s: &State, evented: &BTreeSet<executive_model::ProcessId>) -> bool {
+    let mut running = BTreeSet::new();
+    s.instances
+        .values()
+        .filter(|i| i.outcome.is_none() && evented.contains(&i.process))
+        .any(|i| !running.insert(i.process))
 }
 
 /// Whether `w` is the start of a non-interrupting event sub-process of which an instance
@@ -356,6 +384,10 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
             }
         }
     }
+    let evented: BTreeSet<executive_model::ProcessId> = (0..g.processes.len() as u32)
+        .map(executive_model::ProcessId)
+        .filter(|p| !e.starts_untriggered(*p))
+        .collect();
     let mut nodes = vec![Node {
         state: e.state().clone(),
         parent: None,
@@ -411,6 +443,12 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
                     .values()
                     .any(|i| matches!(i.outcome, Some(Outcome::Failed { .. })));
             if failed && label.contains(".fail[") {
+                continue;
+            }
+            // A process started by an event (another pool's message, a signal) runs one
+            // instance at a time, as the translation has one marking per process: a run that
+            // would start a second one beside it is not followed (the one before ends first).
+            if twice(after, &evented) {
                 continue;
             }
             note(&actions, &mut entered);

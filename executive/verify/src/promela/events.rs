@@ -221,6 +221,93 @@ impl Tr<'_> {
         alt.effect.extend(self.observed(&id, "fire"));
     }
 
+    /// A message sent by `n`: each receiver its message flows name in the model
+    /// ([`inner_message`]) takes it in the same step if it waits for it now — a catch event
+    /// with a token before it, an event-based gateway's branch, a boundary on a running
+    /// activity, a message start event of an idle process — else it is lost, as the engine
+    /// keeps no message for a receiver that does not wait (correlation is not modelled: any
+    /// waiting receiver of the flow takes it).
+    pub(super) fn send_along(&mut self, n: NodeId, alt: &mut Alt) {
+        let source = self.g.node(n).id.clone();
+        let targets: Vec<NodeId> = self
+            .g
+            .collaborations
+            .iter()
+            .flat_map(|c| &c.message_flows)
+            .filter(|m| m.source == source)
+            .filter_map(|m| self.g.node_by_id(&m.target))
+            .filter(|t| inner_message(self.g, *t))
+            .collect();
+        for t in targets {
+            for c in 0..self.ctxs.len() {
+                if !self.nodes(c).contains(&t) {
+                    continue;
+                }
+                match &self.g.node(t).kind {
+                    NodeKind::Catch(_) => {
+                        let effects = self.hear_catch(c, t, "take");
+                        alt.effect.extend(effects);
+                    }
+                    NodeKind::Boundary(be) => {
+                        let effect = self.hear_boundary(c, t, be.attached_to);
+                        alt.effect.push(effect);
+                    }
+                    NodeKind::Start(_) => {
+                        if let Some(effect) = self.start_on_message(c, t) {
+                            alt.effect.push(effect);
+                        }
+                    }
+                    _ => {}
+                }
+            }
+        }
+    }
+
+    /// The effects by which catch event `n` of context `c` hears what was thrown, if a token
+    /// waits before it (on an incoming flow, or at the event-based gateway before it): one
+    /// guarded effect per incoming flow, each setting `heard`.
+    fn hear_catch(&mut self, c: usize, n: NodeId, phase: &str) -> Vec<String> {
+        let node = self.g.node(n);
+        let after_gateway = node.incoming.iter().any(|f| {
+            matches!(&self.g.node(self.g.flow(*f).source).kind,
+                NodeKind::Gateway(gw) if matches!(gw.kind, GatewayKind::EventBased { .. }))
+        });
+        let m = self.marker(c, n, phase);
+        let outs = node.outgoing.clone();
+        let id = node.id.clone();
+        let mut fire = Alt::default();
+        self.put_all(c, &outs, &mut fire);
+        let mut out = Vec::new();
+        for f in self.g.node(n).incoming.clone() {
+            let (cond, take) = if after_gateway {
+                let gw = self.g.flow(f).source;
+                let a = self.a(c, gw);
+                (format!("act[{a}]"), format!("act[{a}] = 0"))
+            } else {
+                let i = self.f(c, f);
+                (format!("tok[{i}] > 0"), format!("tok[{i}]--"))
+            };
+            fire.effect.extend(self.observed(&id, phase));
+            out.push(format!(
+                "if :: {cond} -> printf(\"@@BPMN {m}\\n\"); {take}; {}; heard = 1 :: else -> skip fi",
+                fire.effect.join("; ")
+            ));
+        }
+        out
+    }
+
+    /// The effect by which boundary event `b` on `holder` (context `c`) fires if its activity
+    /// runs, setting `heard`.
+    fn hear_boundary(&mut self, c: usize, b: NodeId, holder: NodeId) -> String {
+        let mut fire = Alt::default();
+        self.boundary_fires(c, holder, b, &mut fire);
+        format!(
+            "if :: act[{}] -> {}; heard = 1 :: else -> skip fi",
+            self.a(c, holder),
+            fire.effect.join("; ")
+        )
+    }
+
     /// A signal thrown: every listener armed now hears it, in one step; none → lost.
     pub(super) fn broadcast(&mut self, signal: Option<executive_model::SignalId>, alt: &mut Alt) {
         let same = |d: &EventDefinition| matches!(d, EventDefinition::Signal(s) if *s == signal);
@@ -237,44 +324,17 @@ impl Tr<'_> {
                 let node = self.g.node(n);
                 match &node.kind {
                     NodeKind::Catch(ce) if ce.triggers.iter().any(same) => {
-                        let after_gateway = node.incoming.iter().any(|f| {
-                            matches!(&self.g.node(self.g.flow(*f).source).kind,
-                                NodeKind::Gateway(gw) if matches!(gw.kind, GatewayKind::EventBased { .. }))
-                        });
-                        let m = self.marker(c, n, "hear");
-                        let outs = node.outgoing.clone();
-                        let mut fire = Alt::default();
-                        self.put_all(c, &outs, &mut fire);
-                        for f in node.incoming.clone() {
-                            let (cond, take) = if after_gateway {
-                                let gw = self.g.flow(f).source;
-                                let a = self.a(c, gw);
-                                (format!("act[{a}]"), format!("act[{a}] = 0"))
-                            } else {
-                                let i = self.f(c, f);
-                                (format!("tok[{i}] > 0"), format!("tok[{i}]--"))
-                            };
-                            listeners += 1;
-                            fire.effect.extend(self.observed(&node.id, "hear"));
-                            alt.effect.push(format!(
-                                "if :: {cond} -> printf(\"@@BPMN {m}\\n\"); {take}; {}; heard = 1 :: else -> skip fi",
-                                fire.effect.join("; ")
-                            ));
-                        }
+                        let effects = self.hear_catch(c, n, "hear");
+                        listeners += effects.len();
+                        alt.effect.extend(effects);
                     }
                     NodeKind::Start(st) if st.triggers.iter().any(same) => {
                         listeners += usize::from(self.signal_start(c, n, alt));
                     }
                     NodeKind::Boundary(be) if be.triggers.iter().any(same) => {
-                        let holder = be.attached_to;
-                        let mut fire = Alt::default();
-                        self.boundary_fires(c, holder, n, &mut fire);
                         listeners += 1;
-                        alt.effect.push(format!(
-                            "if :: act[{}] -> {}; heard = 1 :: else -> skip fi",
-                            self.a(c, holder),
-                            fire.effect.join("; ")
-                        ));
+                        let effect = self.hear_boundary(c, n, be.attached_to);
+                        alt.effect.push(effect);
                     }
                     _ => {}
                 }
@@ -318,6 +378,7 @@ impl Tr<'_> {
         for d in defs {
             match d {
                 EventDefinition::Signal(s) => self.broadcast(*s, alt),
+                EventDefinition::Message(_) => self.send_along(n, alt),
                 EventDefinition::Error { error, .. } => {
                     let e = *error;
                     let code = e.and_then(|e| self.g.errors[e.index()].code.clone());

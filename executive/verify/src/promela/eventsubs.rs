@@ -202,6 +202,22 @@ impl Tr<'_> {
         true
     }
 
+    /// A message from the model reaches `start`, a message start event: a new instance of its
+    /// process starts if it is idle (the translation has one marking per process), else the
+    /// message is lost. The effect, guarded.
+    pub(super) fn start_on_message(&mut self, c: usize, start: NodeId) -> Option<String> {
+        if self.event_sub_of(start).is_some() || !self.start_ix.contains_key(&(c, start)) {
+            return None;
+        }
+        let mut fire = Alt::default();
+        let guard = self.process_start(c, start, &mut fire);
+        self.fired(c, start, &mut fire);
+        Some(format!(
+            "if :: {guard} -> {} :: else -> skip fi",
+            fire.effect.join("; ")
+        ))
+    }
+
     /// `n` is a start event of a process that starts a new instance on a message, signal or
     /// condition.
     pub(super) fn event_start(&self, n: NodeId) -> bool {
@@ -233,7 +249,10 @@ impl Tr<'_> {
     /// A process started by a message or a condition from outside: whenever it is idle, at
     /// most the loop bound times (a signal start hears the model's signals instead).
     pub(super) fn message_start(&mut self, c: usize, start: NodeId) {
-        if !started_from_outside(self.g, start) || !self.start_ix.contains_key(&(c, start)) {
+        if !started_from_outside(self.g, start)
+            || inner_message(self.g, start)
+            || !self.start_ix.contains_key(&(c, start))
+        {
             return;
         }
         let mut alt = Alt {

@@ -256,6 +256,36 @@ pub(crate) fn outside(g: &ProcessGraph, n: NodeId) -> bool {
     }
 }
 
+/// Whether `n` hears its message only from elements of the model (§9.3: the message flows
+/// drawn to a receiver name who sends to it): it catches messages only, message flows end at
+/// it, and each starts at an element of one of the model's processes, not at a pool. Such a
+/// catch event, boundary event or start event is fired by those senders' throws, never from
+/// outside — so a collaboration is verified as a whole, and a receiver whose senders never
+/// send is stuck (the engine runs every pool's process in one model and delivers the same way).
+pub(crate) fn inner_message(g: &ProcessGraph, n: NodeId) -> bool {
+    let node = g.node(n);
+    let triggers = match &node.kind {
+        NodeKind::Catch(ce) => &ce.triggers,
+        NodeKind::Boundary(be) => &be.triggers,
+        NodeKind::Start(st) => &st.triggers,
+        _ => return false,
+    };
+    if triggers.is_empty()
+        || !triggers
+            .iter()
+            .all(|d| matches!(d, EventDefinition::Message(_)))
+    {
+        return false;
+    }
+    let mut flows = g
+        .collaborations
+        .iter()
+        .flat_map(|c| &c.message_flows)
+        .filter(|m| m.target == node.id)
+        .peekable();
+    flows.peek().is_some() && flows.all(|m| g.node_by_id(&m.source).is_some())
+}
+
 /// The start event is one the outside fires: a message or condition start (a signal start
 /// hears the model's own signals instead).
 pub(crate) fn started_from_outside(g: &ProcessGraph, n: NodeId) -> bool {

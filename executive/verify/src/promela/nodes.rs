@@ -134,10 +134,12 @@ impl Tr<'_> {
                 self.resume(c, n);
             }
             NodeKind::Catch(ce) => {
+                // A signal is heard when thrown, a message from the model when sent.
                 let signal_only = ce
                     .triggers
                     .iter()
-                    .all(|t| matches!(t, EventDefinition::Signal(_)));
+                    .all(|t| matches!(t, EventDefinition::Signal(_)))
+                    || inner_message(self.g, n);
                 for f in ins {
                     let from = self.g.flow(f).source;
                     let gateway = matches!(&self.g.node(from).kind,
@@ -178,6 +180,14 @@ impl Tr<'_> {
                     self.event_sub(c, n);
                 }
             }
+        }
+    }
+
+    /// A send task has sent its message once it completes: its receivers in the model get it
+    /// in that step.
+    fn sent(&mut self, n: NodeId, alt: &mut Alt) {
+        if matches!(&self.g.node(n).kind, NodeKind::Task(t) if t.kind == TaskKind::Send) {
+            self.send_along(n, alt);
         }
     }
 
@@ -441,6 +451,7 @@ impl Tr<'_> {
                 alt.effect.extend(self.data_effects(n));
                 alt.effect.extend(self.completed(c, n));
                 self.put_all(c, outs, &mut alt);
+                self.sent(n, &mut alt);
                 self.push(&m, alt);
             }
             return;
@@ -552,6 +563,7 @@ impl Tr<'_> {
             .iter()
             .copied()
             .filter(|b| match &self.g.node(*b).kind {
+                NodeKind::Boundary(_) if inner_message(self.g, *b) => false,
                 NodeKind::Boundary(be) => be.triggers.iter().any(|t| {
                     matches!(
                         t,
@@ -591,6 +603,7 @@ impl Tr<'_> {
         alt.effect.push(format!("act[{a}] = 0"));
         alt.effect.extend(self.data_effects(n));
         alt.effect.extend(self.completed(c, n));
+        self.sent(n, &mut alt);
         self.put_all(c, outs, &mut alt);
         self.push(&m, alt);
         // A system's failure, caught by a boundary here or around.

@@ -110,6 +110,8 @@ pub(super) fn successors(cx: &Ctx, n: &Node) -> Vec<Next> {
                     });
                 }
             }
+            // A message the model's own senders send comes with their step.
+            On::Message(..) if crate::promela::inner_message(g, w.node) => {}
             On::Message(..) | On::Condition { .. } | On::Manual => out.push(Next {
                 label,
                 event: Some(Event::WaitTriggered { wait: *wid }),
