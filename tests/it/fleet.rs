@@ -1,7 +1,9 @@
 //! A fleet: two `trace run --participant` processes, one per pool of a collaboration, exchange
 //! the messages of its message flows over Zenoh, exactly once, across a SIGKILL-like abort of
-//! either executive at each point of the exchange; and an executive whose peer pool nothing
-//! runs is refused before it starts, naming the pool.
+//! either executive at each point of the exchange; an executive whose peer pool nothing runs is
+//! refused before it starts, naming the pool; the fleet link refuses forged and garbage letters
+//! and carries a message through a router that goes down; `trace fly --fleet` flies the
+//! two-vehicle mission; and `trace verify` checks the collaboration as a whole.
 
 use std::path::Path;
 use std::process::{Child, Command, ExitStatus, Stdio};
@@ -443,4 +445,163 @@ fn a_deadlock_between_the_vehicles_is_found_by_spin_and_by_the_engine() {
     let run = native.deadlock.expect("the engine's exploration finds it");
     assert_eq!(run, ["Charged.take[s0]"]);
     assert!(native.ends.contains("TooLow") && native.ends.contains("LE"));
+}
+
+/// A letter from `from` to `to` keyed `key`.
+fn letter(key: &str, from: &str, to: &str) -> connector_api::wire::Letter {
+    connector_api::wire::Letter {
+        key: key.into(),
+        from: from.into(),
+        to: to.into(),
+        flow: "ask".into(),
+        name: "survey_request".into(),
+        correlation: None,
+        payload: serde_json::Map::new(),
+    }
+}
+
+/// One raw query carrying `body` on `key`: the reply's payload, or the error reply's text.
+async fn ask(
+    session: &zenoh::Session,
+    key: &str,
+    body: Vec<u8>,
+) -> Result<serde_json::Value, String> {
+    let replies = session
+        .get(key)
+        .payload(body)
+        .timeout(Duration::from_secs(5))
+        .await
+        .expect("query sent");
+    let reply = replies.recv_async().await.expect("a reply");
+    match reply.result() {
+        Ok(s) => Ok(serde_json::from_slice(&s.payload().to_bytes()).expect("JSON reply")),
+        Err(e) => Err(String::from_utf8_lossy(&e.payload().to_bytes()).into_owned()),
+    }
+}
+
+// At the door of a fleet executive's inbox: garbage, a letter sent as another pool than it
+// names, and one addressed to another pool are refused with the reason and counted, not
+// handed to the executive; a good one is, and its verdict is the reply.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_fleet_link_refuses_forged_and_garbage_letters_and_replies_the_verdict() {
+    use connector_api::{Keys, Report};
+    let hub = endpoint(port());
+    let scout_side = crate::protocol::open(std::slice::from_ref(&hub), &[]).await;
+    let other = crate::protocol::open(&[], std::slice::from_ref(&hub)).await;
+    let keys = Keys::new("trace").expect("keys");
+    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
+    let fleet = connector_zenoh::Fleet::join(&scout_side, keys.clone(), "scout", tx)
+        .await
+        .expect("joins");
+    let garbage = ask(
+        &other,
+        &keys.fleet_message("scout", "lander", "k.m1"),
+        b"{not json".to_vec(),
+    )
+    .await;
+    assert!(
+        matches!(&garbage, Err(e) if e.contains("malformed letter")),
+        "{garbage:?}"
+    );
+    let forged = serde_json::to_vec(&letter("k.m2", "rover", "scout")).expect("json");
+    let forged = ask(
+        &other,
+        &keys.fleet_message("scout", "lander", "k.m2"),
+        forged,
+    )
+    .await;
+    assert!(
+        matches!(&forged, Err(e) if e.contains("sent as `lander`")),
+        "{forged:?}"
+    );
+    let elsewhere = serde_json::to_vec(&letter("k.m3", "lander", "rover")).expect("json");
+    let elsewhere = ask(
+        &other,
+        &keys.fleet_message("scout", "lander", "k.m3"),
+        elsewhere,
+    )
+    .await;
+    assert!(
+        matches!(&elsewhere, Err(e) if e.contains("for pool `rover`")),
+        "{elsewhere:?}"
+    );
+    assert_eq!(fleet.dropped().total, 3);
+    // A good letter reaches the executive, whose verdict is the reply.
+    let good = serde_json::to_vec(&letter("k.m4", "lander", "scout")).expect("json");
+    let key = keys.fleet_message("scout", "lander", "k.m4");
+    let reply = tokio::spawn({
+        let other = other.clone();
+        async move { ask(&other, &key, good).await }
+    });
+    let verdict = loop {
+        match rx.recv().await.expect("reports") {
+            Report::Letter { letter, verdict } => {
+                assert_eq!(
+                    (letter.key.as_str(), letter.from.as_str()),
+                    ("k.m4", "lander")
+                );
+                break verdict;
+            }
+            _ => continue,
+        }
+    };
+    verdict.give(Err("`Asked` does not wait for it".into()));
+    let reply = reply.await.expect("joined").expect("a verdict");
+    assert_eq!(reply["applied"], false);
+    assert_eq!(reply["reason"], "`Asked` does not wait for it");
+}
+
+// A message sent while nothing serves its pool (a cut link, a router down) is sent again until
+// the receiver is back and gives its verdict: here the router between the two goes down with
+// the letter in flight, and comes back.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_message_crosses_a_router_that_goes_down_and_comes_back() {
+    use connector_api::{Keys, Report};
+    let rp = port();
+    let router = crate::protocol::router(rp).await;
+    let via = [endpoint(rp)];
+    let lander = crate::protocol::open(&[], &via).await;
+    let scout = crate::protocol::open(&[], &via).await;
+    let keys = Keys::new("trace").expect("keys");
+    let (ltx, mut lrx) = tokio::sync::mpsc::unbounded_channel();
+    let (stx, mut srx) = tokio::sync::mpsc::unbounded_channel();
+    let from = connector_zenoh::Fleet::join(&lander, keys.clone(), "lander", ltx)
+        .await
+        .expect("lander joins");
+    let _to = connector_zenoh::Fleet::join(&scout, keys.clone(), "scout", stx)
+        .await
+        .expect("scout joins");
+    assert!(
+        from.wait_for(&["scout".into()], Duration::from_secs(10))
+            .await
+            .is_empty()
+    );
+    router.close().await.expect("router down");
+    from.send(letter("k.m1", "lander", "scout"));
+    assert_eq!(from.unacknowledged(), ["k.m1"]);
+    let router = crate::protocol::router(rp).await;
+    // The scout's executive applies it once the link is back (Zenoh reconnects the peers).
+    let verdict = loop {
+        match tokio::time::timeout(Duration::from_secs(60), srx.recv()).await {
+            Ok(Some(Report::Letter { letter, verdict })) => {
+                assert_eq!(letter.key, "k.m1");
+                break verdict;
+            }
+            Ok(Some(_)) => continue,
+            other => panic!("the letter never came through: {other:?}"),
+        }
+    };
+    verdict.give(Ok(()));
+    loop {
+        match tokio::time::timeout(Duration::from_secs(30), lrx.recv()).await {
+            Ok(Some(Report::Delivered { key, refused })) => {
+                assert_eq!((key.as_str(), refused), ("k.m1", None));
+                break;
+            }
+            Ok(Some(_)) => continue,
+            other => panic!("no verdict reached the sender: {other:?}"),
+        }
+    }
+    assert!(from.unacknowledged().is_empty());
+    drop(router);
 }

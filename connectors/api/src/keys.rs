@@ -196,16 +196,18 @@ impl Keys {
         format!("{}/act/{server}/*/answer/{mission}.$*", self.root)
     }
 
-    /// `<root>/fleet/<pool>/message/<key>`: one message along a message flow into `pool`,
-    /// sent by the executive of another pool as a query; the reply is its receiver's verdict.
-    pub fn fleet_message(&self, pool: &str, key: &str) -> String {
-        format!("{}/fleet/{pool}/message/{key}", self.root)
+    /// `<root>/fleet/<to>/message/<from>/<key>`: one message along a message flow into pool
+    /// `to`, sent by the executive of pool `from` as a query; the reply is its receiver's
+    /// verdict. The sender is a key chunk so that access control can let an executive send
+    /// only as its own pool.
+    pub fn fleet_message(&self, to: &str, from: &str, key: &str) -> String {
+        format!("{}/fleet/{to}/message/{from}/{key}", self.root)
     }
 
-    /// `<root>/fleet/<pool>/message/*`: what the executive running `pool` declares to receive
-    /// its messages.
+    /// `<root>/fleet/<pool>/message/*/*`: what the executive running `pool` declares to
+    /// receive its messages.
     pub fn fleet_inbox(&self, pool: &str) -> String {
-        format!("{}/fleet/{pool}/message/*", self.root)
+        format!("{}/fleet/{pool}/message/*/*", self.root)
     }
 
     /// `<root>/fleet/<pool>/alive/<state>`: the liveliness token of the executive running

@@ -2,7 +2,7 @@
 //! presence, and the messages its message flows carry to and from the executives of the other
 //! pools.
 //!
-//! A message is sent as a query on `<root>/fleet/<to>/message/<key>` and sent again, with
+//! A message is sent as a query on `<root>/fleet/<to>/message/<from>/<key>` and sent again, with
 //! backoff, until a reply gives the receiver's verdict: applied (committed by its step, now or
 //! on an earlier try) or refused with a reason. Both are final. A query that gets no verdict
 //! (the receiver is down, the link is cut, the receiver is stopping) is tried again, however
@@ -274,7 +274,9 @@ impl Shared {
 
     /// One letter, tried until its receiver gives a verdict.
     async fn deliver(self: Arc<Shared>, letter: Letter) {
-        let key = self.keys.fleet_message(&letter.to, &letter.key);
+        let key = self
+            .keys
+            .fleet_message(&letter.to, &letter.from, &letter.key);
         let payload = json(&letter);
         let started = Instant::now();
         let mut said = started;
@@ -301,6 +303,11 @@ impl Shared {
                             "message refused by its receiver"
                         ),
                     }
+                    // No longer in flight once it has its verdict (before it is reported).
+                    self.sending
+                        .lock()
+                        .unwrap_or_else(|p| p.into_inner())
+                        .remove(&letter.key);
                     self.report(Report::Delivered {
                         key: letter.key.clone(),
                         refused: (!reply.applied)
@@ -382,10 +389,16 @@ impl Shared {
             }
         };
         let chunk = Keys::last_chunk(&key);
+        let sender = key.rsplit('/').nth(1).unwrap_or_default();
         let wrong = if letter.key != chunk {
             Some(format!(
                 "the letter is keyed `{}` but was sent on `{chunk}`",
                 letter.key
+            ))
+        } else if letter.from != sender {
+            Some(format!(
+                "the letter is from pool `{}` but was sent as `{sender}`",
+                letter.from
             ))
         } else if letter.to != self.pool {
             Some(format!(
