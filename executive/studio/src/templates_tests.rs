@@ -30,14 +30,19 @@ fn every_template_passes_camundas_validator() {
     let out = std::env::temp_dir().join(format!("trace-templates-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out);
     let files = write(&catalogues, Some(&config), &out).expect("written");
-    // The lander's actions for both Camundas; the ground's forms give none.
+    // Each vehicle's actions for both Camundas; the ground's forms give none.
     let names: Vec<_> = files
         .iter()
         .map(|f| f.file_name().unwrap().to_string_lossy().into_owned())
         .collect();
     assert_eq!(
         names,
-        ["trace-lander_sim.c7.json", "trace-lander_sim.c8.json"]
+        [
+            "trace-lander_sim.c7.json",
+            "trace-lander_sim.c8.json",
+            "trace-scout_sim.c7.json",
+            "trace-scout_sim.c8.json"
+        ]
     );
     let output = Command::new("node")
         .arg(concat!(
@@ -58,13 +63,15 @@ fn every_template_passes_camundas_validator() {
         .lines()
         .map(|l| serde_json::from_str(l).expect("a JSON line"))
         .collect();
-    assert_eq!(lines.len(), 2, "{stdout}");
-    for l in &lines {
-        assert_eq!(l["templates"], 20, "{l}");
+    assert_eq!(lines.len(), 4, "{stdout}");
+    for (l, (actions, platform)) in lines
+        .iter()
+        .zip([(20, "c7"), (20, "c8"), (3, "c7"), (3, "c8")])
+    {
+        assert_eq!(l["templates"], actions, "{l}");
         assert_eq!(l["errors"], serde_json::json!([]), "{l}");
+        assert_eq!(l["platform"], platform, "{l}");
     }
-    assert_eq!(lines[0]["platform"], "c7");
-    assert_eq!(lines[1]["platform"], "c8");
 }
 
 #[test]
