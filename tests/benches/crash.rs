@@ -8,7 +8,9 @@
 //! systems. Run with `cargo bench -p mission-tests --bench crash` (`TRACE_CRASH_FLIGHTS=N`
 //! flights of executive kills on loopback, 4 kills each, default 50;
 //! `TRACE_CRASH_HOSTS_FLIGHTS=N` on two hosts, default a quarter of that; a quarter as many
-//! for each other kind, 2 kills each).
+//! for each other kind, 2 kills each). Then the fleet: the two-vehicle mission with its lander
+//! executive, scout executive or scout simulator killed mid-exchange
+//! (`TRACE_CRASH_FLEET_FLIGHTS=N` flights per kind, default 10, two kills each).
 
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -42,11 +44,52 @@ fn main() {
             );
         }
     }
+    // The fleet: `TRACE_CRASH_FLEET_FLIGHTS=N` flights per kind (default 10), a kill in each of
+    // two of its three exchanges.
+    let fleet_flights: usize = std::env::var("TRACE_CRASH_FLEET_FLIGHTS")
+        .ok()
+        .and_then(|n| n.parse().ok())
+        .unwrap_or(10);
+    if fleet_flights > 0 {
+        println!("== Fleet (two executives, loopback)");
+        fleet(&root.join("fleet"), fleet_flights, bound);
+    }
     println!(
         "total {:.0} s; flights under {}",
         t0.elapsed().as_secs_f64(),
         root.display()
     );
+}
+
+/// The fleet's kinds: `flights` each, two kills mid-exchange per flight; one row per kind.
+fn fleet(root: &Path, flights: usize, bound: Duration) {
+    use mission_tests::fleet_matrix::{self, Victim};
+    for victim in Victim::ALL {
+        let (mut kills, mut exact, mut ended, mut lost, mut twice, mut refused) =
+            (0, 0, 0, 0, 0, 0);
+        for i in 0..flights {
+            let dir = root.join(format!("{victim:?}-{i}"));
+            let f = fleet_matrix::fly(&dir, 1 + i as u64, victim, 2, bound);
+            kills += f.kills;
+            exact += usize::from(f.exact());
+            ended += usize::from(f.ended);
+            // A message applied less often than it was delivered is lost; more, twice.
+            lost +=
+                f.requests.saturating_sub(f.surveys) + f.reports.saturating_sub(f.heard) + f.lost;
+            twice += f.surveys.saturating_sub(f.requests) + f.heard.saturating_sub(f.reports);
+            refused += f.refused;
+            if f.exact() {
+                let _ = std::fs::remove_dir_all(&dir);
+            } else {
+                println!("  kept {} for a look: {f:?}", dir.display());
+            }
+        }
+        println!(
+            "{:<32} flights {flights:>3}  kills {kills:>4}  exactly once {exact:>3}  ended {ended:>3}  \
+             lost {lost}  applied twice {twice}  refused {refused}",
+            victim.name()
+        );
+    }
 }
 
 /// The flights of one layout: `flights` with executive kills, a quarter as many of each other

@@ -605,3 +605,29 @@ async fn a_message_crosses_a_router_that_goes_down_and_comes_back() {
     assert!(from.unacknowledged().is_empty());
     drop(router);
 }
+
+// The fleet's crash matrix, reduced: one flight per kind, each with a kill in each of two
+// exchanges; nothing lost, applied twice or misrouted, and both parts end.
+#[test]
+fn the_fleet_crash_matrix_reduced_loses_nothing_and_repeats_nothing() {
+    use mission_tests::fleet_matrix::{Victim, fly};
+    let dir = tempdir("fleet-matrix");
+    for (i, victim) in Victim::ALL.into_iter().enumerate() {
+        let f = fly(
+            &dir.join(format!("{i}")),
+            i as u64 + 1,
+            victim,
+            2,
+            Duration::from_secs(120),
+        );
+        assert_eq!(f.kills, 2, "{}: {f:?}", victim.name());
+        assert!(f.exact(), "{}: {f:?}", victim.name());
+        assert_eq!(
+            f.outcome.as_deref(),
+            Some("completed"),
+            "{}: {f:?}",
+            victim.name()
+        );
+        assert_eq!((f.requests, f.reports), (3, 3), "{}: {f:?}", victim.name());
+    }
+}

@@ -1,5 +1,6 @@
 //! mission-tests: shared helpers for the integration tiers (paths, the `trace` binary, corpora).
 
+pub mod fleet_matrix;
 pub mod fuzz;
 pub mod hosts;
 pub mod matrix;

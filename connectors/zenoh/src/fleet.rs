@@ -167,12 +167,7 @@ impl Fleet {
     /// Sends `letter` until its receiver gives a verdict, reported as [`Report::Delivered`].
     /// A letter already being sent (the same key) is not sent twice.
     pub fn send(&self, letter: Letter) {
-        let mut sending = self
-            .shared
-            .sending
-            .lock()
-            .unwrap_or_else(|p| p.into_inner());
-        sending.retain(|_, h| !h.is_finished());
+        let mut sending = self.shared.in_flight();
         if sending.contains_key(&letter.key) {
             return;
         }
@@ -186,13 +181,7 @@ impl Fleet {
 
     /// The keys of the messages sent and not yet given a verdict.
     pub fn unacknowledged(&self) -> Vec<String> {
-        let mut sending = self
-            .shared
-            .sending
-            .lock()
-            .unwrap_or_else(|p| p.into_inner());
-        sending.retain(|_, h| !h.is_finished());
-        let mut keys: Vec<String> = sending.keys().cloned().collect();
+        let mut keys: Vec<String> = self.shared.in_flight().keys().cloned().collect();
         keys.sort();
         keys
     }
@@ -205,13 +194,7 @@ impl Fleet {
     /// Stops sending (what is unacknowledged stays in the store and is sent on resume),
     /// withdraws the presence and the inbox.
     pub async fn close(&mut self) {
-        for (_, h) in self
-            .shared
-            .sending
-            .lock()
-            .unwrap_or_else(|p| p.into_inner())
-            .drain()
-        {
+        for (_, h) in self.shared.in_flight().drain() {
             h.abort();
         }
         if let Some((t, _)) = self.alive.take()
@@ -233,6 +216,13 @@ impl Fleet {
 }
 
 impl Shared {
+    /// The letters being sent, by key (those whose task has ended dropped).
+    fn in_flight(&self) -> std::sync::MutexGuard<'_, HashMap<String, tokio::task::JoinHandle<()>>> {
+        let mut sending = self.sending.lock().unwrap_or_else(|p| p.into_inner());
+        sending.retain(|_, h| !h.is_finished());
+        sending
+    }
+
     fn report(&self, r: Report) {
         if self.reports.send(r).is_err() {
             tracing::debug!("the executive no longer listens to the fleet link");
@@ -304,10 +294,7 @@ impl Shared {
                         ),
                     }
                     // No longer in flight once it has its verdict (before it is reported).
-                    self.sending
-                        .lock()
-                        .unwrap_or_else(|p| p.into_inner())
-                        .remove(&letter.key);
+                    self.in_flight().remove(&letter.key);
                     self.report(Report::Delivered {
                         key: letter.key.clone(),
                         refused: (!reply.applied)

@@ -683,6 +683,12 @@ fn drive(mission: Option<PathBuf>, args: RunArgs, start: StartArgs) -> anyhow::R
     for item in &summary.not_started {
         println!("not started: waited for {}", item.describe());
     }
+    if let Some((pool, c)) = &summary.fleet {
+        println!(
+            "pool {pool}: messages sent {} delivered, {} refused; {} received",
+            c.delivered, c.refused, c.received
+        );
+    }
     println!(
         "{} steps, {} reboots, record: {}{}",
         summary.steps,

@@ -1009,7 +1009,8 @@ impl Driver {
         if running.is_empty() {
             return true;
         }
-        if self.told.insert((0, "fleet".to_owned(), running.join(","))) {
+        if post.waited_for != running {
+            post.waited_for.clone_from(&running);
             tracing::info!(pools = ?running, "this part has ended; waiting for the other pools' executives to end theirs");
             eprintln!(
                 "this pool's part has ended; waiting for {} to end theirs",

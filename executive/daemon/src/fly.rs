@@ -413,6 +413,25 @@ impl Net {
     }
 }
 
+/// The policy ground station of a flight (none with `--no-ground`), joined to `net`.
+fn ground(opts: &FlyOptions, dir: &Path, net: &Net) -> Result<Option<Child>, FlyError> {
+    if opts.no_ground {
+        return Ok(None);
+    }
+    let policy = match &opts.ground_policy {
+        Some(p) => p.clone(),
+        None => built_in(dir, "ground-policy.toml", GROUND_POLICY)?,
+    };
+    let mut args = vec![
+        "--policy".to_owned(),
+        policy.display().to_string(),
+        "--station".into(),
+        "fly-policy".into(),
+    ];
+    args.extend(net.systems.iter().cloned());
+    start("ground-station", &args, &dir.join("ground.log")).map(Some)
+}
+
 /// Writes a built-in file into the flight directory (what was flown stays with the flight).
 fn built_in(dir: &Path, name: &str, text: &str) -> Result<PathBuf, FlyError> {
     let path = dir.join(name);
@@ -463,22 +482,7 @@ fn fly_in(opts: &FlyOptions, dir: &Path) -> Result<(), FlyError> {
     children
         .0
         .push(start("elap-sim", &sim_args, &dir.join("elap-sim.log"))?);
-    if !opts.no_ground {
-        let policy = match &opts.ground_policy {
-            Some(p) => p.clone(),
-            None => built_in(dir, "ground-policy.toml", GROUND_POLICY)?,
-        };
-        let mut args = vec![
-            "--policy".to_owned(),
-            policy.display().to_string(),
-            "--station".into(),
-            "fly-policy".into(),
-        ];
-        args.extend(net.systems.iter().cloned());
-        children
-            .0
-            .push(start("ground-station", &args, &dir.join("ground.log"))?);
-    }
+    children.0.extend(ground(opts, dir, &net)?);
     let record = dir.join("store").join("record.jsonl");
     let join = {
         let mut j = format!("-e {} --deployment {deployment}", net.hub);

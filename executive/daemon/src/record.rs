@@ -79,22 +79,16 @@ impl RecordWriter {
         wall_ms: i64,
         body: Value,
     ) -> std::io::Result<()> {
-        let mut line = json!({
-            "v": RECORD_VERSION,
-            "kind": kind,
-            "mission_ms": mission_ms,
-            "wall": wall(wall_ms),
-            "task": task,
-            "goal": goal_id,
-        });
-        if let (Some(o), Value::Object(b)) = (line.as_object_mut(), body) {
+        let mut fields = json!({"task": task, "goal": goal_id});
+        if let (Some(o), Value::Object(b)) = (fields.as_object_mut(), body) {
             o.extend(b);
         }
-        self.line(&line)
+        self.fleet(kind, mission_ms, wall_ms, fields)
     }
 
-    /// Writes a line about the fleet link that is not an engine step (`message_sent`,
-    /// `message_delivered`, `message_refused`, `peer`): times, and `body`'s fields.
+    /// Writes a line the executive produces that is not an engine step — about the fleet link
+    /// (`message_sent`, `message_delivered`, `message_refused`, `peer`), or about a goal
+    /// ([`RecordWriter::activity`]): times, and `body`'s fields.
     pub fn fleet(
         &mut self,
         kind: &str,

@@ -53,6 +53,8 @@ pub(super) struct Post {
     pub(super) letters: Vec<(Event, Verdict)>,
     /// Messages sent and acknowledged, and received and applied, in this run.
     pub(super) counts: Counts,
+    /// The pools this part, ended, last said it waits for.
+    pub(super) waited_for: Vec<String>,
 }
 
 /// What crossed the fleet link in this run.
@@ -103,6 +105,7 @@ impl Post {
             unsent: BTreeMap::new(),
             letters: Vec::new(),
             counts: Counts::default(),
+            waited_for: Vec::new(),
         })
     }
 

@@ -79,22 +79,7 @@ pub(super) fn fly(opts: &FlyOptions, dir: &Path) -> Result<(), FlyError> {
         &simulator("scout", "scout-sim", &opts.scout_faults),
         &dir.join("scout-sim.log"),
     )?);
-    if !opts.no_ground {
-        let policy = match &opts.ground_policy {
-            Some(p) => p.clone(),
-            None => built_in(dir, "ground-policy.toml", super::GROUND_POLICY)?,
-        };
-        let mut args = vec![
-            "--policy".to_owned(),
-            policy.display().to_string(),
-            "--station".into(),
-            "fly-policy".into(),
-        ];
-        args.extend(net.systems.iter().cloned());
-        children
-            .0
-            .push(start("ground-station", &args, &dir.join("ground.log"))?);
-    }
+    children.0.extend(super::ground(opts, dir, &net)?);
     let scout_exec = scout_executive(&mission, &scout, dir, &net)?;
     println!(
         "flying {shown} as a fleet — the lander's and the scout's simulators and executives, \

@@ -38,6 +38,17 @@ fn request_report(extra_l: &str) -> String {
     )
 }
 
+/// The scout's report along flow `toL`, keyed `key`.
+fn report(key: &str) -> Event {
+    Event::MessageReceived {
+        name: "report".into(),
+        correlation: None,
+        payload: Vars::new(),
+        flow: Some("toL".into()),
+        key: Some(key.into()),
+    }
+}
+
 fn pool(body: &str, participant: &str) -> Driver {
     let mut d = Driver::new(body);
     let e = std::mem::replace(&mut d.e, engine(body));
@@ -189,13 +200,7 @@ fn a_message_from_another_engine_is_applied_once_and_only_at_its_target() {
     );
     assert_eq!(s.e.state(), &before);
     // The report's flow ends at the lander's receive task: the scout cannot take it.
-    let wrong = Event::MessageReceived {
-        name: "report".into(),
-        correlation: None,
-        payload: Vars::new(),
-        flow: Some("toL".into()),
-        key: Some("x.m1".into()),
-    };
+    let wrong = report("x.m1");
     let refused = raw(&mut s, wrong);
     assert!(
         matches!(&refused, Err(Rejected::Undeliverable { reason, .. }) if reason.contains("pool `L`")),
@@ -219,23 +224,9 @@ fn a_message_for_an_ended_instance_is_refused_with_the_reason() {
         },
     )
     .expect("starts");
-    let report = Event::MessageReceived {
-        name: "report".into(),
-        correlation: None,
-        payload: Vars::new(),
-        flow: Some("toL".into()),
-        key: Some("scout.m1".into()),
-    };
-    raw(&mut l, report).expect("the lander takes its report");
+    raw(&mut l, report("scout.m1")).expect("the lander takes its report");
     assert!(matches!(outcomes(&l)[0].1, Some(Outcome::Completed)));
-    let again = Event::MessageReceived {
-        name: "report".into(),
-        correlation: None,
-        payload: Vars::new(),
-        flow: Some("toL".into()),
-        key: Some("scout.m2".into()),
-    };
-    let refused = raw(&mut l, again);
+    let refused = raw(&mut l, report("scout.m2"));
     assert!(
         matches!(&refused, Err(Rejected::Undeliverable { reason, .. }) if reason.contains("`rr` does not wait")),
         "{refused:?}"
