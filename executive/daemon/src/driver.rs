@@ -63,7 +63,7 @@ pub struct RunOptions {
     pub snapshot_every: u64,
     /// Run only this pool (its id or name) of the model's collaboration, as one executive of
     /// a fleet: the other pools are run by other executives of the same deployment, and their
-    /// message flows cross over Zenoh (`docs/protocol.md` §11). `None`: every pool here.
+    /// message flows cross over Zenoh (`docs/protocol.md` §8c). `None`: every pool here.
     pub participant: Option<String>,
 }
 
@@ -510,17 +510,14 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
         .as_ref()
         .map(|(_, r)| r.clone())
         .unwrap_or_default();
-    let engine_of = |state: Option<executive_engine::State>| -> Engine {
+    let engine_of = |state: Option<executive_engine::State>| -> Result<Engine, RunError> {
         let e = match state {
             Some(s) => Engine::restore(Arc::clone(&graph), s),
             None => Engine::new(Arc::clone(&graph)),
         };
         match &participant {
-            // Resolved above: the pool exists and has a process.
-            Some((id, _)) => e
-                .participant(id)
-                .unwrap_or_else(|_| Engine::new(Arc::clone(&graph))),
-            None => e,
+            Some((id, _)) => e.participant(id).map_err(RunError::Participant),
+            None => Ok(e),
         }
     };
 
@@ -602,7 +599,13 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
     // Processes that start only on a trigger are not started empty: they wait for it. If
     // nothing would start at all, and nothing outside can give the trigger, refuse now,
     // before anything is journaled.
-    let probe = engine_of(None);
+    let probe = match engine_of(None) {
+        Ok(e) => e,
+        Err(e) => {
+            connectors.close().await;
+            return Err(e);
+        }
+    };
     let (untriggered, triggered): (Vec<_>, Vec<_>) = graph
         .primary_processes()
         .into_iter()
@@ -696,7 +699,7 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
             reason: format!("the state does not fit the mission model: {reason}"),
         })?;
     }
-    let mut engine = engine_of(rec.snapshot.as_ref().map(|(_, state)| state.clone()));
+    let mut engine = engine_of(rec.snapshot.as_ref().map(|(_, state)| state.clone()))?;
     let mut seq = rec.snapshot.as_ref().map_or(0, |(s, _)| *s);
     for step in &rec.steps {
         let again = engine.step(step.input.clone());
@@ -952,8 +955,10 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
     for (_, _, verdict) in d.answers.drain(..) {
         verdict.give(Err("the mission has ended".to_owned()));
     }
-    for (_, verdict) in d.post.iter_mut().flat_map(|p| p.letters.drain(..)) {
-        drop(verdict);
+    // Letters not stepped get no verdict: their senders hear that this executive is stopping
+    // and send them again to its next run.
+    if let Some(p) = d.post.as_mut() {
+        p.letters.clear();
     }
     let fleet = d.post.as_ref().map(|p| (p.pool.clone(), p.counts));
     if let Some(p) = d.post.as_mut() {
