@@ -310,6 +310,20 @@ fn trace_fly_flies_the_fleet_mission_to_its_end() {
     assert_eq!(decided.len(), 1, "{decided:#?}");
     assert!(decided[0]["read"]["report_status"].is_string());
     assert_eq!(dug(&lander).len(), 1);
+    // One timeline for both vehicles, with the messages on it.
+    let page = std::fs::read_to_string(dir.join("flight/timeline.html")).expect("timeline");
+    for lane in [
+        "lander · messages",
+        "scout · messages",
+        "scout · system: survey",
+    ] {
+        assert!(page.contains(lane), "no lane {lane}");
+    }
+    assert_eq!(
+        page.matches(r#""kind":"message""#).count(),
+        4,
+        "two sent, two taken"
+    );
 }
 
 // The scout finds the first site unsafe: the lander excludes it, asks about the next site it
@@ -493,6 +507,17 @@ async fn the_fleet_link_refuses_forged_and_garbage_letters_and_replies_the_verdi
     let fleet = connector_zenoh::Fleet::join(&scout_side, keys.clone(), "scout", tx)
         .await
         .expect("joins");
+    // Its presence, declared after its inbox, tells that the inbox is reachable from here.
+    let presence = other
+        .liveliness()
+        .declare_subscriber(keys.fleet_alive("scout", "running"))
+        .history(true)
+        .await
+        .expect("presence subscriber");
+    tokio::time::timeout(Duration::from_secs(30), presence.recv_async())
+        .await
+        .expect("the scout's presence reaches the other session")
+        .expect("a presence sample");
     let garbage = ask(
         &other,
         &keys.fleet_message("scout", "lander", "k.m1"),

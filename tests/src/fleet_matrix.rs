@@ -139,6 +139,8 @@ impl Fleet {
             args.extend([
                 "--faults".into(),
                 self.dir.join("scout-faults.json").display().to_string(),
+                "--clock-of".into(),
+                "lander_sim".into(),
             ]);
         }
         self.system("elap-sim", &args)

@@ -53,6 +53,12 @@ struct Cli {
     /// sites for it (server `scout_sim`). A restarted simulator keeps the vehicle it was.
     #[arg(long, value_enum, default_value = "lander")]
     vehicle: Vehicle,
+    /// Take the mission clock of another simulator of the same deployment (its server id,
+    /// e.g. `lander_sim`): this one's clock starts when that one's runs, at its mission time,
+    /// so the vehicles of a fleet share one mission time. Without it (or before that clock is
+    /// heard), the first goal starts the clock.
+    #[arg(long, value_name = "SERVER")]
+    clock_of: Option<String>,
     #[command(flatten)]
     zenoh: ZenohArgs,
 }
@@ -60,7 +66,7 @@ struct Cli {
 /// The mission clock: held at the landing time until the first goal arrives (the lander does
 /// not age while the executive starts), then running `speed` times faster than wall time.
 struct Clock {
-    base_ms: i64,
+    base_ms: std::sync::atomic::AtomicI64,
     at: std::sync::OnceLock<Instant>,
     speed: f64,
 }
@@ -86,13 +92,27 @@ fn wall_now_ms() -> i64 {
 impl Clock {
     fn now(&self) -> i64 {
         match self.at.get() {
-            Some(at) => self.base_ms + (at.elapsed().as_secs_f64() * 1000.0 * self.speed) as i64,
-            None => self.base_ms,
+            Some(at) => self.base() + (at.elapsed().as_secs_f64() * 1000.0 * self.speed) as i64,
+            None => self.base(),
         }
+    }
+    fn base(&self) -> i64 {
+        self.base_ms.load(std::sync::atomic::Ordering::SeqCst)
     }
     /// Starts the clock; `true` the first time (later calls do nothing).
     fn run(&self) -> bool {
         self.at.set(Instant::now()).is_ok()
+    }
+    /// Starts the held clock at `mission_ms` (another vehicle's time); `false` if it runs.
+    fn run_at(&self, mission_ms: i64) -> bool {
+        if self.at.get().is_some() {
+            return false;
+        }
+        self.base_ms.store(
+            mission_ms.max(self.base()),
+            std::sync::atomic::Ordering::SeqCst,
+        );
+        self.run()
     }
     /// The anchor of the running clock, now.
     fn anchor(&self) -> Anchor {
@@ -144,6 +164,22 @@ impl Shared {
     /// Starts the mission clock at the first goal, saving where it stands.
     fn run_clock(&self) {
         if self.clock.run() {
+            self.put("clock", &self.clock.anchor());
+        }
+    }
+
+    /// Another vehicle's clock reading: a held clock that follows it starts at its time.
+    fn follow(&self, reading: &Telemetry) {
+        let running = reading
+            .values
+            .get("speed")
+            .and_then(serde_json::Value::as_f64)
+            .is_some_and(|s| s > 0.0);
+        if running && self.clock.run_at(reading.mission_ms) {
+            tracing::info!(
+                mission_ms = reading.mission_ms,
+                "mission clock taken from the fleet"
+            );
             self.put("clock", &self.clock.anchor());
         }
     }
@@ -221,7 +257,7 @@ async fn main() -> anyhow::Result<()> {
         None => sim.world.now_ms,
     };
     let clock = Clock {
-        base_ms,
+        base_ms: std::sync::atomic::AtomicI64::new(base_ms),
         at: std::sync::OnceLock::new(),
         speed: cli.speed,
     };
@@ -246,6 +282,25 @@ async fn main() -> anyhow::Result<()> {
         keys.clone(),
         Arc::clone(&shared),
     ));
+    // A fleet's vehicles share the mission time of the one named.
+    let _follow = match (&cli.clock_of, anchor) {
+        (Some(server), None) => {
+            let me = Arc::clone(&shared);
+            Some(
+                session
+                    .declare_subscriber(keys.telemetry(server, "clock"))
+                    .callback(move |s| {
+                        match serde_json::from_slice::<Telemetry>(&s.payload().to_bytes()) {
+                            Ok(t) => me.follow(&t),
+                            Err(e) => tracing::warn!(error = %e, "unreadable clock reading"),
+                        }
+                    })
+                    .await
+                    .map_err(|e| anyhow::anyhow!("{e}"))?,
+            )
+        }
+        _ => None,
+    };
     let (server, mut requests) = ActionServer::start(
         &session,
         ServerOptions {

@@ -131,8 +131,10 @@ enum Command {
     },
     /// Write the execution record as a self-contained HTML timeline (opens offline).
     Timeline {
-        /// The execution record (JSON Lines).
-        record: PathBuf,
+        /// The execution record (JSON Lines). Several records — the vehicles of a fleet, each
+        /// `NAME=RECORD` (else named by its folder) — are drawn on one time axis.
+        #[arg(required = true, num_args = 1.., value_name = "RECORD")]
+        records: Vec<String>,
         /// The page to write.
         #[arg(short, long, default_value = "timeline.html")]
         output: PathBuf,
@@ -363,9 +365,28 @@ fn main() -> anyhow::Result<ExitCode> {
             }
             Ok(ExitCode::SUCCESS)
         }
-        Command::Timeline { record, output } => {
-            let t = executive::timeline::write(&record, &output)
-                .map_err(|e| anyhow::anyhow!("{}: {e}", record.display()))?;
+        Command::Timeline { records, output } => {
+            let t = match records.as_slice() {
+                [one] => executive::timeline::write(std::path::Path::new(one), &output)
+                    .map_err(|e| anyhow::anyhow!("{one}: {e}"))?,
+                several => {
+                    let named: Vec<(String, PathBuf)> = several
+                        .iter()
+                        .map(|r| match r.split_once('=') {
+                            Some((name, path)) => (name.to_owned(), PathBuf::from(path)),
+                            None => {
+                                let path = PathBuf::from(r);
+                                let name = path.parent().and_then(|d| d.file_name()).map_or_else(
+                                    || r.clone(),
+                                    |d| d.to_string_lossy().into_owned(),
+                                );
+                                (name, path)
+                            }
+                        })
+                        .collect();
+                    executive::timeline::write_fleet(&named, &output)?
+                }
+            };
             println!(
                 "{}: {} lanes, {} bars, {} markers, {} plotted series{}",
                 output.display(),

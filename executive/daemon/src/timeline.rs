@@ -221,6 +221,34 @@ pub fn build(lines: impl Iterator<Item = String>) -> Timeline {
                     });
                 }
             }
+            // Messages between the vehicles of a fleet: when one left, and when one was taken.
+            "caught" if v["what"] == "message" => {
+                lane("messages", &mut lanes);
+                t.markers.push(Marker {
+                    lane: "messages".into(),
+                    at,
+                    kind: "message".into(),
+                    detail: format!(
+                        "message {} taken by {}",
+                        v["name"].as_str().unwrap_or(""),
+                        label(&v)
+                    ),
+                });
+            }
+            "message_sent" => {
+                lane("messages", &mut lanes);
+                t.markers.push(Marker {
+                    lane: "messages".into(),
+                    at,
+                    kind: "message".into(),
+                    detail: format!(
+                        "message {} sent to pool {} ({})",
+                        v["name"].as_str().unwrap_or(""),
+                        v["to"].as_str().unwrap_or("?"),
+                        v["key"].as_str().unwrap_or("")
+                    ),
+                });
+            }
             "caught" if v["what"] != "timer" || v["element"]["type"] == "boundaryEvent" => {
                 lane("contingencies", &mut lanes);
                 t.markers.push(Marker {
@@ -307,6 +335,55 @@ pub fn page(t: &Timeline, title: &str) -> std::io::Result<String> {
     Ok(TEMPLATE
         .replace("{{TITLE}}", &title)
         .replace("/*DATA*/", &data))
+}
+
+/// The timelines of a fleet's vehicles on one time axis: each vehicle's lanes and series,
+/// named by the vehicle, one after the other.
+pub fn fleet(vehicles: Vec<(String, Timeline)>) -> Timeline {
+    let mut all = Timeline {
+        span: (i64::MAX, i64::MIN),
+        ..Timeline::default()
+    };
+    for (name, t) in vehicles {
+        let named = |lane: &str| format!("{name} · {lane}");
+        all.lanes.extend(t.lanes.iter().map(|l| named(l)));
+        all.bars.extend(t.bars.into_iter().map(|b| Bar {
+            lane: named(&b.lane),
+            ..b
+        }));
+        all.markers.extend(t.markers.into_iter().map(|m| Marker {
+            lane: named(&m.lane),
+            ..m
+        }));
+        all.series
+            .extend(t.series.into_iter().map(|(k, v)| (named(&k), v)));
+        all.skipped += t.skipped;
+        all.span = (all.span.0.min(t.span.0), all.span.1.max(t.span.1));
+    }
+    if all.span.0 > all.span.1 {
+        all.span = (0, 0);
+    }
+    all
+}
+
+/// Writes the page of a fleet's records, each named by its vehicle, to `out`.
+pub fn write_fleet(
+    records: &[(String, std::path::PathBuf)],
+    out: &Path,
+) -> std::io::Result<Timeline> {
+    let mut vehicles = Vec::new();
+    for (name, record) in records {
+        let f = std::fs::File::open(record)
+            .map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", record.display())))?;
+        vehicles.push((
+            name.clone(),
+            build(std::io::BufReader::new(f).lines().map_while(Result::ok)),
+        ));
+    }
+    let t = fleet(vehicles);
+    let title: Vec<&str> = records.iter().map(|(n, _)| n.as_str()).collect();
+    std::fs::write(out, page(&t, &format!("fleet: {}", title.join(", ")))?)?;
+    Ok(t)
 }
 
 /// Writes the page for `record` to `out`; returns the timeline drawn.

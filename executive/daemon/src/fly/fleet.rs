@@ -49,9 +49,17 @@ pub(super) fn fly(opts: &FlyOptions, dir: &Path) -> Result<(), FlyError> {
     let scout = built_in(dir, "scout-connectors.toml", SCOUT)?;
     let net = Net::new(&opts.zenoh)?;
     let deployment = net.exec.deployment();
+    // One mission time for the fleet: both vehicles land at the same moment, and the scout's
+    // clock is the lander's.
+    let landed = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_millis())
+        .to_string();
     let simulator = |vehicle: &str, store: &str, faults: &Option<std::path::PathBuf>| {
         let mut args = vec![
-            "--vehicle".to_owned(),
+            "--start-ms".to_owned(),
+            landed.clone(),
+            "--vehicle".into(),
             vehicle.to_owned(),
             "--speed".into(),
             opts.speed.to_string(),
@@ -65,6 +73,9 @@ pub(super) fn fly(opts: &FlyOptions, dir: &Path) -> Result<(), FlyError> {
         args.extend(net.systems.iter().cloned());
         if let Some(f) = faults {
             args.extend(["--faults".to_owned(), f.display().to_string()]);
+        }
+        if vehicle == "scout" {
+            args.extend(["--clock-of".to_owned(), "lander_sim".into()]);
         }
         args
     };
@@ -127,8 +138,12 @@ pub(super) fn fly(opts: &FlyOptions, dir: &Path) -> Result<(), FlyError> {
         );
     }
     let page = dir.join("timeline.html");
-    match crate::timeline::write(&record, &page) {
-        Ok(_) => println!("  timeline (lander):  {}", page.display()),
+    let records = [
+        (POOLS[0].to_owned(), record),
+        (POOLS[1].to_owned(), scout_record),
+    ];
+    match crate::timeline::write_fleet(&records, &page) {
+        Ok(_) => println!("  timeline (both vehicles): {}", page.display()),
         Err(e) => tracing::warn!(error = %e, "timeline not written"),
     }
     Ok(())
