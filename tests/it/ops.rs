@@ -4,8 +4,9 @@
 //! the timeline from the executive's record as it grows (a bar selects its element, an element
 //! outlines its bars), answers the site approval as operator `ana` at station `web` (recorded
 //! as `ana@web`, the terminal station told), says plainly when the executive is gone, follows it
-//! again, its reboot marked, when it is resumed; and the flight's record, replayed through the
-//! engine on the mission in the composer, shows at a chosen step the tokens its lines leave.
+//! again, its reboot marked, when it is resumed; the flight's record, replayed through the
+//! engine on the mission in the composer, shows at a chosen step the tokens its lines leave;
+//! and a fleet's executives (`trace fly --fleet`) are followed at once on one diagram.
 
 use std::io::{BufRead, BufReader};
 use std::os::unix::process::CommandExt;
@@ -451,4 +452,88 @@ async fn ops_scenario(
     );
     let errors = js(&c, "return studio.errors", vec![]).await;
     assert_eq!(errors, json!([]), "errors in the page");
+}
+
+// A fleet followed at once: the lander's and the scout's executives (`trace fly --fleet`),
+// each pool's tokens on the one diagram, and each message flow a message crossed marked.
+#[test]
+fn operations_follow_every_executive_of_a_fleet_on_one_diagram() {
+    let dir = tempdir("studio-ops-fleet");
+    let missions = dir.join("missions");
+    std::fs::create_dir_all(&missions).expect("missions dir");
+    // Nobody answers the site approval: the lander waits there (six mission hours, 21 s at
+    // this speed) after the scout's report came.
+    let mut fly = Command::new(bin("trace"));
+    fly.args(["fly", "--fleet", "--no-ground", "--speed", "1000", "--dir"])
+        .arg(dir.join("flight"))
+        .process_group(0);
+    let (fly, watch) = start(fly, "watch with:");
+    let _fly = Group(fly);
+    let join: Vec<String> = watch
+        .split_once("trace monitor ")
+        .expect("the join flags")
+        .1
+        .split_whitespace()
+        .map(str::to_owned)
+        .collect();
+    // The studio is the ground station the lander's executive needs to start.
+    let mut studio = Command::new(bin("trace"));
+    studio
+        .arg("studio")
+        .arg(&missions)
+        .args(["--port", "0", "--station", "web", "--catalogue"])
+        .arg(repo().join("deploy/ground/forms.json"))
+        .args(&join);
+    let page = Page::start(studio);
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .expect("runtime");
+    rt.block_on(async move {
+        let c = page.browser().await;
+        let checked = async {
+            c.goto(&page.url).await.expect("the studio's page");
+            until(
+                &c,
+                "the page ready",
+                "return document.body.dataset.ready === 'true'",
+            )
+            .await;
+            click(&c, "#ops-toggle").await;
+            until(
+                &c,
+                "both executives followed",
+                "return document.body.dataset.opsFleet === 'lander scout'",
+            )
+            .await;
+            until(
+                &c,
+                "the lander waiting for the ground, the report heard",
+                "return (document.body.dataset.opsTokens || '').includes('ApproveSite')
+                   && (document.body.dataset.opsMessageFlows || '').includes('mf_report')",
+            )
+            .await;
+            let marks = js(
+                &c,
+                "const canvas = studio.ops.viewer.get('canvas');
+                 return ['mf_request', 'mf_report'].map(f => canvas.hasMarker(f, 'ops-message'))
+                   .concat([document.getElementById('ops-status').textContent]);",
+                vec![],
+            )
+            .await;
+            assert_eq!(marks[0], true, "{marks}");
+            assert_eq!(marks[1], true, "{marks}");
+            assert!(
+                marks[2]
+                    .as_str()
+                    .unwrap_or_default()
+                    .starts_with("fleet: lander, scout"),
+                "{marks}"
+            );
+        };
+        let outcome = tokio::time::timeout(std::time::Duration::from_secs(120), checked).await;
+        let _ = c.close().await;
+        outcome.expect("the fleet was followed within two minutes");
+    });
 }

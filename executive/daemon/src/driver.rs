@@ -1044,9 +1044,12 @@ impl Driver {
             None => return Ok(()),
         };
         for (event, verdict) in letters {
-            let key = match &event {
-                Event::MessageReceived { key, .. } => key.clone().unwrap_or_default(),
-                _ => String::new(),
+            let (key, flow) = match &event {
+                Event::MessageReceived { key, flow, .. } => (
+                    key.clone().unwrap_or_default(),
+                    flow.clone().unwrap_or_default(),
+                ),
+                _ => (String::new(), String::new()),
             };
             let refused = self.feed_all(vec![event])?.pop().flatten();
             if refused.is_none() {
@@ -1055,7 +1058,7 @@ impl Driver {
             let Some(post) = self.post.as_mut() else {
                 break;
             };
-            let given = post.verdict(refused);
+            let given = post.verdict(refused, &flow);
             if let Err(why) = &given {
                 tracing::warn!(key, "message refused: {why}");
                 self.fleet_line(
@@ -1600,6 +1603,9 @@ impl Driver {
             .collect();
         state["dropped"] = serde_json::Value::Object(dropped);
         state["reboots"] = serde_json::json!(self.reboots);
+        if let Some(p) = &self.post {
+            state["fleet"] = p.state();
+        }
         state
     }
 

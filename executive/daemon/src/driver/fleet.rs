@@ -55,6 +55,8 @@ pub(super) struct Post {
     pub(super) counts: Counts,
     /// The pools this part, ended, last said it waits for.
     pub(super) waited_for: Vec<String>,
+    /// The message flows a message has crossed, either way, in this run (for monitors).
+    pub(super) crossed: BTreeSet<String>,
 }
 
 /// What crossed the fleet link in this run.
@@ -106,7 +108,14 @@ impl Post {
             letters: Vec::new(),
             counts: Counts::default(),
             waited_for: Vec::new(),
+            crossed: BTreeSet::new(),
         })
+    }
+
+    /// What a monitor's state query shows of the fleet (`docs/protocol.md` §8b).
+    pub(super) fn state(&self) -> serde_json::Value {
+        serde_json::json!({"pool": self.pool, "peers": self.fleet.peers(),
+            "flows": self.crossed, "unacknowledged": self.unsent.keys().collect::<Vec<_>>()})
     }
 
     /// The pools whose executives have not ended their part (running or away).
@@ -149,6 +158,7 @@ impl Post {
 
     /// Sends `letter` until acknowledged; `mark` is its action's place in the store.
     pub(super) fn send(&mut self, letter: Letter, mark: Option<(u64, u32)>) {
+        self.crossed.insert(letter.flow.clone());
         let key = letter.key.clone();
         let entry = self
             .unsent
@@ -256,11 +266,13 @@ impl Post {
         }
     }
 
-    /// The engine's refusal, as the sender's verdict: a key applied before is applied.
-    pub(super) fn verdict(&mut self, refused: Option<Rejected>) -> Result<(), String> {
+    /// The engine's refusal, as the sender's verdict: a key applied before is applied. `flow`
+    /// is the message's.
+    pub(super) fn verdict(&mut self, refused: Option<Rejected>, flow: &str) -> Result<(), String> {
         match refused {
             None => {
                 self.counts.received += 1;
+                self.crossed.insert(flow.to_owned());
                 Ok(())
             }
             Some(Rejected::AlreadyDelivered(_)) => Ok(()),

@@ -102,6 +102,14 @@ pub(super) fn fly(opts: &FlyOptions, dir: &Path) -> Result<(), FlyError> {
         },
         net.hub,
     );
+    let mut join = format!("-e {} --deployment {deployment}", net.hub);
+    if opts.zenoh.root != connector_api::keys::DEFAULT_ROOT {
+        join += &format!(" --key-root {}", opts.zenoh.root);
+    }
+    if opts.no_ground {
+        println!("  answer the user tasks with: ground-station --interactive {join}");
+    }
+    println!("  watch with:                 trace monitor {join}");
     let record = dir.join("store").join("record.jsonl");
     let stop = Arc::new(AtomicBool::new(false));
     let watcher = {

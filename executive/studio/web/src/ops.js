@@ -4,7 +4,10 @@
 // record line; this page draws them: tokens with their counts (the state's, so always the
 // engine's own), activities in flight with their last feedback and how long they have run,
 // elements completed, failed tasks and incidents, timers with their deadlines in mission time,
-// the variables decisions read, and a plain line when the executive goes or comes back.
+// the variables decisions read, and a plain line when the executive goes or comes back. The
+// executives of a fleet (`trace run --participant`: one per pool of a collaboration, each
+// running the same model) are followed together: each pool's tokens on the one diagram, and
+// every message flow a message has crossed marked.
 import NavigatedViewer from 'bpmn-js/lib/NavigatedViewer';
 import { setupGround } from './ground.js';
 import { showTokens } from './tokens.js';
@@ -26,24 +29,50 @@ export function setupOps(ctx) {
   const $ = id => document.getElementById(id);
   const viewer = new NavigatedViewer({ container: '#ops-canvas' });
   const ground = setupGround({ api });
-  let source = null;     // the EventSource of the mission followed
-  let mission = null;
-  let state = null;      // the last state
+  let sources = {};      // mission → the EventSource following it
+  let mission = null;    // the mission chosen
+  let model = null;      // its model's XML: another executive running it is of the same fleet
+  const others = new Set(); // missions seen running another model
+  let states = {};       // mission → its last state
+  let state = null;      // the states merged: the fleet's tokens, flights, timers, flows
+  const crossed = new Set(); // message flows crossed, from the record lines seen
   let lines = [];        // record lines since the page joined
   const dispatched = {}; // task key → {element, name, resource, at}
   const feedback = {};   // task key → last feedback line
   const done = new Set();
   const failed = new Set();
 
+  /** The fleet's state: every executive's tokens, flights and timers, the chosen one's rest. */
+  function merged() {
+    const all = Object.values(states);
+    if (!all.length) return null;
+    const tokens = {};
+    for (const s of all) for (const [k, n] of Object.entries(s.tokens || {})) tokens[k] = (tokens[k] || 0) + n;
+    const base = states[mission] || all[0];
+    for (const s of all) for (const f of (s.fleet && s.fleet.flows) || []) crossed.add(f);
+    return {
+      ...base,
+      tokens,
+      in_flight: all.flatMap(s => s.in_flight || []),
+      timers: all.flatMap(s => s.timers || []),
+      decision_vars: Object.assign({}, ...all.map(s => s.decision_vars || {})),
+      instances: all.flatMap(s => s.instances || []),
+      mission_ms: Math.max(...all.map(s => s.mission_ms || 0)),
+      pools: all.filter(s => s.fleet).map(s => s.fleet.pool).sort(),
+    };
+  }
+
   function mark() {
+    state = merged();
     if (!state) return;
     const canvas = viewer.get('canvas');
     const overlays = viewer.get('overlays');
     const registry = viewer.get('elementRegistry');
     overlays.remove({ type: 'ops' });
     for (const el of registry.getAll()) {
-      for (const m of ['trace-live', 'ops-done', 'ops-flight', 'ops-failed']) canvas.removeMarker(el, m);
+      for (const m of ['trace-live', 'ops-done', 'ops-flight', 'ops-failed', 'ops-message']) canvas.removeMarker(el, m);
     }
+    for (const f of crossed) if (registry.get(f)) canvas.addMarker(f, 'ops-message');
     for (const id of done) if (registry.get(id)) canvas.addMarker(id, 'ops-done');
     for (const id of failed) if (registry.get(id)) canvas.addMarker(id, 'ops-failed');
     const flights = state.in_flight || [];
@@ -73,13 +102,16 @@ export function setupOps(ctx) {
     }));
     const ended = (state.instances || []).filter(i => i.outcome);
     $('ops-status').className = '';
-    $('ops-status').textContent = `${mission} · step ${state.seq} · mission time ${fmt(now)}`
+    const fleet = state.pools.length > 1 ? `fleet: ${state.pools.join(', ')} · ` : '';
+    $('ops-status').textContent = `${fleet}${mission} · step ${state.seq} · mission time ${fmt(now)}`
       + (ended.length ? ` · ended: ${ended.map(i => JSON.stringify(i.outcome)).join(', ')}` : '');
     if (state.reboots) {
       $('ops-status').textContent += ` · resumed ${state.reboots} time${state.reboots === 1 ? '' : 's'}`;
       document.body.dataset.opsReboots = String(state.reboots);
     }
     document.body.dataset.opsSeq = String(state.seq);
+    document.body.dataset.opsFleet = state.pools.join(' ');
+    document.body.dataset.opsMessageFlows = [...crossed].sort().join(' ');
     document.body.dataset.opsTokens = JSON.stringify(state.tokens || {});
   }
 
@@ -127,9 +159,12 @@ export function setupOps(ctx) {
     $('ops-timeline').contentWindow.postMessage({ trace: 'highlight', element: id }, '*');
   });
 
-  function line(v) {
-    lines.push(v);
-    if (v.seq !== undefined || v.kind === 'reboot') timeline(false);
+  /** A record line of the chosen executive (`own`), or of another of its fleet. */
+  function line(v, own) {
+    if (own) {
+      lines.push(v);
+      if (v.seq !== undefined || v.kind === 'reboot') timeline(false);
+    }
     const id = v.element && v.element.id;
     switch (v.kind) {
       case 'dispatched':
@@ -149,7 +184,10 @@ export function setupOps(ctx) {
         if (id) failed.add(id);
         break;
       case 'reboot':
-        document.body.dataset.opsReboots = String(v.reboots);
+        if (own) document.body.dataset.opsReboots = String(v.reboots);
+        break;
+      case 'message_sent':
+        if (v.flow) crossed.add(v.flow);
         break;
       default:
     }
@@ -161,34 +199,70 @@ export function setupOps(ctx) {
     document.body.dataset.opsLines = String(lines.length);
   }
 
+  /** Follows executive `m`'s state and record (`own`: the one chosen). */
+  function listen(m, own) {
+    const source = new EventSource(`/api/ops/${encodeURIComponent(m)}/events`);
+    sources[m] = source;
+    source.addEventListener('state', e => {
+      states[m] = JSON.parse(e.data);
+      if (own) document.body.dataset.opsGone = '';
+      mark();
+    });
+    source.addEventListener('record', e => { line(JSON.parse(e.data), own); mark(); });
+    if (!own) {
+      source.addEventListener('gone', () => say(`${m}: an executive of the fleet is gone`, 'warn'));
+      return;
+    }
+    source.addEventListener('gone', () => {
+      document.body.dataset.opsGone = 'true';
+      $('ops-status').className = 'gone';
+      $('ops-status').textContent = `${m}: the executive is gone (stopped or crashed); waiting for it to come back`;
+    });
+    source.addEventListener('back', () => {
+      document.body.dataset.opsBack = String(Number(document.body.dataset.opsBack || 0) + 1);
+      say(`${m}: the executive is back`, 'ok');
+    });
+  }
+
+  /** The other executives running the chosen one's model: the rest of its fleet, followed too. */
+  async function fleet(list) {
+    if (!model) return;
+    for (const p of list) {
+      if (!p.alive || p.mission === mission || sources[p.mission] || others.has(p.mission)) continue;
+      let xml;
+      try {
+        xml = await api(`/api/ops/${encodeURIComponent(p.mission)}/model`);
+      } catch (e) {
+        continue;
+      }
+      if (xml === model) listen(p.mission, false);
+      else others.add(p.mission);
+    }
+  }
+
   async function follow(id) {
-    if (source) source.close();
+    for (const s of Object.values(sources)) s.close();
+    sources = {};
+    states = {};
+    others.clear();
+    crossed.clear();
     mission = id;
+    model = null;
     state = null;
     lines = [];
     done.clear();
     failed.clear();
     $('ops-log').replaceChildren();
     try {
-      await viewer.importXML(await api(`/api/ops/${encodeURIComponent(id)}/model`));
+      model = await api(`/api/ops/${encodeURIComponent(id)}/model`);
+      await viewer.importXML(model);
       viewer.get('canvas').zoom('fit-viewport');
     } catch (e) {
       $('ops-status').textContent = `${id}: cannot draw its model — ${e.message}`;
       return;
     }
-    source = new EventSource(`/api/ops/${encodeURIComponent(id)}/events`);
+    listen(id, true);
     timeline(true);
-    source.addEventListener('state', e => { state = JSON.parse(e.data); document.body.dataset.opsGone = ''; mark(); });
-    source.addEventListener('record', e => { line(JSON.parse(e.data)); mark(); });
-    source.addEventListener('gone', () => {
-      document.body.dataset.opsGone = 'true';
-      $('ops-status').className = 'gone';
-      $('ops-status').textContent = `${id}: the executive is gone (stopped or crashed); waiting for it to come back`;
-    });
-    source.addEventListener('back', () => {
-      document.body.dataset.opsBack = String(Number(document.body.dataset.opsBack || 0) + 1);
-      say(`${id}: the executive is back`, 'ok');
-    });
   }
 
   async function executives() {
@@ -198,7 +272,8 @@ export function setupOps(ctx) {
     box.replaceChildren(...list.map(p => new Option(`${p.mission}${p.alive ? '' : ' (gone)'}`, p.mission)));
     if (chosen) box.value = chosen;
     document.body.dataset.executives = list.map(p => p.mission).join(' ');
-    if (!mission && list.some(p => p.alive)) follow(list.find(p => p.alive).mission);
+    if (!mission && list.some(p => p.alive)) await follow(list.find(p => p.alive).mission);
+    await fleet(list);
   }
 
   let polling = null;
