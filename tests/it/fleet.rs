@@ -393,7 +393,16 @@ fn the_fleet_mission_verifies_as_a_whole_and_spin_agrees_with_the_engine() {
         .expect("trace verify runs");
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{text}");
-    for p in ["no_deadlock", "safe", "no_dead_activities", "completes"] {
+    // Its requirements (`europa-fleet.req.toml`) name both vehicles' elements.
+    for p in [
+        "no_deadlock",
+        "safe",
+        "no_dead_activities",
+        "completes",
+        "digging_waits_for_the_scout",
+        "reports_answer_requests",
+        "every_request_is_answered_or_outwaited",
+    ] {
         assert!(
             text.lines().any(|l| l.contains("holds") && l.contains(p)),
             "{p}: {text}"
