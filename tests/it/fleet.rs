@@ -1,6 +1,6 @@
 //! A fleet: two `trace run --participant` processes, one per pool of a collaboration, exchange
-//! the messages of its message flows over Zenoh, exactly once, across a SIGKILL-like abort of
-//! either executive at each point of the exchange; an executive whose peer pool nothing runs is
+//! the messages of its message flows over Zenoh, exactly once, across a SIGKILL of either
+//! executive at each point of the exchange; an executive whose peer pool nothing runs is
 //! refused before it starts, naming the pool; the fleet link refuses forged and garbage letters
 //! and carries a message through a router that goes down; `trace fly --fleet` flies the
 //! two-vehicle mission; and `trace verify` checks the collaboration as a whole.

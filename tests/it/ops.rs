@@ -33,6 +33,18 @@ impl Drop for Group {
     }
 }
 
+/// `trace studio` on `missions`, joined to a flight by `join`, as the ground station `web`.
+fn station_studio(missions: &std::path::Path, join: &[String]) -> Page {
+    let mut studio = Command::new(bin("trace"));
+    studio
+        .arg("studio")
+        .arg(missions)
+        .args(["--port", "0", "--station", "web", "--catalogue"])
+        .arg(repo().join("deploy/ground/forms.json"))
+        .args(join);
+    Page::start(studio)
+}
+
 #[test]
 fn operations_follow_a_flying_mission_on_its_diagram() {
     let dir = tempdir("studio-ops");
@@ -86,15 +98,8 @@ fn operations_follow_a_flying_mission_on_its_diagram() {
         }
     });
     let _station = Group(Kill(station));
-    let mut studio = Command::new(bin("trace"));
     // The studio is a ground station too: the page answers through it.
-    studio
-        .arg("studio")
-        .arg(&missions)
-        .args(["--port", "0", "--station", "web", "--catalogue"])
-        .arg(repo().join("deploy/ground/forms.json"))
-        .args(&join);
-    let page = Page::start(studio);
+    let page = station_studio(&missions, &join);
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
@@ -477,14 +482,7 @@ fn operations_follow_every_executive_of_a_fleet_on_one_diagram() {
         .map(str::to_owned)
         .collect();
     // The studio is the ground station the lander's executive needs to start.
-    let mut studio = Command::new(bin("trace"));
-    studio
-        .arg("studio")
-        .arg(&missions)
-        .args(["--port", "0", "--station", "web", "--catalogue"])
-        .arg(repo().join("deploy/ground/forms.json"))
-        .args(&join);
-    let page = Page::start(studio);
+    let page = station_studio(&missions, &join);
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()

@@ -434,8 +434,8 @@ struct Driver {
 }
 
 /// Fault injection for the crash tests: with `TRACE_CRASH_AT=<point>` in its environment, the
-/// executive aborts at that point (no destructor runs, nothing more is written), as a SIGKILL
-/// there would. The points are the fleet link's: `message-committed` (a step that sends a
+/// executive sends itself SIGKILL at that point (nothing more runs or is written; it aborts if
+/// `kill` cannot be run). The points are the fleet link's: `message-committed` (a step that sends a
 /// message is committed, nothing sent yet), `message-acknowledged` (its receiver's verdict
 /// arrived, not yet marked done) and `letter-committed` (a received message's step is
 /// committed, not yet acknowledged).
@@ -446,7 +446,10 @@ fn crash_point(point: &str) {
         .as_deref()
         == Some(point)
     {
-        eprintln!("TRACE_CRASH_AT={point}: aborting here");
+        eprintln!("TRACE_CRASH_AT={point}: killed here");
+        let _ = std::process::Command::new("kill")
+            .args(["-s", "KILL", &std::process::id().to_string()])
+            .status();
         std::process::abort();
     }
 }

@@ -372,6 +372,15 @@ fn first_listen(config: &zenoh::Config) -> Option<String> {
 }
 
 impl Net {
+    /// The flags that join the flight, for the commands it prints (`trace monitor …`).
+    fn join(&self, opts: &FlyOptions) -> String {
+        let mut j = format!("-e {} --deployment {}", self.hub, self.exec.deployment());
+        if opts.zenoh.root != connector_api::keys::DEFAULT_ROOT {
+            j += &format!(" --key-root {}", opts.zenoh.root);
+        }
+        j
+    }
+
     fn new(z: &connector_zenoh::ZenohArgs) -> Result<Net, FlyError> {
         let mut exec = z.clone();
         let mut systems = vec![
@@ -413,6 +422,19 @@ impl Net {
     }
 }
 
+/// The mission flown: the file given, else the built-in `(name, text)` written into `dir`; and
+/// how to name it to people.
+fn mission_file(
+    opts: &FlyOptions,
+    dir: &Path,
+    (name, text): (&str, &str),
+) -> Result<(PathBuf, String), FlyError> {
+    Ok(match &opts.mission {
+        Some(m) => (m.clone(), m.display().to_string()),
+        None => (built_in(dir, name, text)?, format!("{name} (built in)")),
+    })
+}
+
 /// The policy ground station of a flight (none with `--no-ground`), joined to `net`.
 fn ground(opts: &FlyOptions, dir: &Path, net: &Net) -> Result<Option<Child>, FlyError> {
     if opts.no_ground {
@@ -451,13 +473,7 @@ fn fly_in(opts: &FlyOptions, dir: &Path) -> Result<(), FlyError> {
     if opts.fleet {
         return fleet::fly(opts, dir);
     }
-    let (mission, shown) = match &opts.mission {
-        Some(m) => (m.clone(), m.display().to_string()),
-        None => (
-            built_in(dir, MISSION.0, MISSION.1)?,
-            format!("{} (built in)", MISSION.0),
-        ),
-    };
+    let (mission, shown) = mission_file(opts, dir, MISSION)?;
     let connectors = match &opts.connectors {
         Some(c) => c.clone(),
         None => built_in(dir, "connectors.toml", CONNECTORS)?,
@@ -484,13 +500,7 @@ fn fly_in(opts: &FlyOptions, dir: &Path) -> Result<(), FlyError> {
         .push(start("elap-sim", &sim_args, &dir.join("elap-sim.log"))?);
     children.0.extend(ground(opts, dir, &net)?);
     let record = dir.join("store").join("record.jsonl");
-    let join = {
-        let mut j = format!("-e {} --deployment {deployment}", net.hub);
-        if opts.zenoh.root != connector_api::keys::DEFAULT_ROOT {
-            j += &format!(" --key-root {}", opts.zenoh.root);
-        }
-        j
-    };
+    let join = net.join(opts);
     println!(
         "flying {shown} — simulator, {} and executive as separate processes on {}, \
          deployment {deployment}",

@@ -35,13 +35,7 @@ const SCOUT_ENDS_WITHIN: Duration = Duration::from_secs(60);
 
 /// Flies the two-vehicle mission in `dir`.
 pub(super) fn fly(opts: &FlyOptions, dir: &Path) -> Result<(), FlyError> {
-    let (mission, shown) = match &opts.mission {
-        Some(m) => (m.clone(), m.display().to_string()),
-        None => (
-            built_in(dir, MISSION.0, MISSION.1)?,
-            format!("{} (built in)", MISSION.0),
-        ),
-    };
+    let (mission, shown) = super::mission_file(opts, dir, MISSION)?;
     let lander = match &opts.connectors {
         Some(c) => c.clone(),
         None => built_in(dir, "lander-connectors.toml", LANDER)?,
@@ -102,10 +96,7 @@ pub(super) fn fly(opts: &FlyOptions, dir: &Path) -> Result<(), FlyError> {
         },
         net.hub,
     );
-    let mut join = format!("-e {} --deployment {deployment}", net.hub);
-    if opts.zenoh.root != connector_api::keys::DEFAULT_ROOT {
-        join += &format!(" --key-root {}", opts.zenoh.root);
-    }
+    let join = net.join(opts);
     if opts.no_ground {
         println!("  answer the user tasks with: ground-station --interactive {join}");
     }
