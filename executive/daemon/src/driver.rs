@@ -1000,87 +1000,6 @@ impl Driver {
         !i.is_empty() && i.values().all(|i| i.outcome.is_some()) && self.quiet_link()
     }
 
-    /// Whether the run ends: every instance has ended and, in a fleet, every message was
-    /// acknowledged and every other pool's executive has ended its part too (until then this
-    /// one stays, done, and takes their messages: a peer that resumes may send again what this
-    /// one already applied, and it needs the acknowledgement).
-    async fn part_done(&mut self) -> bool {
-        let own = self.finished();
-        let Some(post) = self.post.as_mut() else {
-            return own;
-        };
-        post.fleet.set_done(own).await;
-        if !own {
-            return false;
-        }
-        let running = post.peers_running();
-        if running.is_empty() {
-            return true;
-        }
-        if post.waited_for != running {
-            post.waited_for.clone_from(&running);
-            tracing::info!(pools = ?running, "this part has ended; waiting for the other pools' executives to end theirs");
-            eprintln!(
-                "this pool's part has ended; waiting for {} to end theirs",
-                running
-                    .iter()
-                    .map(|p| format!("pool `{p}`"))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            );
-        }
-        false
-    }
-
-    /// No message of the fleet link waits to be stepped or acknowledged.
-    fn quiet_link(&self) -> bool {
-        self.post
-            .as_ref()
-            .is_none_or(|p| p.unsent.is_empty() && p.letters.is_empty())
-    }
-
-    /// Messages from other executives, one step each: the verdict goes back once the step is
-    /// committed, or with the engine's refusal (nothing changed).
-    fn apply_letters(&mut self) -> Result<(), RunError> {
-        let letters = match self.post.as_mut() {
-            Some(p) => std::mem::take(&mut p.letters),
-            None => return Ok(()),
-        };
-        for (event, verdict) in letters {
-            let (key, flow) = match &event {
-                Event::MessageReceived { key, flow, .. } => (
-                    key.clone().unwrap_or_default(),
-                    flow.clone().unwrap_or_default(),
-                ),
-                _ => (String::new(), String::new()),
-            };
-            let refused = self.feed_all(vec![event])?.pop().flatten();
-            if refused.is_none() {
-                crash_point("letter-committed");
-            }
-            let Some(post) = self.post.as_mut() else {
-                break;
-            };
-            let given = post.verdict(refused, &flow);
-            if let Err(why) = &given {
-                tracing::warn!(key, "message refused: {why}");
-                self.fleet_line(
-                    "message_refused",
-                    serde_json::json!({"key": key, "reason": why, "by": "receiver"}),
-                );
-            }
-            verdict.give(given);
-        }
-        Ok(())
-    }
-
-    /// A line of the execution record about the fleet link (not a step).
-    fn fleet_line(&mut self, kind: &str, body: serde_json::Value) {
-        if let Err(e) = self.record.fleet(kind, self.clock.now(), wall_ms(), body) {
-            tracing::warn!(error = %e, "record line not written");
-        }
-    }
-
     /// What the run waits for now.
     fn assess(&self) -> Assessment {
         let s = self.engine.state();
@@ -1256,32 +1175,8 @@ impl Driver {
                 self.note("feedback", task, &goal_id, body);
                 None
             }
-            Report::Letter { letter, verdict } => {
-                if let Some(p) = self.post.as_mut() {
-                    p.received(&self.g, letter, verdict);
-                } else {
-                    verdict.give(Err("this executive runs no pool of a fleet".to_owned()));
-                }
-                None
-            }
-            Report::Delivered { key, refused } => {
-                crash_point("message-acknowledged");
-                let mark = self.post.as_mut().and_then(|p| p.delivered(&key, &refused));
-                self.acked.extend(mark);
-                match &refused {
-                    None => self.fleet_line("message_delivered", serde_json::json!({"key": key})),
-                    Some(why) => {
-                        tracing::warn!(key, "message refused by its receiver: {why}");
-                        self.fleet_line(
-                            "message_refused",
-                            serde_json::json!({"key": key, "reason": why, "by": "sender"}),
-                        );
-                    }
-                }
-                None
-            }
-            Report::Peer { pool, state } => {
-                self.fleet_line("peer", serde_json::json!({"pool": pool, "state": state}));
+            r @ (Report::Letter { .. } | Report::Delivered { .. } | Report::Peer { .. }) => {
+                self.fleet_report(r);
                 None
             }
             Report::Canceled { goal_id } => {

@@ -16,7 +16,7 @@ use connector_zenoh::Fleet;
 use executive_engine::{Event, Rejected, Value, Vars};
 use executive_model::{ProcessGraph, ProcessId};
 
-use super::RunError;
+use super::{Driver, Report, RunError, crash_point, wall_ms};
 
 /// The store's meta key listing, as of the newest snapshot, the messages no receiver had
 /// acknowledged: their steps may be pruned after that snapshot, so a restart learns from here
@@ -277,6 +277,121 @@ impl Post {
             }
             Some(Rejected::AlreadyDelivered(_)) => Ok(()),
             Some(r) => Err(r.to_string()),
+        }
+    }
+}
+
+impl Driver {
+    /// Whether the run ends: every instance has ended and, in a fleet, every message was
+    /// acknowledged and every other pool's executive has ended its part too (until then this
+    /// one stays, done, and takes their messages: a peer that resumes may send again what this
+    /// one already applied, and it needs the acknowledgement).
+    pub(super) async fn part_done(&mut self) -> bool {
+        let own = self.finished();
+        let Some(post) = self.post.as_mut() else {
+            return own;
+        };
+        post.fleet.set_done(own).await;
+        if !own {
+            return false;
+        }
+        let running = post.peers_running();
+        if running.is_empty() {
+            return true;
+        }
+        if post.waited_for != running {
+            post.waited_for.clone_from(&running);
+            tracing::info!(pools = ?running, "this part has ended; waiting for the other pools' executives to end theirs");
+            eprintln!(
+                "this pool's part has ended; waiting for {} to end theirs",
+                running
+                    .iter()
+                    .map(|p| format!("pool `{p}`"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        }
+        false
+    }
+
+    /// No message of the fleet link waits to be stepped or acknowledged.
+    pub(super) fn quiet_link(&self) -> bool {
+        self.post
+            .as_ref()
+            .is_none_or(|p| p.unsent.is_empty() && p.letters.is_empty())
+    }
+
+    /// Messages from other executives, one step each: the verdict goes back once the step is
+    /// committed, or with the engine's refusal (nothing changed).
+    pub(super) fn apply_letters(&mut self) -> Result<(), RunError> {
+        let letters = match self.post.as_mut() {
+            Some(p) => std::mem::take(&mut p.letters),
+            None => return Ok(()),
+        };
+        for (event, verdict) in letters {
+            let (key, flow) = match &event {
+                Event::MessageReceived { key, flow, .. } => (
+                    key.clone().unwrap_or_default(),
+                    flow.clone().unwrap_or_default(),
+                ),
+                _ => (String::new(), String::new()),
+            };
+            let refused = self.feed_all(vec![event])?.pop().flatten();
+            if refused.is_none() {
+                crash_point("letter-committed");
+            }
+            let Some(post) = self.post.as_mut() else {
+                break;
+            };
+            let given = post.verdict(refused, &flow);
+            if let Err(why) = &given {
+                tracing::warn!(key, "message refused: {why}");
+                self.fleet_line(
+                    "message_refused",
+                    serde_json::json!({"key": key, "reason": why, "by": "receiver"}),
+                );
+            }
+            verdict.give(given);
+        }
+        Ok(())
+    }
+
+    /// A line of the execution record about the fleet link (not a step).
+    pub(super) fn fleet_line(&mut self, kind: &str, body: serde_json::Value) {
+        if let Err(e) = self.record.fleet(kind, self.clock.now(), wall_ms(), body) {
+            tracing::warn!(error = %e, "record line not written");
+        }
+    }
+
+    /// What the fleet link reported: a message to step, a verdict on one sent, a peer's state.
+    pub(super) fn fleet_report(&mut self, report: Report) {
+        match report {
+            Report::Letter { letter, verdict } => {
+                if let Some(p) = self.post.as_mut() {
+                    p.received(&self.g, letter, verdict);
+                } else {
+                    verdict.give(Err("this executive runs no pool of a fleet".to_owned()));
+                }
+            }
+            Report::Delivered { key, refused } => {
+                crash_point("message-acknowledged");
+                let mark = self.post.as_mut().and_then(|p| p.delivered(&key, &refused));
+                self.acked.extend(mark);
+                match &refused {
+                    None => self.fleet_line("message_delivered", serde_json::json!({"key": key})),
+                    Some(why) => {
+                        tracing::warn!(key, "message refused by its receiver: {why}");
+                        self.fleet_line(
+                            "message_refused",
+                            serde_json::json!({"key": key, "reason": why, "by": "sender"}),
+                        );
+                    }
+                }
+            }
+            Report::Peer { pool, state } => {
+                self.fleet_line("peer", serde_json::json!({"pool": pool, "state": state}));
+            }
+            _ => {}
         }
     }
 }
