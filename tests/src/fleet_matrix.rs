@@ -8,14 +8,13 @@
 //! Used by the crash bench and, reduced, by the integration tests.
 
 use std::collections::BTreeSet;
-use std::io::BufRead;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use serde_json::Value;
 
-use crate::matrix::{Proc, Rng};
+use crate::matrix::{Proc, Rng, lines, system, until};
 use crate::{bin, repo};
 
 /// Which process is killed, mid-exchange.
@@ -105,20 +104,9 @@ impl Fleet {
 
     /// A system, started and waited for (its `ready` line).
     fn system(&self, program: &str, args: &[String]) -> Proc {
-        let mut child = Command::new(bin(program))
-            .args(args)
-            .args(self.joined(false))
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap_or_else(|e| panic!("{program} starts: {e}"));
-        let mut line = String::new();
-        let _ = std::io::BufReader::new(child.stdout.take().expect("stdout")).read_line(&mut line);
-        assert!(
-            line.starts_with("ready"),
-            "{program} did not start: {line:?}"
-        );
-        Proc(Some(child))
+        let mut c = Command::new(bin(program));
+        c.args(args).args(self.joined(false));
+        system(program, c)
     }
 
     fn simulator(&self, vehicle: &str) -> Proc {
@@ -195,17 +183,6 @@ impl Fleet {
     }
 }
 
-/// A record's lines, each written again after a restart read once.
-fn lines(record: &Path) -> Vec<Value> {
-    let mut seen = BTreeSet::new();
-    std::fs::read_to_string(record)
-        .unwrap_or_default()
-        .lines()
-        .filter_map(|l| serde_json::from_str::<Value>(l).ok())
-        .filter(|v| v["seq"].is_null() || seen.insert((v["seq"].to_string(), v["idx"].to_string())))
-        .collect()
-}
-
 fn keys(lines: &[Value], kind: &str) -> BTreeSet<String> {
     lines
         .iter()
@@ -267,23 +244,15 @@ pub fn fly(dir: &Path, seed: u64, victim: Victim, kills: usize, bound: Duration)
                 count(l, |v| v["kind"] == "instance_started") > k && scout_busy(l)
             }
         };
-        let record = f.record(match victim {
-            Victim::LanderExecutive => "lander",
-            _ => "scout",
-        });
-        let reached = loop {
-            if Instant::now() > deadline {
-                break false;
-            }
-            if ready(&lines(&record)) {
-                break true;
-            }
-            std::thread::sleep(Duration::from_millis(2));
+        let (exec, record) = match victim {
+            Victim::LanderExecutive => (&mut lander, f.record("lander")),
+            _ => (&mut scout, f.record("scout")),
         };
-        if !reached {
+        if !until(exec, &record, deadline, |l, _| ready(l)) {
             break;
         }
-        // Somewhere in the exchange: 0 to 300 ms on (a survey takes about a second).
+        // Where in the exchange the kill lands: a seeded 0 to 300 ms on (a survey takes about a
+        // second). This pause is the kill point's choice, not a wait for an event.
         std::thread::sleep(Duration::from_millis(rng.next() % 300));
         flight.kills += 1;
         match victim {
@@ -304,21 +273,9 @@ pub fn fly(dir: &Path, seed: u64, victim: Victim, kills: usize, bound: Duration)
     // Both executives end once both parts have ended.
     let mut ended = true;
     for p in [&mut lander, &mut scout] {
-        let Some(child) = p.0.as_mut() else { continue };
-        loop {
-            match child.try_wait() {
-                Ok(Some(s)) => {
-                    ended &= s.success();
-                    break;
-                }
-                Ok(None) if Instant::now() < deadline => {
-                    std::thread::sleep(Duration::from_millis(10));
-                }
-                _ => {
-                    ended = false;
-                    break;
-                }
-            }
+        if let Some(child) = p.0.take() {
+            let left = deadline.saturating_duration_since(Instant::now());
+            ended &= crate::ended(child, left).is_some_and(|s| s.success());
         }
     }
     flight.ended = ended;

@@ -91,3 +91,23 @@ pub fn records(path: &Path) -> Vec<serde_json::Value> {
         .map(|l| serde_json::from_str(l).expect("record line"))
         .collect()
 }
+
+/// Waits for `child` to end, at most `bound` (its exit, waited for on a thread, is the event),
+/// and kills it past that: its exit status, or `None` if it had to be killed.
+pub fn ended(
+    mut child: std::process::Child,
+    bound: std::time::Duration,
+) -> Option<std::process::ExitStatus> {
+    let pid = child.id();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = tx.send(child.wait());
+    });
+    match rx.recv_timeout(bound) {
+        Ok(Ok(status)) => Some(status),
+        _ => {
+            let _ = Command::new("kill").args(["-9", &pid.to_string()]).status();
+            None
+        }
+    }
+}

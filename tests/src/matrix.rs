@@ -140,7 +140,7 @@ impl Drop for Proc {
 }
 
 /// Starts a system and waits for its `ready` line.
-fn system(program: &str, mut command: Command) -> Proc {
+pub(crate) fn system(program: &str, mut command: Command) -> Proc {
     let mut child = command
         .stdout(Stdio::piped())
         .stderr(Stdio::null())
@@ -281,7 +281,7 @@ impl Deployment {
 }
 
 /// The record's lines so far (a line written again after a crash read once).
-fn lines(record: &Path) -> Vec<Value> {
+pub(crate) fn lines(record: &Path) -> Vec<Value> {
     let mut seen = BTreeSet::new();
     std::fs::read_to_string(record)
         .unwrap_or_default()
@@ -315,7 +315,7 @@ fn open_tasks(lines: &[Value]) -> BTreeMap<String, String> {
 }
 
 /// Waits (polling the record) until `ready` holds, the executive exits, or `bound` passes.
-fn until(
+pub(crate) fn until(
     exec: &mut Proc,
     record: &Path,
     bound: Instant,

@@ -222,31 +222,25 @@ pub fn build(lines: impl Iterator<Item = String>) -> Timeline {
                 }
             }
             // Messages between the vehicles of a fleet: when one left, and when one was taken.
-            "caught" if v["what"] == "message" => {
-                lane("messages", &mut lanes);
-                t.markers.push(Marker {
-                    lane: "messages".into(),
-                    at,
-                    kind: "message".into(),
-                    detail: format!(
-                        "message {} taken by {}",
-                        v["name"].as_str().unwrap_or(""),
-                        label(&v)
-                    ),
-                });
-            }
-            "message_sent" => {
-                lane("messages", &mut lanes);
-                t.markers.push(Marker {
-                    lane: "messages".into(),
-                    at,
-                    kind: "message".into(),
-                    detail: format!(
-                        "message {} sent to pool {} ({})",
-                        v["name"].as_str().unwrap_or(""),
+            kind @ ("caught" | "message_sent")
+                if kind == "message_sent" || v["what"] == "message" =>
+            {
+                let name = v["name"].as_str().unwrap_or("");
+                let detail = if kind == "caught" {
+                    format!("message {name} taken by {}", label(&v))
+                } else {
+                    format!(
+                        "message {name} sent to pool {} ({})",
                         v["to"].as_str().unwrap_or("?"),
                         v["key"].as_str().unwrap_or("")
-                    ),
+                    )
+                };
+                lane("messages", &mut lanes);
+                t.markers.push(Marker {
+                    lane: "messages".into(),
+                    at,
+                    kind: "message".into(),
+                    detail,
                 });
             }
             "caught" if v["what"] != "timer" || v["element"]["type"] == "boundaryEvent" => {

@@ -51,7 +51,12 @@ struct Node {
 
 /// The shape of a state: tokens by (scope path, node, flow in, what they do), waits by node,
 /// instance outcomes.
-pub(crate) fn shape(g: &ProcessGraph, s: &State) -> String {
+/// `starts` are the outside's starts ([`outside_starts`]), computed once by the caller.
+pub(crate) fn shape(
+    g: &ProcessGraph,
+    s: &State,
+    starts: &[(executive_model::ProcessId, NodeId)],
+) -> String {
     let path = |mut scope: Option<executive_engine::ScopeId>| {
         let mut p = Vec::new();
         while let Some(id) = scope {
@@ -101,8 +106,6 @@ pub(crate) fn shape(g: &ProcessGraph, s: &State) -> String {
     // outside starts (once per run): a process the model starts itself (a message flow from
     // another pool) may be started once per round of a loop, and the loop would never
     // converge if each ended instance made a new state; what follows does not depend on it.
-    let by_outside: BTreeSet<executive_model::ProcessId> =
-        outside_starts(g).into_iter().map(|(p, _)| p).collect();
     let mut outcomes: BTreeMap<String, usize> = BTreeMap::new();
     for i in s.instances.values() {
         let key = format!(
@@ -111,7 +114,8 @@ pub(crate) fn shape(g: &ProcessGraph, s: &State) -> String {
             i.outcome.as_ref().map(std::mem::discriminant)
         );
         let n = outcomes.entry(key).or_default();
-        if by_outside.contains(&i.process) || i.outcome.is_none() || *n == 0 {
+        let by_outside = starts.iter().any(|(p, _)| *p == i.process);
+        if by_outside || i.outcome.is_none() || *n == 0 {
             *n += 1;
         }
     }
@@ -393,7 +397,7 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
         parent: None,
     }];
     let mut seen: HashMap<String, usize> = HashMap::new();
-    seen.insert(shape(&g, &nodes[0].state), 0);
+    seen.insert(shape(&g, &nodes[0].state, &starts), 0);
     let mut queue = VecDeque::from([0usize]);
     while let Some(at) = queue.pop_front() {
         let state = nodes[at].state.clone();
@@ -452,7 +456,7 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
                 continue;
             }
             note(&actions, &mut entered);
-            let key = shape(&g, after);
+            let key = shape(&g, after, &starts);
             if seen.contains_key(&key) {
                 continue;
             }

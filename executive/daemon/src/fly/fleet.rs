@@ -9,7 +9,7 @@ use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use serde_json::Value;
 
@@ -178,19 +178,21 @@ fn scout_executive(
         .map_err(|e| err(e.to_string()))
 }
 
-/// Waits at most `within` for `child` to end successfully; kills it otherwise.
+/// Waits at most `within` for `child` to end successfully (its exit, waited for on a thread,
+/// is the event); kills it otherwise.
 fn ends(mut child: Child, within: Duration) -> Result<(), String> {
-    let deadline = Instant::now() + within;
-    loop {
-        match child.try_wait() {
-            Ok(Some(s)) if s.success() => return Ok(()),
-            Ok(Some(s)) => return Err(format!("ended with {s}")),
-            Ok(None) if Instant::now() < deadline => std::thread::sleep(Duration::from_millis(20)),
-            Ok(None) => {
-                let _ = (child.kill(), child.wait());
-                return Err(format!("still running after {within:?}; stopped"));
-            }
-            Err(e) => return Err(e.to_string()),
+    let pid = child.id();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = tx.send(child.wait());
+    });
+    match rx.recv_timeout(within) {
+        Ok(Ok(s)) if s.success() => Ok(()),
+        Ok(Ok(s)) => Err(format!("ended with {s}")),
+        Ok(Err(e)) => Err(e.to_string()),
+        Err(_) => {
+            let _ = Command::new("kill").args(["-9", &pid.to_string()]).status();
+            Err(format!("still running after {within:?}; stopped"))
         }
     }
 }

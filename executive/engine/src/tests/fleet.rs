@@ -66,6 +66,18 @@ fn raw(d: &mut Driver, event: Event) -> Result<Vec<Action>, Rejected> {
     })
 }
 
+/// Starts the lander's process `p` with no variables.
+fn start_lander(d: &mut Driver) -> Result<Vec<Action>, Rejected> {
+    raw(
+        d,
+        Event::InstanceStarted {
+            process: "p".into(),
+            vars: Vars::new(),
+            start: None,
+        },
+    )
+}
+
 /// The messages `actions` send to other pools, as the inputs their receivers get.
 fn letters(actions: &[Action], mission: &str) -> Vec<(String, Event)> {
     actions
@@ -159,14 +171,7 @@ fn a_pool_is_chosen_by_id_or_name_and_only_it_starts() {
     };
     assert!(e.contains("no pool is named `Rover`"), "{e}");
     let mut s = pool(&body, "S");
-    let refused = raw(
-        &mut s,
-        Event::InstanceStarted {
-            process: "p".into(),
-            vars: Vars::new(),
-            start: None,
-        },
-    );
+    let refused = start_lander(&mut s);
     assert!(
         matches!(&refused, Err(Rejected::Unsupported { reason, .. }) if reason.contains("`L`")),
         "{refused:?}"
@@ -181,15 +186,7 @@ fn a_message_from_another_engine_is_applied_once_and_only_at_its_target() {
     let body = request_report("");
     let mut l = pool(&body, "L");
     let mut s = pool(&body, "S");
-    let out = raw(
-        &mut l,
-        Event::InstanceStarted {
-            process: "p".into(),
-            vars: Vars::new(),
-            start: None,
-        },
-    )
-    .expect("starts");
+    let out = start_lander(&mut l).expect("starts");
     let (_, request) = letters(&out, "lander").remove(0);
     let out = raw(&mut s, request.clone()).expect("the scout starts");
     assert_eq!(dispatched(&out).len(), 1);
@@ -215,15 +212,7 @@ fn a_message_from_another_engine_is_applied_once_and_only_at_its_target() {
 fn a_message_for_an_ended_instance_is_refused_with_the_reason() {
     let body = request_report("");
     let mut l = pool(&body, "L");
-    raw(
-        &mut l,
-        Event::InstanceStarted {
-            process: "p".into(),
-            vars: Vars::new(),
-            start: None,
-        },
-    )
-    .expect("starts");
+    start_lander(&mut l).expect("starts");
     raw(&mut l, report("scout.m1")).expect("the lander takes its report");
     assert!(matches!(outcomes(&l)[0].1, Some(Outcome::Completed)));
     let refused = raw(&mut l, report("scout.m2"));

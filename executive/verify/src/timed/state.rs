@@ -406,7 +406,7 @@ pub(super) fn key(cx: &Ctx, n: &Node) -> String {
         .collect();
     format!(
         "{}|{loops:?}|{:?}|{:?}|{:?}|{:?}|{:?}|{}",
-        crate::explore::shape(cx.g, &n.state),
+        crate::explore::shape(cx.g, &n.state, &cx.starts),
         n.done,
         n.counts,
         n.signals,
