@@ -12,6 +12,7 @@ mod engine;
 mod europa;
 mod feel;
 mod fleet;
+mod fleet_hosts;
 mod fly;
 mod fuzz;
 mod ground;

@@ -84,8 +84,8 @@ impl Flight {
 /// The simulation speed: 2,000 mission ms per wall ms (a survey takes about a second).
 const SPEED: &str = "2000";
 
-/// The scout's findings: the first two sites unsafe, the third safe.
-const SCOUT_FAULTS: &str = r#"{"faults": [
+/// The scout's findings: the first two sites unsafe, the third safe (`elap-sim --faults`).
+pub const SCOUT_FAULTS: &str = r#"{"faults": [
   {"action": "survey.site", "call": 1, "code": "UNSAFE"},
   {"action": "survey.site", "call": 2, "code": "UNSAFE"},
   {"action": "survey.site", "call": 3, "code": "SAFE"}]}"#;
@@ -228,7 +228,7 @@ pub fn fly(dir: &Path, seed: u64, victim: Victim, kills: usize, bound: Duration)
         hub: format!("tcp/127.0.0.1:{port}"),
     };
     let deadline = Instant::now() + bound;
-    let mut flight = Flight::default();
+    let mut made = 0;
     let mut lander = f.executive("lander", false);
     let _lander_sim = f.simulator("lander");
     let mut scout_sim = f.simulator("scout");
@@ -254,7 +254,7 @@ pub fn fly(dir: &Path, seed: u64, victim: Victim, kills: usize, bound: Duration)
         // Where in the exchange the kill lands: a seeded 0 to 300 ms on (a survey takes about a
         // second). This pause is the kill point's choice, not a wait for an event.
         std::thread::sleep(Duration::from_millis(rng.next() % 300));
-        flight.kills += 1;
+        made += 1;
         match victim {
             Victim::LanderExecutive => {
                 lander.kill();
@@ -278,34 +278,45 @@ pub fn fly(dir: &Path, seed: u64, victim: Victim, kills: usize, bound: Duration)
             ended &= crate::ended(child, left).is_some_and(|s| s.success());
         }
     }
-    flight.ended = ended;
-    let (l, s) = (lines(&f.record("lander")), lines(&f.record("scout")));
-    flight.outcome = l
-        .iter()
-        .rfind(|v| v["kind"] == "instance_finished")
-        .and_then(|v| v["outcome"]["type"].as_str().map(str::to_owned));
-    flight.requests = keys(&l, "message_delivered").len();
-    flight.surveys = count(&s, |v| v["kind"] == "instance_started");
-    flight.reports = keys(&s, "message_delivered").len();
-    flight.heard = count(&l, |v| {
-        v["kind"] == "caught" && v["what"] == "message" && v["name"] == "survey_report"
-    });
-    flight.refused = count(&l, |v| v["kind"] == "message_refused")
-        + count(&s, |v| v["kind"] == "message_refused");
-    flight.lost = [&l, &s]
-        .iter()
-        .map(|lines| {
-            count(lines, |v| {
-                v["kind"] == "failed"
-                    && matches!(
-                        v["code"].as_str(),
-                        Some("CONNECTOR_LOST" | "NOT_ACCEPTED" | "PROTOCOL_ERROR")
-                    )
-            })
-        })
-        .sum();
+    let flight = Flight {
+        kills: made,
+        ended,
+        ..judge(&lines(&f.record("lander")), &lines(&f.record("scout")))
+    };
     if !flight.exact() {
         eprintln!("fleet flight in {}: {flight:?}", dir.display());
     }
     flight
+}
+
+/// What the lander's and the scout's records (`lander`, `scout`) say of a fleet flight: its
+/// outcome, requests and surveys, reports sent and heard, refusals and lost goals (no kills; the
+/// flight counted as ended).
+pub fn judge(l: &[Value], s: &[Value]) -> Flight {
+    let lost = |lines: &[Value]| {
+        count(lines, |v| {
+            v["kind"] == "failed"
+                && matches!(
+                    v["code"].as_str(),
+                    Some("CONNECTOR_LOST" | "NOT_ACCEPTED" | "PROTOCOL_ERROR")
+                )
+        })
+    };
+    Flight {
+        kills: 0,
+        ended: true,
+        outcome: l
+            .iter()
+            .rfind(|v| v["kind"] == "instance_finished")
+            .and_then(|v| v["outcome"]["type"].as_str().map(str::to_owned)),
+        requests: keys(l, "message_delivered").len(),
+        surveys: count(s, |v| v["kind"] == "instance_started"),
+        reports: keys(s, "message_delivered").len(),
+        heard: count(l, |v| {
+            v["kind"] == "caught" && v["what"] == "message" && v["name"] == "survey_report"
+        }),
+        refused: count(l, |v| v["kind"] == "message_refused")
+            + count(s, |v| v["kind"] == "message_refused"),
+        lost: lost(l) + lost(s),
+    }
 }

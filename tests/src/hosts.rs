@@ -1,11 +1,13 @@
 //! Hosts on one machine for the tests across hosts: network namespaces made by the test (a
-//! lander and one or more ground hosts), each ground joined to the lander by its own veth link
-//! that the test cuts, restores and shapes; the certificates of `deploy/certs.sh`; and the
-//! processes of a deployment started inside them with the `deploy/zenoh/two-hosts/` files.
+//! lander, one or more ground hosts and, for a fleet, a scout), each joined to the lander by its
+//! own veth link that the test cuts, restores and shapes; the certificates of `deploy/certs.sh`;
+//! and the processes of a deployment started inside them with the `deploy/zenoh/two-hosts/`
+//! files.
 //!
-//! Only loopback and the addresses of the links made here are used: ground host `k` (from 1)
-//! is `10.77.k.2`, the lander's end of its link `10.77.k.1`. Addresses live inside the
-//! namespaces, so two labs never collide; namespace names carry the process id and a counter.
+//! Only loopback and the addresses of the links made here are used: the far end of link `k`
+//! (from 1; the grounds first, then the scout) is `10.77.k.2`, the lander's end `10.77.k.1`.
+//! Addresses live inside the namespaces, so two labs never collide; namespace names carry the
+//! process id and a counter.
 //! Everything is removed when the [`Lab`] is dropped (processes killed first).
 
 use std::io::{BufRead, BufReader, Write};
@@ -26,6 +28,8 @@ pub struct Lab {
     pub lander: String,
     /// The ground hosts' namespaces, link `k` joining `grounds[k - 1]` to the lander.
     pub grounds: Vec<String>,
+    /// The scout's namespace (a fleet's second vehicle), on the link after the grounds'.
+    pub scout: Option<String>,
     /// The deployment directory: `certs/` and one log per process started.
     pub dir: PathBuf,
     procs: Vec<Proc>,
@@ -63,6 +67,16 @@ impl Lab {
     /// certificates of every identity the shipped access control knows (the lander router's
     /// naming every link address), in a fresh directory under the system's temp dir.
     pub fn new(name: &str, grounds: usize) -> Lab {
+        Lab::hosts(name, grounds, false)
+    }
+
+    /// A fleet's lab: the lander, one ground host and the scout, the scout's host linked to
+    /// the lander by link 2 (the link between the vehicles).
+    pub fn fleet(name: &str) -> Lab {
+        Lab::hosts(name, 1, true)
+    }
+
+    fn hosts(name: &str, grounds: usize, scout: bool) -> Lab {
         static NEXT: AtomicUsize = AtomicUsize::new(0);
         let id = format!(
             "t{}-{}",
@@ -76,15 +90,25 @@ impl Lab {
         let mut lab = Lab {
             lander: lander.clone(),
             grounds: Vec::new(),
+            scout: None,
             dir,
             procs: Vec::new(),
         };
         ip(&["netns", "add", &lander]);
         ip(&["-n", &lander, "link", "set", "lo", "up"]);
-        for k in 1..=grounds {
-            let ground = format!("{id}-ground{k}");
+        let links = grounds + usize::from(scout);
+        for k in 1..=links {
+            let ground = if k <= grounds {
+                format!("{id}-ground{k}")
+            } else {
+                format!("{id}-scout")
+            };
             ip(&["netns", "add", &ground]);
-            lab.grounds.push(ground.clone());
+            if k <= grounds {
+                lab.grounds.push(ground.clone());
+            } else {
+                lab.scout = Some(ground.clone());
+            }
             ip(&["-n", &ground, "link", "set", "lo", "up"]);
             let link = format!("link{k}");
             ip(&[
@@ -105,7 +129,7 @@ impl Lab {
             }
         }
         let mut lander_names = "lander-router=lander".to_owned();
-        for k in 1..=grounds {
+        for k in 1..=links {
             lander_names.push_str(&format!(",10.77.{k}.1"));
         }
         let out = Command::new(repo().join("deploy/certs.sh"))
@@ -120,6 +144,9 @@ impl Lab {
                 "station-b",
                 "monitor",
                 "intruder",
+                "scout-router=scout",
+                "scout_exec",
+                "scout_sim",
             ])
             .output()
             .expect("deploy/certs.sh runs");
@@ -134,6 +161,24 @@ impl Lab {
     /// The lander's address on link `k`, where ground host `k` reaches its router.
     pub fn lander_addr(k: usize) -> String {
         format!("10.77.{k}.1")
+    }
+
+    /// The link joining the scout to the lander.
+    pub fn scout_link(&self) -> usize {
+        self.grounds.len() + 1
+    }
+
+    /// The scout's namespace.
+    pub fn scout_ns(&self) -> String {
+        self.scout.clone().expect("a fleet's lab (Lab::fleet)")
+    }
+
+    /// The namespace at the far end of link `k` from the lander.
+    fn far(&self, k: usize) -> &str {
+        self.grounds
+            .get(k - 1)
+            .or(self.scout.as_ref().filter(|_| k == self.grounds.len() + 1))
+            .unwrap_or_else(|| panic!("no link {k}"))
     }
 
     /// A shipped two-host Zenoh file.
@@ -337,12 +382,28 @@ impl Lab {
         })
     }
 
-    /// Starts the lander's and the ground hosts' routers (QUIC with mutual TLS, access control
-    /// on), each waited for until it says `ready`; the ground routers connect on their own.
+    /// Starts the lander's, the ground hosts' and the scout's routers (QUIC with mutual TLS,
+    /// access control on), each waited for until it says `ready`; the ground's and the scout's
+    /// routers connect to the lander's on their own.
     pub fn routers(&mut self) {
         self.lander_router("lander-router");
         for k in 1..=self.grounds.len() {
             self.ground_router(k, &format!("ground-router{k}"));
+        }
+        if let Some(scout) = self.scout.clone() {
+            let to = format!("quic/{}:7447", Lab::lander_addr(self.scout_link()));
+            let c = self.command(
+                &scout,
+                "trace",
+                &[
+                    "router",
+                    "--zenoh-config",
+                    &Lab::config("scout-router.json5"),
+                    "-e",
+                    &to,
+                ],
+            );
+            self.start("scout-router", c);
         }
     }
 
@@ -405,7 +466,7 @@ impl Lab {
     pub fn link(&self, k: usize, up: bool) {
         ip(&[
             "-n",
-            &self.grounds[k - 1],
+            self.far(k),
             "link",
             "set",
             &format!("link{k}"),
@@ -418,7 +479,7 @@ impl Lab {
     /// Shapes link `k` at both ends to `rate` (a `tc` rate such as `256kbit`) with a token
     /// bucket filter: a narrow link to the lander.
     pub fn shape(&self, k: usize, rate: &str) {
-        for ns in [&self.lander, &self.grounds[k - 1]] {
+        for ns in [self.lander.as_str(), self.far(k)] {
             let out = Command::new("ip")
                 .args(["netns", "exec", ns, "tc", "qdisc", "replace", "dev"])
                 .arg(format!("link{k}"))
@@ -439,7 +500,7 @@ impl Lab {
 impl Drop for Lab {
     fn drop(&mut self) {
         self.procs.clear();
-        for ns in self.grounds.iter().chain([&self.lander]) {
+        for ns in self.grounds.iter().chain(&self.scout).chain([&self.lander]) {
             let _ = Command::new("ip").args(["netns", "del", ns]).status();
         }
         // Kept when the test failed, or when asked (`TRACE_KEEP_LAB=1`), for its logs.

@@ -281,7 +281,7 @@ impl Deployment {
 }
 
 /// The record's lines so far (a line written again after a crash read once).
-pub(crate) fn lines(record: &Path) -> Vec<Value> {
+pub fn lines(record: &Path) -> Vec<Value> {
     let mut seen = BTreeSet::new();
     std::fs::read_to_string(record)
         .unwrap_or_default()
