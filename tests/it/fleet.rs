@@ -396,11 +396,29 @@ fn the_fleet_mission_verifies_as_a_whole_and_spin_agrees_with_the_engine() {
         "digging_waits_for_the_scout",
         "reports_answer_requests",
         "every_request_is_answered_or_outwaited",
+        "scout_surveys_with_a_reserve",
+        "scout_hops_with_a_reserve",
+        "lander_keeps_half_while_the_scout_surveys",
     ] {
         assert!(
             text.lines().any(|l| l.contains("holds") && l.contains(p)),
             "{p}: {text}"
         );
+    }
+    // Time and energy per vehicle: each pool costed by its own connectors (found beside the
+    // missions, deploy/fleet/), each with its own battery.
+    let timed = text
+        .lines()
+        .find(|l| l.starts_with("timed exploration"))
+        .unwrap_or_default();
+    for part in [
+        "lander: ",
+        "fleet/lander.toml",
+        "fleet/scout.toml",
+        "(lander ",
+        ", scout ",
+    ] {
+        assert!(timed.contains(part), "{part}: {timed}");
     }
     let graph = executive_model::load(&std::fs::read(&path).expect("mission"))
         .graph
@@ -413,6 +431,54 @@ fn the_fleet_mission_verifies_as_a_whole_and_spin_agrees_with_the_engine() {
         }
         _ => panic!("the fleet mission is translated and explored without data"),
     }
+}
+
+#[test]
+fn energy_in_a_fleet_names_its_vehicle_and_each_pool_needs_its_connectors() {
+    let dir = tempdir("fleet-energy");
+    let model = dir.join("fleet.bpmn");
+    std::fs::copy(
+        mission_tests::repo().join("deploy/missions/europa-fleet.bpmn"),
+        &model,
+    )
+    .expect("copy");
+    let verify = |reqs: &str, connectors: &[&str]| {
+        let req = dir.join("fleet.req.toml");
+        std::fs::write(&req, reqs).expect("requirements");
+        let mut c = Command::new(bin("trace"));
+        c.arg("verify").arg(&model).arg("--requirements").arg(&req);
+        for f in connectors {
+            c.arg("--connectors").arg(f);
+        }
+        let out = c.output().expect("trace verify runs");
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stdout).into_owned()
+                + &String::from_utf8_lossy(&out.stderr),
+        )
+    };
+    let fleet = |pool: &str| {
+        format!(
+            "{pool}={}",
+            mission_tests::repo()
+                .join(format!("deploy/fleet/{pool}.toml"))
+                .display()
+        )
+    };
+    let (lander, scout) = (fleet("lander"), fleet("scout"));
+    let mission = "[[requirement]]\nname = \"r\"\ncheck = 'never energy_left < 5 %'\n";
+    let (code, text) = verify(mission, &[&lander, &scout]);
+    assert_ne!(code, Some(0), "{text}");
+    assert!(text.contains("say whose"), "{text}");
+    let scout_only = "[[requirement]]\nname = \"r\"\ncheck = 'never (running \"Survey Site\" and energy_left of \"Scout\" < 10 %)'\n";
+    let (code, text) = verify(scout_only, &[&lander, &scout]);
+    assert_eq!(code, Some(0), "{text}");
+    let (code, text) = verify(scout_only, &[&lander]);
+    assert_ne!(code, Some(0), "{text}");
+    assert!(text.contains("no file for pool(s) `scout`"), "{text}");
+    let (code, text) = verify(scout_only, &["rover=x.toml", &scout]);
+    assert_ne!(code, Some(0), "{text}");
+    assert!(text.contains("`rover`"), "{text}");
 }
 
 // A deadlock between the vehicles — the lander waits for a report the scout never sends — is

@@ -27,7 +27,12 @@ fn costs(g: &ProcessGraph) -> executive_verify::resources::Costs {
     let config = executive::connectors::parse_config(&text).expect("routes parse");
     let lander = elap_sim::catalogue::catalogue();
     let catalogues = executive::catalogues::served(&config, &[lander]);
-    executive_verify::resources::costs(g, &config, &catalogues).expect("every task costed")
+    let source = executive_verify::resources::Source {
+        pool: None,
+        config: &config,
+        catalogues: &catalogues,
+    };
+    executive_verify::resources::costs(g, &[source]).expect("every task costed")
 }
 
 /// What is due next in the flight, by mission time.

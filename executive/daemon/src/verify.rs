@@ -35,10 +35,14 @@ pub struct VerifyOptions {
     #[arg(long)]
     pub native: bool,
     /// The connectors (routes to the systems) whose catalogues cost the tasks, for requirements
-    /// on time and energy (default: `connectors.toml` in the model's folder or the one above).
-    #[arg(long)]
-    pub connectors: Option<PathBuf>,
-    /// Catalogue files or folders of them (default: `catalogues/` beside the connectors file).
+    /// on time and energy: `FILE`, or for a fleet one `POOL=FILE` per pool with a process, each
+    /// pool's tasks costed by its own and drawing from its own battery. Default:
+    /// `fleet/<pool id>.toml` in the model's folder or the one above when there is one for
+    /// every pool of two or more, else `connectors.toml` there.
+    #[arg(long, value_name = "[POOL=]FILE")]
+    pub connectors: Vec<String>,
+    /// Catalogue files or folders of them (default: `catalogues/` beside each connectors file,
+    /// or in the folder above it).
     #[arg(long)]
     pub catalogues: Vec<PathBuf>,
     /// States the timed exploration may visit before its verdicts are `incomplete`.
@@ -158,6 +162,7 @@ pub fn verify(opts: &VerifyOptions) -> Result<Report, VerifyError> {
         }
         None => None,
     };
+    let systems = systems(&loaded, path, &opts.connectors, &opts.catalogues);
     verify_loaded(Job {
         mission: path.display().to_string(),
         loaded,
@@ -166,52 +171,137 @@ pub fn verify(opts: &VerifyOptions) -> Result<Report, VerifyError> {
         loops: opts.loops,
         depth: opts.depth,
         native: opts.native,
-        systems: systems(path, opts.connectors.as_deref(), &opts.catalogues),
+        systems,
         max_states: opts.max_states,
     })
 }
 
-/// The connectors and catalogues that cost the tasks: the files named, or `connectors.toml` in
-/// the model's folder or the one above and `catalogues/` beside it. `Err` says what is missing
-/// or unreadable (only an error when a requirement needs the costs).
+/// The connectors and catalogues that cost the tasks, per vehicle (`connectors`: `FILE` or
+/// `POOL=FILE` each): the files named, else one `fleet/<pool>.toml` per pool with a process
+/// (two or more) in the model's folder or the one above, else `connectors.toml` there; each
+/// file's catalogues are `catalogues/` beside it or in the folder above. `Err` says what is
+/// missing or unreadable (only an error when a requirement needs the costs).
 pub fn systems(
+    loaded: &executive_model::Loaded,
     model: &Path,
-    connectors: Option<&Path>,
+    connectors: &[String],
     catalogues: &[PathBuf],
-) -> Result<Systems, String> {
-    let file = match connectors {
-        Some(f) => f.to_path_buf(),
-        None => {
-            let dir = model.parent().unwrap_or(Path::new("."));
-            [dir.join("connectors.toml"), dir.join("../connectors.toml")]
-                .into_iter()
-                .find(|f| f.exists())
-                .ok_or_else(|| {
+) -> Result<Vec<Systems>, String> {
+    let dir = model.parent().unwrap_or(Path::new("."));
+    let near = |name: &str| {
+        [dir.join(name), dir.join("..").join(name)]
+            .into_iter()
+            .find(|f| f.exists())
+    };
+    let pools: Vec<String> = loaded
+        .graph
+        .iter()
+        .flat_map(|g| &g.collaborations)
+        .flat_map(|c| &c.participants)
+        .filter(|p| p.process.is_some())
+        .map(|p| p.id.clone())
+        .collect();
+    let files: Vec<(Option<String>, PathBuf)> = if connectors.is_empty() {
+        let fleet: Vec<(Option<String>, PathBuf)> = pools
+            .iter()
+            .filter_map(|p| Some((Some(p.clone()), near(&format!("fleet/{p}.toml"))?)))
+            .collect();
+        if pools.len() > 1 && fleet.len() == pools.len() {
+            fleet
+        } else {
+            vec![(
+                None,
+                near("connectors.toml").ok_or_else(|| {
                     format!(
                         "no connectors.toml in {} or the folder above (give --connectors)",
                         dir.display()
                     )
-                })?
+                })?,
+            )]
         }
-    };
-    let config = crate::catalogues::read_connectors(&file).map_err(|e| e.to_string())?;
-    let paths = if catalogues.is_empty() {
-        vec![file.parent().unwrap_or(Path::new(".")).join("catalogues")]
     } else {
-        catalogues.to_vec()
+        let mut files = Vec::new();
+        for c in connectors {
+            match c.split_once('=') {
+                Some((pool, file)) => {
+                    let id = loaded
+                        .graph
+                        .iter()
+                        .flat_map(|g| &g.collaborations)
+                        .flat_map(|c| &c.participants)
+                        .find(|p| p.process.is_some() && (p.id == pool || p.name.as_deref() == Some(pool)))
+                        .map(|p| p.id.clone())
+                        .ok_or_else(|| {
+                            format!(
+                                "--connectors {c}: no pool with a process has the id or name `{pool}` (pools: {})",
+                                pools.join(", ")
+                            )
+                        })?;
+                    files.push((Some(id), PathBuf::from(file)));
+                }
+                None => files.push((None, PathBuf::from(c))),
+            }
+        }
+        match files.iter().filter(|(p, _)| p.is_none()).count() {
+            0 => {
+                let missing: Vec<&String> = pools
+                    .iter()
+                    .filter(|p| !files.iter().any(|(q, _)| q.as_ref() == Some(*p)))
+                    .collect();
+                if !missing.is_empty() {
+                    return Err(format!(
+                        "--connectors names no file for pool(s) {}: give one per pool with a process",
+                        missing
+                            .iter()
+                            .map(|p| format!("`{p}`"))
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ));
+                }
+            }
+            1 if files.len() == 1 => {}
+            _ => {
+                return Err(
+                    "--connectors: give one FILE for the whole mission, or POOL=FILE for each pool"
+                        .to_owned(),
+                );
+            }
+        }
+        files
     };
-    let read = crate::catalogues::read(&paths).map_err(|e| e.to_string())?;
-    let served = crate::catalogues::served(&config, &read);
-    Ok(Systems {
-        source: file.display().to_string(),
-        config,
-        catalogues: served,
-    })
+    files
+        .into_iter()
+        .map(|(pool, file)| {
+            let config = crate::catalogues::read_connectors(&file).map_err(|e| e.to_string())?;
+            let beside = file.parent().unwrap_or(Path::new("."));
+            let paths = if catalogues.is_empty() {
+                let here = beside.join("catalogues");
+                let above = beside.join("../catalogues");
+                vec![if !here.exists() && above.exists() {
+                    above
+                } else {
+                    here
+                }]
+            } else {
+                catalogues.to_vec()
+            };
+            let read = crate::catalogues::read(&paths).map_err(|e| e.to_string())?;
+            let served = crate::catalogues::served(&config, &read);
+            Ok(Systems {
+                pool,
+                source: file.display().to_string(),
+                config,
+                catalogues: served,
+            })
+        })
+        .collect()
 }
 
-/// The systems a mission will drive, as files describe them.
+/// The systems a mission will drive, as files describe them: the whole mission's, or one pool's.
 #[derive(Clone, Debug)]
 pub struct Systems {
+    /// The pool they serve (`None`: the whole mission).
+    pub pool: Option<String>,
     /// Where they were read (the connectors file).
     pub source: String,
     /// Its routes.
@@ -237,8 +327,9 @@ pub struct Job {
     pub depth: u64,
     /// As [`VerifyOptions::native`].
     pub native: bool,
-    /// The systems whose catalogues cost the tasks (`Err`: why they are not known).
-    pub systems: Result<Systems, String>,
+    /// The systems whose catalogues cost the tasks, per vehicle (`Err`: why they are not
+    /// known).
+    pub systems: Result<Vec<Systems>, String>,
     /// As [`VerifyOptions::max_states`].
     pub max_states: usize,
 }
@@ -270,9 +361,29 @@ pub fn verify_loaded(job: Job) -> Result<Report, VerifyError> {
             .systems
             .as_ref()
             .map_err(|e| vec![e.clone()])
-            .and_then(|s| {
-                executive_verify::resources::costs(&graph, &s.config, &s.catalogues)
-                    .map(|c| (c, s.source.clone()))
+            .and_then(|systems| {
+                let sources: Vec<executive_verify::resources::Source> = systems
+                    .iter()
+                    .map(|s| executive_verify::resources::Source {
+                        pool: s.pool.as_deref(),
+                        config: &s.config,
+                        catalogues: &s.catalogues,
+                    })
+                    .collect();
+                let costs = executive_verify::resources::costs(&graph, &sources)?;
+                let unread = executive_verify::timed::vehicles(&reqs, &costs);
+                if !unread.is_empty() {
+                    return Err(unread);
+                }
+                let from = systems
+                    .iter()
+                    .map(|s| match &s.pool {
+                        Some(p) => format!("{p}: {}", s.source),
+                        None => s.source.clone(),
+                    })
+                    .collect::<Vec<_>>()
+                    .join(", ");
+                Ok((costs, from))
             });
         Some(costs.map_err(|problems| VerifyError::Costs {
             path: job.mission.clone(),
@@ -382,9 +493,11 @@ pub fn as_record(
         // steps get one minute each.
         let at = s
             .resources
+            .as_ref()
             .map_or(i as i64 * 60_000, |r| r.time_ms.hi.min(9e15) as i64);
         let spent = s
             .resources
+            .as_ref()
             .and_then(|r| r.activity_wh)
             .map(|e| json!([round(e.lo), round(e.hi)]));
         // Record lines are told apart by (seq, idx): one step's lines get their own indices.
@@ -480,11 +593,17 @@ pub fn as_record(
             }
             _ => {}
         }
-        if let Some(r) = s.resources {
+        if let Some(r) = &s.resources {
             line(
                 json!({"kind": "data", "key": "energy_used_wh", "value": round(r.energy_wh.hi)}),
                 at,
             );
+            for (pool, e) in &r.vehicles {
+                line(
+                    json!({"kind": "data", "key": format!("energy_used_wh_{pool}"), "value": round(e.hi)}),
+                    at,
+                );
+            }
         }
     }
     out
@@ -550,13 +669,23 @@ pub fn print(report: &Report, out: &mut dyn Write) -> std::io::Result<()> {
         )?;
     }
     if let Some(t) = &report.timed {
-        let end = t.end.map_or_else(String::new, |e| {
+        let end = t.end.as_ref().map_or_else(String::new, |e| {
+            let each: Vec<String> = e
+                .vehicles
+                .iter()
+                .map(|(pool, x)| format!("{pool} {:.0} to {:.0}", x.lo, x.hi))
+                .collect();
             format!(
-                "; runs end between {} and {} having used {:.0} to {:.0} Wh",
+                "; runs end between {} and {} having used {:.0} to {:.0} Wh{}",
                 mission_time(e.time_ms.lo),
                 mission_time(e.time_ms.hi),
                 e.energy_wh.lo,
-                e.energy_wh.hi
+                e.energy_wh.hi,
+                if each.is_empty() {
+                    String::new()
+                } else {
+                    format!(" ({})", each.join(", "))
+                }
             )
         });
         writeln!(
@@ -599,12 +728,17 @@ pub fn print(report: &Report, out: &mut dyn Write) -> std::io::Result<()> {
                 } else {
                     ""
                 };
-                let at = s.resources.map_or_else(String::new, |r| {
-                    format!(
-                        "  [{}, {:.0} Wh]",
-                        mission_time(r.time_ms.hi),
-                        r.energy_wh.hi
-                    )
+                let at = s.resources.as_ref().map_or_else(String::new, |r| {
+                    let energy = if r.vehicles.is_empty() {
+                        format!("{:.0} Wh", r.energy_wh.hi)
+                    } else {
+                        r.vehicles
+                            .iter()
+                            .map(|(pool, e)| format!("{pool} {:.0} Wh", e.hi))
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    };
+                    format!("  [{}, {energy}]", mission_time(r.time_ms.hi))
                 });
                 writeln!(out, "               {:>3}. {what}{cycle}{at}", i + 1)?;
             }

@@ -66,6 +66,14 @@ impl Engine {
         Ok(self)
     }
 
+    /// Leaves `remote`'s processes (with their pool's id) to no one here: they do not start,
+    /// and a message flow into them leaves the engine ([`Engine::participant`] with any set of
+    /// pools; the timed exploration's vehicles whose battery is empty).
+    pub fn with_remote(mut self, remote: BTreeMap<executive_model::ProcessId, String>) -> Engine {
+        self.remote = remote;
+        self
+    }
+
     /// The processes this engine leaves to other executives, with their pool's id (empty
     /// unless [`Engine::participant`] chose a pool).
     pub fn remote(&self) -> &BTreeMap<executive_model::ProcessId, String> {

@@ -213,7 +213,12 @@ fn main() {
             .iter()
             .map(|c| (c.server() == lander.server).then(|| lander.clone()))
             .collect();
-        executive_verify::resources::costs(&g, &config, &cats).expect("costs")
+        let source = executive_verify::resources::Source {
+            pool: None,
+            config: &config,
+            catalogues: &cats,
+        };
+        executive_verify::resources::costs(&g, &[source]).expect("costs")
     };
     let timed = |loops: u8| {
         let t0 = Instant::now();

@@ -26,7 +26,8 @@
 //!
 //! Resources: `time` (mission time since the start, compared with an ISO 8601 duration:
 //! `time <= P10D`), `energy` (used since the start, idle draw included: `energy <= 40 kWh`),
-//! `energy_left` (`>= 5 %`, or in `Wh`/`kWh`). Suffixes: `E with Q` (E and, at that moment, Q),
+//! `energy_left` (`>= 5 %`, or in `Wh`/`kWh`); of one vehicle's battery when the mission is
+//! costed per pool (a fleet): `energy_left of "Scout" >= 20 %`. Suffixes: `E with Q` (E and, at that moment, Q),
 //! `E after D` (E, later than D), `E within D` (eventually E, no later than D). A statement that
 //! reads time or energy is `always`, `never`, `eventually` or `… within D`, and is checked by the
 //! timed exploration ([`crate::timed`]) against the catalogues' costs, not by Spin:
@@ -348,8 +349,9 @@ pub enum Expr {
     Count(usize, Cmp, u64),
     /// `ended`, `failed` or `terminated`.
     Word(String),
-    /// A quantity compared with an amount (in the quantity's unit).
-    Quantity(Quantity, Cmp, f64),
+    /// A quantity compared with an amount (in the quantity's unit), energy of one vehicle
+    /// (`energy of "Scout"`: its pool's id) or of the mission's one battery (`None`).
+    Quantity(Quantity, Cmp, f64, Option<String>),
     /// `not`
     Not(Box<Expr>),
     /// `and`
@@ -495,6 +497,38 @@ impl Parser<'_> {
                 self.atoms.push(a);
                 self.atoms.len() - 1
             }
+        }
+    }
+
+    /// `of "POOL"` after `energy` or `energy_left`: the vehicle whose battery it reads, by its
+    /// pool's id or name (a pool with a process), as the pool's id.
+    fn vehicle(&mut self) -> Result<Option<String>, String> {
+        if !self.word("of") {
+            return Ok(None);
+        }
+        let name = self.string("of")?;
+        let pools: Vec<&executive_model::Participant> = self
+            .g
+            .collaborations
+            .iter()
+            .flat_map(|c| &c.participants)
+            .filter(|p| p.process.is_some())
+            .collect();
+        let found: Vec<&&executive_model::Participant> = pools
+            .iter()
+            .filter(|p| p.id == name || p.name.as_deref() == Some(name.as_str()))
+            .collect();
+        match found.as_slice() {
+            [one] => Ok(Some(one.id.clone())),
+            [] => Err(format!(
+                "no pool with a process has the id or name \"{name}\" (pools: {})",
+                pools
+                    .iter()
+                    .map(|p| format!("\"{}\"", p.id))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )),
+            _ => Err(format!("\"{name}\" names several pools; use an id")),
         }
     }
 
@@ -654,29 +688,33 @@ impl Parser<'_> {
                         Quantity::Time,
                         op,
                         self.duration(op.text())?,
+                        None,
                     ))
                 }
                 "energy" => {
+                    let pool = self.vehicle()?;
                     let op = self.op("energy")?;
                     Ok(Expr::Quantity(
                         Quantity::Energy,
                         op,
                         self.energy(op.text())?,
+                        pool,
                     ))
                 }
                 "energy_left" => {
+                    let pool = self.vehicle()?;
                     let op = self.op("energy_left")?;
                     let n = self.number(op.text())?;
                     if matches!(self.toks.get(self.at), Some(Tok::Op(p)) if p == "%") {
                         self.at += 1;
-                        return Ok(Expr::Quantity(Quantity::EnergyLeftPct, op, n));
+                        return Ok(Expr::Quantity(Quantity::EnergyLeftPct, op, n, pool));
                     }
                     self.at -= 1;
                     let wh = self.energy(op.text()).map_err(|_| {
                         "`energy_left` is compared with a percentage (`5 %`) or an energy (`2 kWh`)"
                             .to_owned()
                     })?;
-                    Ok(Expr::Quantity(Quantity::EnergyLeftWh, op, wh))
+                    Ok(Expr::Quantity(Quantity::EnergyLeftWh, op, wh, pool))
                 }
                 "ended" | "failed" | "terminated" => Ok(Expr::Word(w)),
                 other => Err(format!("`{other}` is not part of the requirement language")),
@@ -694,7 +732,7 @@ impl Parser<'_> {
                 e = Expr::and(e, self.or()?);
             } else if self.word("after") {
                 let d = self.duration("after")?;
-                e = Expr::and(e, Expr::Quantity(Quantity::Time, Cmp::Gt, d));
+                e = Expr::and(e, Expr::Quantity(Quantity::Time, Cmp::Gt, d, None));
             } else {
                 return Ok(e);
             }
@@ -706,7 +744,7 @@ impl Parser<'_> {
         if self.word("within") {
             let d = self.duration("within")?;
             return Ok((
-                Expr::and(e, Expr::Quantity(Quantity::Time, Cmp::Le, d)),
+                Expr::and(e, Expr::Quantity(Quantity::Time, Cmp::Le, d, None)),
                 true,
             ));
         }

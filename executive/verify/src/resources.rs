@@ -7,12 +7,17 @@
 //! never), a receive task (the message comes whenever it comes). A service task routed to a
 //! system whose catalogue declares no cost for its action is an error naming the task, when a
 //! requirement needs the costs.
+//!
+//! **Vehicles.** A mission flown by one executive draws from one battery. A fleet (one executive
+//! per pool) has one per vehicle: each pool's tasks are costed by its own connectors and
+//! catalogues and draw from its own battery, and the processes its call activities call are its
+//! own too.
 
 use std::collections::BTreeMap;
 
 use connector_api::cost::{Battery, Reading};
 use connector_api::{Catalogue, ConnectorsConfig};
-use executive_model::{NodeId, NodeKind, ProcessGraph, TaskKind};
+use executive_model::{Called, NodeId, NodeKind, ProcessGraph, ProcessId, TaskKind};
 
 /// One task's cost.
 #[derive(Clone, Debug, PartialEq)]
@@ -56,29 +61,122 @@ impl TaskCost {
     }
 }
 
-/// Every task's cost and the battery.
+/// One vehicle: a battery and the pool whose tasks draw from it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Vehicle {
+    /// Its pool's id (`None`: the whole mission, flown by one executive).
+    pub pool: Option<String>,
+    /// The battery it draws from.
+    pub battery: Battery,
+}
+
+/// Every task's cost and every vehicle's battery.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Costs {
-    /// The battery the mission draws from.
-    pub battery: Battery,
+    /// The vehicles (one, with no pool, unless the mission is costed per pool).
+    pub vehicles: Vec<Vehicle>,
+    /// The vehicle each process belongs to (absent: the first).
+    pub owner: BTreeMap<ProcessId, usize>,
     /// Costs by task element (tasks absent here run at once and cost nothing: script tasks).
     pub tasks: BTreeMap<NodeId, TaskCost>,
 }
 
-/// Resolves the cost of every task of `g` against the connectors' routes and catalogues
-/// (`catalogues[i]` belongs to connector `i`); every problem is listed.
-pub fn costs(
-    g: &ProcessGraph,
-    config: &ConnectorsConfig,
-    catalogues: &[Option<Catalogue>],
-) -> Result<Costs, Vec<String>> {
+impl Costs {
+    /// One battery for the whole mission.
+    pub fn one(battery: Battery, tasks: BTreeMap<NodeId, TaskCost>) -> Costs {
+        Costs {
+            vehicles: vec![Vehicle {
+                pool: None,
+                battery,
+            }],
+            owner: BTreeMap::new(),
+            tasks,
+        }
+    }
+
+    /// The vehicle an element belongs to.
+    pub fn vehicle_of(&self, g: &ProcessGraph, node: NodeId) -> usize {
+        self.owner.get(&g.process_of(node)).copied().unwrap_or(0)
+    }
+
+    /// A vehicle's name: its pool's id, or `mission`.
+    pub fn name(&self, v: usize) -> &str {
+        self.vehicles
+            .get(v)
+            .and_then(|x| x.pool.as_deref())
+            .unwrap_or("mission")
+    }
+}
+
+/// What costs one vehicle's tasks: its pool (`None`: the whole mission), its connectors and
+/// their catalogues (`catalogues[i]` belongs to connector `i`).
+#[derive(Clone, Copy, Debug)]
+pub struct Source<'a> {
+    /// The pool's id.
+    pub pool: Option<&'a str>,
+    /// Its connectors' routes.
+    pub config: &'a ConnectorsConfig,
+    /// Their catalogues.
+    pub catalogues: &'a [Option<Catalogue>],
+}
+
+/// The vehicle of each process: a pool's own process, and whatever its call activities call,
+/// transitively (a process called from two vehicles' belongs to the first found).
+fn owners(g: &ProcessGraph, sources: &[Source]) -> Result<BTreeMap<ProcessId, usize>, String> {
+    let mut owner = BTreeMap::new();
+    for (v, s) in sources.iter().enumerate() {
+        let Some(pool) = s.pool else { continue };
+        let process = g
+            .collaborations
+            .iter()
+            .flat_map(|c| &c.participants)
+            .find(|p| p.id == pool)
+            .and_then(|p| p.process)
+            .ok_or_else(|| format!("no pool with a process has the id `{pool}`"))?;
+        owner.insert(process, v);
+    }
+    loop {
+        let mut more = Vec::new();
+        for (i, node) in g.nodes.iter().enumerate() {
+            if let NodeKind::CallActivity(c) = &node.kind
+                && let Some(Called::Process(called)) = c.called
+                && !owner.contains_key(&called)
+                && let Some(v) = owner.get(&g.process_of(NodeId(i as u32)))
+            {
+                more.push((called, *v));
+            }
+        }
+        if more.is_empty() {
+            return Ok(owner);
+        }
+        for (p, v) in more {
+            owner.entry(p).or_insert(v);
+        }
+    }
+}
+
+/// Resolves the cost of every task of `g` against its vehicle's connectors and catalogues;
+/// every problem is listed.
+pub fn costs(g: &ProcessGraph, sources: &[Source]) -> Result<Costs, Vec<String>> {
     let mut problems = Vec::new();
-    let battery = catalogues.iter().flatten().find_map(|c| c.battery.clone());
-    if battery.is_none() {
-        problems.push(
-            "no catalogue declares a battery (`battery`: capacity_wh, idle_w) to draw energy from"
-                .to_owned(),
-        );
+    let owner = owners(g, sources).map_err(|e| vec![e])?;
+    let named = |v: usize, what: String| match sources.get(v).and_then(|s| s.pool) {
+        Some(pool) if sources.len() > 1 => format!("pool `{pool}`: {what}"),
+        _ => what,
+    };
+    let mut vehicles = Vec::new();
+    for (v, s) in sources.iter().enumerate() {
+        match s.catalogues.iter().flatten().find_map(|c| c.battery.clone()) {
+            Some(battery) => vehicles.push(Vehicle {
+                pool: s.pool.map(str::to_owned),
+                battery,
+            }),
+            None => problems.push(named(
+                v,
+                "no catalogue declares a battery (`battery`: capacity_wh, idle_w) to draw energy from"
+                    .to_owned(),
+            )),
+        }
     }
     let mut tasks = BTreeMap::new();
     for (i, node) in g.nodes.iter().enumerate() {
@@ -86,6 +184,14 @@ pub fn costs(
             continue;
         };
         let id = NodeId(i as u32);
+        let v = owner.get(&g.process_of(id)).copied().unwrap_or(0);
+        let Some(&Source {
+            config, catalogues, ..
+        }) = sources.get(v)
+        else {
+            continue;
+        };
+        let mut problem = |what: String| problems.push(named(v, what));
         match t.kind {
             TaskKind::User | TaskKind::Receive | TaskKind::Manual => {
                 tasks.insert(id, TaskCost::open());
@@ -106,34 +212,34 @@ pub fn costs(
                 t.kind,
                 TaskKind::Service | TaskKind::Send | TaskKind::BusinessRule
             ) {
-                problems.push(format!("task `{}`: it names no resource to cost", node.id));
+                problem(format!("task `{}`: it names no resource to cost", node.id));
             }
             continue;
         };
         let resource = binding.resource.clone().unwrap_or_else(|| node.id.clone());
         let Some(route) = config.route(&resource) else {
-            problems.push(format!(
+            problem(format!(
                 "task `{}`: no connector serves resource `{resource}`",
                 node.id
             ));
             continue;
         };
         let Some(Some(cat)) = catalogues.get(route.connector) else {
-            problems.push(format!(
+            problem(format!(
                 "task `{}`: no catalogue of connector `{}` to cost action `{}`",
                 node.id, config.connectors[route.connector].name, route.action
             ));
             continue;
         };
         let Some(spec) = cat.action(&route.action) else {
-            problems.push(format!(
+            problem(format!(
                 "task `{}`: server `{}` has no action `{}`",
                 node.id, cat.server, route.action
             ));
             continue;
         };
         let Some(cost) = &spec.cost else {
-            problems.push(format!(
+            problem(format!(
                 "task `{}`: the catalogue of `{}` declares no cost for action `{}`",
                 node.id, cat.server, route.action
             ));
@@ -181,15 +287,20 @@ pub fn costs(
                     },
                 );
             }
-            Err(e) => problems.push(format!(
+            Err(e) => problem(format!(
                 "task `{}` (action `{}`): {e}",
                 node.id, route.action
             )),
         }
     }
-    match battery {
-        Some(battery) if problems.is_empty() => Ok(Costs { battery, tasks }),
-        _ => Err(problems),
+    if problems.is_empty() {
+        Ok(Costs {
+            vehicles,
+            owner,
+            tasks,
+        })
+    } else {
+        Err(problems)
     }
 }
 

@@ -80,11 +80,12 @@ pub(super) async fn verify(State(s): Shared, Path(name): Path<String>, body: Byt
             depth: 1_000_000,
             native: body.native,
             systems: match &studio.connectors {
-                Some(config) => Ok(executive::verify::Systems {
+                Some(config) => Ok(vec![executive::verify::Systems {
+                    pool: None,
                     source: "the studio's connectors (--connectors)".into(),
                     config: config.clone(),
                     catalogues: executive::catalogues::served(config, &studio.catalogues()),
-                }),
+                }]),
                 None => Err("the studio knows no connectors (--connectors)".into()),
             },
             max_states: 400_000,

@@ -127,7 +127,7 @@ pub fn follow(g: Arc<ProcessGraph>, costs: &Costs, run: &[Observed]) -> Result<V
             hi: now + hi,
         };
         let d = o.at_ms - now;
-        if d > death(&cx, &n).hi + 1.0 {
+        if d > death(&cx, &n, 0).hi + 1.0 {
             break;
         }
         // Mission time is kept in ms: a millisecond either way is rounding.

@@ -13,12 +13,13 @@ pub(super) fn observe(cx: &Ctx, reqs: &[&Requirement], c: &mut Node) {
     }
 }
 
-/// A quantity over the state's life: from now until `lasting` ms later.
-pub(super) fn quantity(cx: &Ctx, n: &Node, q: Quantity, lasting: f64) -> Span {
-    let cap = cx.capacity();
+/// A quantity of vehicle `v` over the state's life: from now until `lasting` ms later.
+pub(super) fn quantity(cx: &Ctx, n: &Node, q: Quantity, v: usize, lasting: f64) -> Span {
+    let cap = cx.capacity(v);
+    let used = n.used(v);
     let energy = Span {
-        lo: n.total().lo,
-        hi: (n.total().hi + cx.rate(n).hi * lasting / HOUR_MS).min(cap),
+        lo: used.lo,
+        hi: (used.hi + cx.rate(n, v).hi * lasting / HOUR_MS).min(cap),
     };
     match q {
         Quantity::Time => Span {
@@ -40,14 +41,23 @@ pub(super) fn eval(cx: &Ctx, n: &Node, e: &Expr, lasting: f64, atoms: &[Atom]) -
         Expr::Word(w) => {
             let mut outcomes = n.state.instances.values().map(|i| &i.outcome);
             Tri::of(match w.as_str() {
-                "ended" => n.dead || outcomes.all(|o| o.is_some()),
+                "ended" => n.dead || n.over(cx),
                 "failed" => outcomes.any(|o| matches!(o, Some(EngineOutcome::Failed { .. }))),
                 _ => outcomes.any(|o| matches!(o, Some(EngineOutcome::Terminated))),
             })
         }
-        Expr::Quantity(q, op, x) => {
+        Expr::Quantity(q, op, x, pool) => {
+            let vehicle = pool
+                .as_deref()
+                .and_then(|p| {
+                    cx.costs
+                        .vehicles
+                        .iter()
+                        .position(|v| v.pool.as_deref() == Some(p))
+                })
+                .unwrap_or(0);
             // Sums of floating-point draws: equal to a millionth is equal.
-            let v = quantity(cx, n, *q, lasting);
+            let v = quantity(cx, n, *q, vehicle, lasting);
             let fine = |y: f64| (y * 1e6).round() / 1e6;
             let v = Span {
                 lo: fine(v.lo),

@@ -112,15 +112,47 @@ impl Span {
 }
 
 /// Time and energy at one step of a run.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Resources {
     /// Mission time since the start, ms.
     pub time_ms: Span,
-    /// Energy used since the start, idle draw included, Wh.
+    /// Energy used since the start, idle draw included, Wh (every vehicle's).
     pub energy_wh: Span,
     /// Energy of the activity that ended at this step, Wh.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub activity_wh: Option<Span>,
+    /// Each vehicle's energy used, Wh, by pool (a mission costed per pool).
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub vehicles: BTreeMap<String, Span>,
+}
+
+impl Resources {
+    /// What a state shows.
+    fn of(cx: &Ctx, n: &Node) -> Resources {
+        Resources {
+            time_ms: n.t(),
+            energy_wh: n.total(),
+            activity_wh: None,
+            vehicles: n.by_vehicle(cx),
+        }
+    }
+
+    /// The smallest bounds holding both.
+    fn hull(self, o: &Resources) -> Resources {
+        let mut vehicles = self.vehicles;
+        for (k, s) in &o.vehicles {
+            vehicles
+                .entry(k.clone())
+                .and_modify(|x| *x = x.hull(*s))
+                .or_insert(*s);
+        }
+        Resources {
+            time_ms: self.time_ms.hull(o.time_ms),
+            energy_wh: self.energy_wh.hull(o.energy_wh),
+            activity_wh: None,
+            vehicles,
+        }
+    }
 }
 
 /// What the timed exploration found.
@@ -209,21 +241,13 @@ pub fn check(
                 suspects[k].push((at, n.total().hi));
             }
         }
-        let running = n.state.instances.values().any(|i| i.outcome.is_none());
+        let running = !n.over(&cx);
         if next.is_empty() || !running {
-            // A run ends here: the mission is over, stuck, or the battery is empty.
-            let res = Resources {
-                time_ms: n.t(),
-                energy_wh: n.total(),
-                activity_wh: None,
-            };
-            out.end = Some(match out.end {
+            // A run ends here: the mission is over, stuck, or the batteries are empty.
+            let res = Resources::of(&cx, &n);
+            out.end = Some(match out.end.take() {
                 None => res,
-                Some(o) => Resources {
-                    time_ms: o.time_ms.hull(res.time_ms),
-                    energy_wh: o.energy_wh.hull(res.energy_wh),
-                    activity_wh: None,
-                },
+                Some(o) => o.hull(&res),
             });
             for (k, r) in reqs.iter().enumerate() {
                 if matches!(r.form, Form::Eventually(_)) && n.reached[k] != Tri::Yes {
@@ -258,20 +282,23 @@ pub fn check(
                 join(&mut joined, &c);
                 // The state remembers the way to its worst contributor (the most energy), the
                 // run a counterexample replays — unless that way passes through itself.
-                if c.energy.hi > nodes[o].energy.hi
+                if c.total().hi > nodes[o].total().hi
                     && let Some(v) = &c.via
                     && !descends(&nodes, v.from, o)
                 {
                     joined.via = c.via.clone();
                 }
                 joins[o] += 1;
-                if joins[o] > WIDEN && joined.energy.hi > nodes[o].energy.hi {
-                    // Energy that keeps growing climbs a ladder of twentieths of the capacity
-                    // (a cycle that spends energy converges in at most twenty rounds); what
-                    // the readings say narrows it again.
-                    let step = cx.capacity() / 20.0;
-                    joined.energy.hi =
-                        (((joined.energy.hi / step).floor() + 1.0) * step).min(cx.capacity());
+                for v in 0..joined.energy.len() {
+                    let e = &mut joined.energy[v];
+                    if joins[o] > WIDEN && e.hi > nodes[o].energy[v].hi {
+                        // Energy that keeps growing climbs a ladder of twentieths of the
+                        // capacity (a cycle that spends energy converges in at most twenty
+                        // rounds); what the readings say narrows it again.
+                        let cap = cx.capacity(v);
+                        let step = cap / 20.0;
+                        e.hi = (((e.hi / step).floor() + 1.0) * step).min(cap);
+                    }
                 }
                 let _ = remember(&cx, &mut joined);
                 nodes[o] = joined;
@@ -306,7 +333,7 @@ pub fn check(
                 requirement = %r.name,
                 state = at,
                 time_h = ?(n.t().lo / HOUR_MS, n.t().hi / HOUR_MS),
-                energy_wh = ?(n.energy.lo, n.energy.hi),
+                energy_wh = ?(n.total().lo, n.total().hi),
                 dead = n.dead,
                 last = ?&l[l.len().saturating_sub(8)..],
                 "may violate"
@@ -349,6 +376,71 @@ pub fn check(
     out
 }
 
+/// What the requirements `reqs` read of batteries the costs do not have, one line each: a
+/// vehicle's (`energy_left of "Scout"`) when the mission is costed with one battery, and the
+/// mission's (no `of`) when it is costed per vehicle.
+pub fn vehicles(reqs: &[Requirement], costs: &Costs) -> Vec<String> {
+    fn walk<'e>(e: &'e Expr, out: &mut Vec<(Quantity, &'e Option<String>)>) {
+        match e {
+            Expr::Quantity(q, _, _, pool) => out.push((*q, pool)),
+            Expr::Not(x) => walk(x, out),
+            Expr::And(a, b) | Expr::Or(a, b) => {
+                walk(a, out);
+                walk(b, out);
+            }
+            _ => {}
+        }
+    }
+    fn form<'e>(f: &'e Form, out: &mut Vec<(Quantity, &'e Option<String>)>) {
+        match f {
+            Form::Eventually(e) | Form::Always(e) => walk(e, out),
+            Form::After(a, f) => {
+                walk(a, out);
+                form(f, out);
+            }
+            Form::When(e, c) => {
+                walk(e, out);
+                if let Some(c) = c {
+                    walk(c, out);
+                }
+            }
+        }
+    }
+    let pools: Vec<String> = costs
+        .vehicles
+        .iter()
+        .filter_map(|v| v.pool.as_ref().map(|p| format!("\"{p}\"")))
+        .collect();
+    let mut out = Vec::new();
+    for r in reqs {
+        let mut read = Vec::new();
+        form(&r.form, &mut read);
+        for (q, pool) in read {
+            if q == Quantity::Time {
+                continue;
+            }
+            let known = costs.vehicles.iter().any(|v| v.pool == *pool);
+            match pool {
+                _ if known => {}
+                Some(p) => out.push(format!(
+                    "requirement `{}` reads the battery of pool `{p}`, but the mission is costed \
+                     with one battery for every pool: give each pool its connectors \
+                     (--connectors {p}=FILE)",
+                    r.name
+                )),
+                None => out.push(format!(
+                    "requirement `{}` reads energy without naming a vehicle, and each pool has its \
+                     own battery: say whose (`energy_left of {}`)",
+                    r.name,
+                    pools.first().map_or("\"POOL\"", String::as_str)
+                )),
+            }
+        }
+    }
+    out.dedup();
+    out
+}
+
 /// Joins of one state after which its energy is widened.
 const WIDEN: u32 = 3;
 
@@ -368,6 +460,9 @@ fn context<'a>(
     Ctx {
         g,
         costs,
+        vehicle: (0..g.nodes.len() as u32)
+            .map(|i| costs.vehicle_of(g, NodeId(i)))
+            .collect(),
         hold: (0..g.nodes.len() as u32)
             .map(NodeId)
             .filter(|n| crate::promela::outside(g, *n))
@@ -414,7 +509,7 @@ fn context<'a>(
 fn quantities(f: &Form) -> Vec<(Quantity, f64)> {
     fn walk(e: &Expr, out: &mut Vec<(Quantity, f64)>) {
         match e {
-            Expr::Quantity(q, _, x) => out.push((*q, *x)),
+            Expr::Quantity(q, _, x, _) => out.push((*q, *x)),
             Expr::Not(x) => walk(x, out),
             Expr::And(a, b) | Expr::Or(a, b) => {
                 walk(a, out);
@@ -440,13 +535,14 @@ fn quantities(f: &Form) -> Vec<(Quantity, f64)> {
     out
 }
 
-/// The mission started: every primary process, at time zero with a full battery.
+/// The mission started: every primary process, at time zero with full batteries.
 fn start(cx: &Ctx, reqs: &[&Requirement]) -> Result<Node, String> {
     let mut root = Node {
         state: State::default(),
         zone: Zone::new(),
         clocks: Vec::new(),
-        energy: Span::point(0.0),
+        energy: vec![Span::point(0.0); cx.costs.vehicles.len()],
+        empty: BTreeSet::new(),
         running: BTreeMap::new(),
         timers: BTreeMap::new(),
         readings: BTreeMap::new(),
@@ -460,7 +556,7 @@ fn start(cx: &Ctx, reqs: &[&Requirement]) -> Result<Node, String> {
         via: None,
     };
     root.start_clock(Clock::Time);
-    let mut e = cx.engine(State::default());
+    let mut e = cx.engine(State::default(), &BTreeSet::new());
     for p in cx.g.primary_processes() {
         let seq = e.state().last_seq + 1;
         let actions = e

@@ -4,12 +4,14 @@
 
 use super::*;
 
-/// A task in flight (its clock counts how long it has run): what it has spent and costs.
+/// A task in flight (its clock counts how long it has run): what it has spent and costs, and
+/// the vehicle whose battery it draws from.
 #[derive(Clone, Debug)]
 pub(super) struct Running {
     pub(super) node: NodeId,
     pub(super) spent: Span,
     pub(super) cost: TaskCost,
+    pub(super) vehicle: usize,
 }
 
 /// An armed timer (its clock counts since it was armed): its element and duration, ms.
@@ -44,15 +46,17 @@ impl Clock {
     }
 }
 
-/// A battery reading a variable holds: its bounds, what it reads and the greatest draw since
-/// it was taken (its clock counts how long ago). It keeps the energy used tied to what was
-/// read — used now is used then plus at least the idle draw and at most the greatest draw
-/// since — which a decision on the reading narrows and a join of states does not undo.
+/// A battery reading a variable holds: its bounds, what it reads, the greatest draw since it
+/// was taken (its clock counts how long ago) and whose battery. It keeps the energy used tied
+/// to what was read — used now is used then plus at least the idle draw and at most the
+/// greatest draw since — which a decision on the reading narrows and a join of states does not
+/// undo.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Read {
     pub(super) value: Span,
     pub(super) kind: Reading,
     pub(super) peak: f64,
+    pub(super) vehicle: usize,
 }
 
 impl Read {
@@ -87,27 +91,30 @@ pub(super) fn reading(cap: f64, used: Span, kind: Reading) -> Span {
     }
 }
 
-/// Narrows the energy used by what each reading says it was then. `None`: nothing is left.
+/// Narrows each vehicle's energy used by what its readings say it was then. `None`: nothing
+/// is left.
 pub(super) fn remember(cx: &Ctx, c: &mut Node) -> Option<()> {
-    let idle = cx.costs.battery.idle_w;
-    let running = c
-        .running
-        .values()
-        .fold(Span::point(0.0), |s, r| s.plus(r.spent));
     for (var, r) in &c.readings {
+        let v = r.vehicle;
+        let idle = cx.idle(v);
+        let running = c
+            .running
+            .values()
+            .filter(|x| x.vehicle == v)
+            .fold(Span::point(0.0), |s, x| s.plus(x.spent));
         let (lo, hi) = c.zone.bounds(c.clock(&Clock::Read(var.clone())));
-        let then = r.used(cx.capacity());
+        let then = r.used(cx.capacity(v));
         // Used now lies in these bounds; what the running activities drew is apart.
-        c.energy.lo = c.energy.lo.max(then.lo + idle * lo / HOUR_MS - running.hi);
-        c.energy.hi = c
-            .energy
-            .hi
-            .min(then.hi + r.peak * hi / HOUR_MS - running.lo);
+        let e = &mut c.energy[v];
+        e.lo = e.lo.max(then.lo + idle * lo / HOUR_MS - running.hi);
+        e.hi = e.hi.min(then.hi + r.peak * hi / HOUR_MS - running.lo);
     }
-    if c.energy.lo > c.energy.hi + 1e-6 {
-        return None;
+    for e in &mut c.energy {
+        if e.lo > e.hi + 1e-6 {
+            return None;
+        }
+        e.hi = e.hi.max(e.lo);
     }
-    c.energy.hi = c.energy.hi.max(c.energy.lo);
     Some(())
 }
 
@@ -148,9 +155,12 @@ pub(super) struct Node {
     /// The clocks' zone, clock `i + 1` measuring `clocks[i]` (kept in [`Clock`] order).
     pub(super) zone: Zone,
     pub(super) clocks: Vec<Clock>,
-    /// Energy used so far by the idle draw and the activities that ended, Wh (the running
-    /// ones' is theirs until they end: see [`Node::total`]).
-    pub(super) energy: Span,
+    /// Energy used so far by the idle draw and the activities that ended, Wh, per vehicle (the
+    /// running ones' is theirs until they end: see [`Node::used`]).
+    pub(super) energy: Vec<Span>,
+    /// The vehicles whose battery is empty: they do nothing more (the run is over when every
+    /// vehicle's is, [`Node::dead`]).
+    pub(super) empty: BTreeSet<usize>,
     pub(super) running: BTreeMap<TaskKey, Running>,
     pub(super) timers: BTreeMap<TimerKey, Timer>,
     pub(super) readings: BTreeMap<String, Read>,
@@ -162,6 +172,7 @@ pub(super) struct Node {
     pub(super) errors: BTreeSet<String>,
     /// Per `eventually` requirement: reached on this path.
     pub(super) reached: Vec<Tri>,
+    /// The run is over: every vehicle's battery is empty.
     pub(super) dead: bool,
     pub(super) via: Option<Via>,
 }
@@ -172,12 +183,39 @@ impl Node {
         self.clocks.iter().position(|x| x == c).map_or(0, |i| i + 1)
     }
 
-    /// Energy used so far, Wh: the idle draw, the activities that ended and what the running
-    /// ones have drawn.
-    pub(super) fn total(&self) -> Span {
+    /// Energy vehicle `v` has used so far, Wh: the idle draw, the activities that ended and
+    /// what the running ones have drawn.
+    pub(super) fn used(&self, v: usize) -> Span {
         self.running
             .values()
-            .fold(self.energy, |e, r| e.plus(r.spent))
+            .filter(|r| r.vehicle == v)
+            .fold(self.energy[v], |e, r| e.plus(r.spent))
+    }
+
+    /// Energy the mission has used so far, Wh: every vehicle's.
+    pub(super) fn total(&self) -> Span {
+        (0..self.energy.len()).fold(Span::point(0.0), |e, v| e.plus(self.used(v)))
+    }
+
+    /// Every vehicle's energy used so far, by name (none for a mission of one battery).
+    pub(super) fn by_vehicle(&self, cx: &Ctx) -> BTreeMap<String, Span> {
+        if self.energy.len() < 2 {
+            return BTreeMap::new();
+        }
+        (0..self.energy.len())
+            .map(|v| (cx.costs.name(v).to_owned(), self.used(v)))
+            .collect()
+    }
+
+    /// Whether the mission is over: every instance has ended, or belongs to a vehicle whose
+    /// battery is empty.
+    pub(super) fn over(&self, cx: &Ctx) -> bool {
+        self.state.instances.values().all(|i| {
+            i.outcome.is_some()
+                || self
+                    .empty
+                    .contains(&cx.costs.owner.get(&i.process).copied().unwrap_or(0))
+        })
     }
 
     /// Mission time now, ms.
@@ -215,6 +253,8 @@ impl Node {
 pub(super) struct Ctx<'a> {
     pub(super) g: &'a Arc<ProcessGraph>,
     pub(super) costs: &'a Costs,
+    /// Each element's vehicle, by node index.
+    pub(super) vehicle: Vec<usize>,
     pub(super) hold: BTreeSet<NodeId>,
     pub(super) codes: Vec<String>,
     /// The start events by which the outside starts a process.
@@ -235,7 +275,7 @@ pub(super) struct Ctx<'a> {
     pub(super) data: bool,
 }
 
-/// What can happen next: its label, the input (`None`: the battery runs out), when, and its
+/// What can happen next: its label, the input (`None`: a battery runs out), when, and its
 /// element.
 pub(super) struct Next {
     pub(super) label: String,
@@ -253,13 +293,25 @@ pub(super) enum When {
     After(Clock, f64),
     /// Any time (an answer, a message).
     Any,
-    /// The battery runs out: this long from now at the least.
-    Dies(f64),
+    /// A vehicle's battery runs out: this long from now at the least.
+    Dies(usize, f64),
 }
 
 impl Ctx<'_> {
-    pub(super) fn engine(&self, state: State) -> Engine {
+    /// The engine on `state`; the pools of the vehicles `empty` run nothing more (a message for
+    /// them goes nowhere).
+    pub(super) fn engine(&self, state: State, empty: &BTreeSet<usize>) -> Engine {
         let mut e = Engine::restore(Arc::clone(self.g), state);
+        if !empty.is_empty() {
+            e = e.with_remote(
+                self.costs
+                    .owner
+                    .iter()
+                    .filter(|(_, v)| empty.contains(v))
+                    .filter_map(|(p, v)| Some((*p, self.costs.vehicles[*v].pool.clone()?)))
+                    .collect(),
+            );
+        }
         // Following a run with its data is running the engine as the executive does.
         if !self.data {
             let game = e.game();
@@ -269,8 +321,19 @@ impl Ctx<'_> {
         e
     }
 
-    pub(super) fn capacity(&self) -> f64 {
-        self.costs.battery.capacity_wh
+    /// Vehicle `v`'s battery capacity, Wh.
+    pub(super) fn capacity(&self, v: usize) -> f64 {
+        self.costs.vehicles[v].battery.capacity_wh
+    }
+
+    /// Vehicle `v`'s idle draw, W.
+    pub(super) fn idle(&self, v: usize) -> f64 {
+        self.costs.vehicles[v].battery.idle_w
+    }
+
+    /// The vehicle an element belongs to.
+    pub(super) fn vehicle_of(&self, node: NodeId) -> usize {
+        self.vehicle.get(node.0 as usize).copied().unwrap_or(0)
     }
 
     pub(super) fn power(&self, p: (f64, f64)) -> Span {
@@ -281,11 +344,16 @@ impl Ctx<'_> {
         }
     }
 
-    /// The draw now, W: idle plus every running activity's.
-    pub(super) fn rate(&self, n: &Node) -> Span {
+    /// Vehicle `v`'s draw now, W: idle plus every running activity's (none once its battery
+    /// is empty).
+    pub(super) fn rate(&self, n: &Node, v: usize) -> Span {
+        if n.empty.contains(&v) {
+            return Span::point(0.0);
+        }
         n.running
             .values()
-            .fold(Span::point(self.costs.battery.idle_w), |r, t| {
+            .filter(|t| t.vehicle == v)
+            .fold(Span::point(self.idle(v)), |r, t| {
                 r.plus(self.power(t.cost.power_envelope()))
             })
     }
@@ -324,7 +392,7 @@ pub(super) fn covers(a: &Node, b: &Node) -> bool {
             .collect()
     };
     a.zone.includes(&b.zone)
-        && a.energy.contains(&b.energy)
+        && a.energy.iter().zip(&b.energy).all(|(x, y)| x.contains(y))
         && spent(a).iter().zip(spent(b)).all(|(x, y)| x.contains(&y))
         && a.readings.len() == b.readings.len()
         && a.readings
@@ -349,7 +417,10 @@ pub(super) fn extrapolate(cx: &Ctx, n: &mut Node) {
         // Readings' ages past what the battery could last, tasks that never end on their own:
         // no bound compares with more.
         let ceiling = match c {
-            Clock::Read(_) => cx.capacity() * HOUR_MS / cx.costs.battery.idle_w.max(1e-9),
+            Clock::Read(var) => {
+                let v = n.readings.get(var).map_or(0, |r| r.vehicle);
+                cx.capacity(v) * HOUR_MS / cx.idle(v).max(1e-9)
+            }
             Clock::Task(_, k) => match n.running.get(k) {
                 Some(r) if r.cost.duration_ms.1.is_infinite() => r.cost.duration_ms.0,
                 _ => continue,
@@ -367,7 +438,9 @@ pub(super) fn extrapolate(cx: &Ctx, n: &mut Node) {
 /// the energies and readings.
 pub(super) fn join(o: &mut Node, c: &Node) {
     o.zone.join(&c.zone);
-    o.energy = o.energy.hull(c.energy);
+    for (x, y) in o.energy.iter_mut().zip(&c.energy) {
+        *x = x.hull(*y);
+    }
     let spent: Vec<Span> = c
         .clocks
         .iter()
@@ -405,13 +478,14 @@ pub(super) fn key(cx: &Ctx, n: &Node) -> String {
         .map(|((_, node), c)| (cx.g.node(*node).id.clone(), *c))
         .collect();
     format!(
-        "{}|{loops:?}|{:?}|{:?}|{:?}|{:?}|{:?}|{}",
+        "{}|{loops:?}|{:?}|{:?}|{:?}|{:?}|{:?}|{}|{:?}",
         crate::explore::shape(cx.g, &n.state, &cx.starts),
         n.done,
         n.counts,
         n.signals,
         n.errors,
         n.reached,
-        n.dead
+        n.dead,
+        n.empty
     )
 }

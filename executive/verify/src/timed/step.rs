@@ -10,12 +10,14 @@ pub(super) fn successors(cx: &Ctx, n: &Node) -> Vec<Next> {
     let s = &n.state;
     let mut out = Vec::new();
     // A mission that is over waits for nothing, not even its battery.
-    if s.instances.values().all(|i| i.outcome.is_some()) {
+    if n.over(cx) {
         return out;
     }
+    // A vehicle whose battery is empty does nothing more.
+    let idle = |node: NodeId| n.empty.contains(&cx.vehicle_of(node));
     // Decisions are instantaneous: while a gateway decides, nothing else happens.
     for (tid, t) in &s.tokens {
-        if !matches!(t.at, At::Deciding) {
+        if !matches!(t.at, At::Deciding) || idle(t.node) {
             continue;
         }
         let decided = decide(cx, n, t.node, t.scope);
@@ -85,6 +87,9 @@ pub(super) fn successors(cx: &Ctx, n: &Node) -> Vec<Next> {
     // The outside starts a process with a message or condition start once per run, while it is
     // idle (as in the untimed exploration and the translation).
     for (start, label, event) in crate::explore::starts_now(g, s, &cx.starts) {
+        if idle(start) {
+            continue;
+        }
         out.push(Next {
             label,
             event: Some(event),
@@ -95,7 +100,7 @@ pub(super) fn successors(cx: &Ctx, n: &Node) -> Vec<Next> {
     for (wid, w) in &s.waits {
         // A non-interrupting event sub-process runs one instance at a time (as in the
         // untimed exploration and the translation).
-        if crate::explore::running_beside(g, s, w) {
+        if crate::explore::running_beside(g, s, w) || idle(w.node) {
             continue;
         }
         let label = format!("{}.fire", g.node(w.node).id);
@@ -121,14 +126,19 @@ pub(super) fn successors(cx: &Ctx, n: &Node) -> Vec<Next> {
             _ => {}
         }
     }
-    let die = death(cx, n);
-    if die.lo.is_finite() {
-        out.push(Next {
-            label: "battery empty".into(),
-            event: None,
-            when: When::Dies(die.lo),
-            node: None,
-        });
+    for v in 0..cx.costs.vehicles.len() {
+        let die = death(cx, n, v);
+        if die.lo.is_finite() {
+            out.push(Next {
+                label: match cx.costs.vehicles[v].pool.as_deref() {
+                    Some(pool) if cx.costs.vehicles.len() > 1 => format!("battery empty: {pool}"),
+                    _ => "battery empty".into(),
+                },
+                event: None,
+                when: When::Dies(v, die.lo),
+                node: None,
+            });
+        }
     }
     out
 }
@@ -151,11 +161,14 @@ pub(super) fn bounded(cx: &Ctx, node: NodeId, flows: &[executive_model::FlowId])
     flows.iter().any(|f| back(cx, node, *f) && Some(*f) != free)
 }
 
-/// How long from now the battery runs out, ms: the least and the greatest draw using what is
-/// left.
-pub(super) fn death(cx: &Ctx, n: &Node) -> Span {
-    let rate = cx.rate(n);
-    let left = reading(cx.capacity(), n.total(), Reading::EnergyWh);
+/// How long from now vehicle `v`'s battery runs out, ms: the least and the greatest draw using
+/// what is left (never, once it is empty).
+pub(super) fn death(cx: &Ctx, n: &Node, v: usize) -> Span {
+    if n.empty.contains(&v) {
+        return Span::point(f64::INFINITY);
+    }
+    let rate = cx.rate(n, v);
+    let left = reading(cx.capacity(v), n.used(v), Reading::EnergyWh);
     let left = Span {
         lo: left.lo.max(0.0),
         hi: left.hi.max(0.0),
@@ -198,10 +211,12 @@ pub(super) fn elapse(cx: &Ctx, n: &Node, when: &When) -> Option<(Zone, usize)> {
                 z.at_most(i + 1, most);
             }
         }
-        z.at_most(wait, death(cx, n).hi);
+        for v in 0..cx.costs.vehicles.len() {
+            z.at_most(wait, death(cx, n, v).hi);
+        }
         match when {
             When::After(c, least) => z.at_least(n.clock(c), *least),
-            When::Dies(least) => z.at_least(wait, *least),
+            When::Dies(_, least) => z.at_least(wait, *least),
             _ => {}
         }
     }
@@ -225,26 +240,29 @@ pub(super) fn take(cx: &Ctx, n: &Node, x: &Next, mut z: Zone, wait: usize) -> Op
     z.remove(wait);
     let mut c = n.clone();
     c.zone = z;
-    let rate = cx.rate(n);
-    c.energy = n.energy.plus(wh(d, Span::point(cx.costs.battery.idle_w)));
-    c.energy.lo = c.energy.lo.min(cx.capacity());
-    c.energy.hi = c.energy.hi.min(cx.capacity());
+    for (v, e) in c.energy.iter_mut().enumerate() {
+        if !n.empty.contains(&v) {
+            let cap = cx.capacity(v);
+            *e = e.plus(wh(d, Span::point(cx.idle(v))));
+            e.lo = e.lo.min(cap);
+            e.hi = e.hi.min(cap);
+        }
+    }
     for r in c.running.values_mut() {
         r.spent = r.spent.plus(wh(d, cx.power(r.cost.power_envelope())));
     }
     for r in c.readings.values_mut() {
-        r.peak = r.peak.max(rate.hi);
+        r.peak = r.peak.max(cx.rate(n, r.vehicle).hi);
     }
     remember(cx, &mut c)?;
     let Some(event) = x.event.clone() else {
-        c.energy = Span::point(cx.capacity());
-        for r in c.running.values_mut() {
-            r.spent = Span::point(0.0);
-        }
-        c.dead = true;
+        let When::Dies(v, _) = x.when else {
+            return None;
+        };
+        empty(cx, &mut c, v);
         return Some(c);
     };
-    let mut e = cx.engine(n.state.clone());
+    let mut e = cx.engine(n.state.clone(), &n.empty);
     let seq = n.state.last_seq + 1;
     let (ending, code) = match &event {
         Event::TaskCompleted { task, .. } | Event::UserTaskAnswered { task, .. } => {
@@ -299,12 +317,13 @@ pub(super) fn take(cx: &Ctx, n: &Node, x: &Next, mut z: Zone, wait: usize) -> Op
         let (lo, hi) = c.zone.bounds(c.clock(&Clock::Task(r.node, key)));
         let power = cx.power(r.cost.outcome(code.as_deref()).power_w);
         let own = wh(Span { lo, hi }, power);
-        c.energy = c.energy.plus(own);
+        let v = r.vehicle;
+        c.energy[v] = c.energy[v].plus(own);
         c.stop_clock(&Clock::Task(r.node, key));
         spent = Some(own);
-        let energy = c.total();
+        let energy = c.used(v);
         for (var, kind) in &r.cost.reads {
-            let value = reading(cx.capacity(), energy, *kind);
+            let value = reading(cx.capacity(v), energy, *kind);
             c.stop_clock(&Clock::Read(var.clone()));
             c.start_clock(Clock::Read(var.clone()));
             c.readings.insert(
@@ -313,6 +332,7 @@ pub(super) fn take(cx: &Ctx, n: &Node, x: &Next, mut z: Zone, wait: usize) -> Op
                     value,
                     kind: *kind,
                     peak: 0.0,
+                    vehicle: v,
                 },
             );
         }
@@ -492,17 +512,46 @@ pub(super) fn count(cx: &Ctx, c: &mut Node, node: NodeId) {
     }
 }
 
+/// Vehicle `v`'s battery is empty: it has used all of it and does nothing more — its tasks
+/// and timers are dropped (with their clocks), its readings forgotten. The run is over once
+/// every vehicle's is.
+pub(super) fn empty(cx: &Ctx, c: &mut Node, v: usize) {
+    c.energy[v] = Span::point(cx.capacity(v));
+    c.empty.insert(v);
+    c.dead = c.empty.len() == cx.costs.vehicles.len();
+    for r in c.running.values_mut().filter(|r| r.vehicle == v) {
+        r.spent = Span::point(0.0);
+    }
+    if c.dead {
+        return;
+    }
+    let gone: Vec<String> = c
+        .readings
+        .iter()
+        .filter(|(_, r)| r.vehicle == v)
+        .map(|(k, _)| k.clone())
+        .collect();
+    for var in gone {
+        c.readings.remove(&var);
+        c.stop_clock(&Clock::Read(var));
+    }
+    settle(cx, c);
+}
+
 /// Brings the clocks in line with the engine state: tasks that started now run from now,
 /// timers armed now count from now, and what the engine dropped is gone (a cancelled
-/// activity's energy so far stays used, at most).
+/// activity's energy so far stays used, at most). A vehicle whose battery is empty runs
+/// nothing.
 pub(super) fn settle(cx: &Ctx, c: &mut Node) {
     let mut running = BTreeMap::new();
+    let empty = c.empty.clone();
+    let idle = |node: NodeId| empty.contains(&cx.vehicle_of(node));
     let tokens: Vec<(TaskKey, NodeId)> = c
         .state
         .tokens
         .values()
         .filter_map(|t| match t.at {
-            At::Task(k) | At::UserTask(k) => Some((k, t.node)),
+            At::Task(k) | At::UserTask(k) if !idle(t.node) => Some((k, t.node)),
             _ => None,
         })
         .collect();
@@ -513,6 +562,7 @@ pub(super) fn settle(cx: &Ctx, c: &mut Node) {
                 c.start_clock(Clock::Task(node, k));
                 Running {
                     node,
+                    vehicle: cx.vehicle_of(node),
                     spent: Span::point(0.0),
                     cost: cx
                         .costs
@@ -531,10 +581,12 @@ pub(super) fn settle(cx: &Ctx, c: &mut Node) {
     // Cancelled: what they drew until then stays used, or less (a system may stop charging a
     // cancelled activity before the cancel reaches it).
     for (k, r) in std::mem::take(&mut c.running) {
-        c.energy = c.energy.plus(Span {
-            lo: 0.0,
-            hi: r.spent.hi,
-        });
+        if !c.empty.contains(&r.vehicle) {
+            c.energy[r.vehicle] = c.energy[r.vehicle].plus(Span {
+                lo: 0.0,
+                hi: r.spent.hi,
+            });
+        }
         c.stop_clock(&Clock::Task(r.node, k));
     }
     c.running = running;
@@ -545,7 +597,7 @@ pub(super) fn settle(cx: &Ctx, c: &mut Node) {
         .waits
         .values()
         .filter_map(|w| match w.on {
-            On::Timer { key, due, .. } => Some((key, w.node, due as f64)),
+            On::Timer { key, due, .. } if !idle(w.node) => Some((key, w.node, due as f64)),
             _ => None,
         })
         .collect();

@@ -1,7 +1,8 @@
 //! The timed exploration on small missions: timers against durations, energy as idle draw plus
 //! activity draw, the battery running out, decisions read from the battery, hourly polling until
 //! the battery is low, reports beside the work one at a time, a process the outside starts, and
-//! every VIOLATED verdict backed by one run that shows it.
+//! every VIOLATED verdict backed by one run that shows it; and a fleet, each vehicle drawing
+//! from its own battery, one whose battery is empty stopping while the other goes on.
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -55,12 +56,12 @@ fn definitions(processes: &str) -> Arc<ProcessGraph> {
 /// Costs: `(task id, minutes min, minutes max, watts)`; a battery of `capacity` Wh drawing
 /// `idle` W.
 fn costs(g: &ProcessGraph, capacity: f64, idle: f64, tasks: &[(&str, f64, f64, f64)]) -> Costs {
-    Costs {
-        battery: Battery {
+    Costs::one(
+        Battery {
             capacity_wh: capacity,
             idle_w: idle,
         },
-        tasks: tasks
+        tasks
             .iter()
             .map(|(id, lo, hi, w)| {
                 let node = g.node_by_id(id).expect("task");
@@ -72,7 +73,7 @@ fn costs(g: &ProcessGraph, capacity: f64, idle: f64, tasks: &[(&str, f64, f64, f
                 (node, cost)
             })
             .collect::<BTreeMap<_, _>>(),
-    }
+    )
 }
 
 fn verdicts(g: &Arc<ProcessGraph>, costs: &Costs, checks: &[&str]) -> (Timed, Vec<Verdict>) {
@@ -123,7 +124,10 @@ fn a_timer_fires_when_its_time_has_come() {
     let (t, v) = verdicts(&g, &slow, &check);
     assert_eq!(v, [Verdict::Violated, Verdict::Violated]);
     let steps = &t.properties[1].counterexample;
-    let last = steps.last().and_then(|s| s.resources).expect("timed steps");
+    let last = steps
+        .last()
+        .and_then(|s| s.resources.clone())
+        .expect("timed steps");
     assert_eq!(last.time_ms.hi, 3_600_000.0, "{steps:?}");
     // Either: some run is late.
     let either = costs(&g, 1000.0, 1.0, &[("A", 30.0, 120.0, 0.0)]);
@@ -169,7 +173,7 @@ fn energy_is_the_idle_draw_plus_each_activity_s_draw() {
     let b = steps
         .iter()
         .find(|s| s.marker == "B.complete")
-        .and_then(|s| s.resources)
+        .and_then(|s| s.resources.clone())
         .expect("B completes in the counterexample");
     let spent = b.activity_wh.expect("B's own energy");
     assert!((spent.hi - 100.0).abs() < 1e-6, "{spent:?}");
@@ -194,7 +198,10 @@ fn the_battery_running_out_ends_the_run() {
         Some("battery empty")
     );
     assert_eq!(
-        steps.last().and_then(|s| s.resources).map(|r| r.time_ms.hi),
+        steps
+            .last()
+            .and_then(|s| s.resources.clone())
+            .map(|r| r.time_ms.hi),
         Some(1_800_000.0)
     );
 }
@@ -330,7 +337,7 @@ fn an_hourly_monitor_stops_when_its_reading_crosses_the_threshold() {
     assert_eq!((end.energy_wh.lo, end.energy_wh.hi), (800.0, 900.0));
     // The counterexample is one run: nine readings, the last one low, at 9 h.
     let run = &t.properties[1].counterexample;
-    let last = run.last().and_then(|s| s.resources).expect("timed");
+    let last = run.last().and_then(|s| s.resources.clone()).expect("timed");
     assert_eq!(last.time_ms.hi, 9.0 * 3_600_000.0);
     let reads = t.properties[1]
         .counterexample
@@ -416,4 +423,166 @@ fn the_requirement_language_reads_quantities_and_names_what_is_wrong() {
         let why = parse(bad).expect_err(bad).to_string();
         assert!(why.contains(says), "{bad}: {why}");
     }
+}
+
+/// Two vehicles, one pool each: the lander works (`Dig`, half an hour) and waits for the
+/// scout's word, the scout flies (`Fly`, an hour) and tells it; each draws from its own
+/// battery.
+const FLEET: &str = r#"
+  <collaboration id="c">
+    <participant id="lander" name="Lander" processRef="L"/>
+    <participant id="scout" name="Scout" processRef="S"/>
+    <messageFlow id="m" sourceRef="Tell" targetRef="Heard" messageRef="STATUS"/>
+  </collaboration>
+  <process id="L" isExecutable="true">
+    <startEvent id="ls"/>
+    <sequenceFlow id="l1" sourceRef="ls" targetRef="Dig"/>
+    <serviceTask id="Dig"/>
+    <sequenceFlow id="l2" sourceRef="Dig" targetRef="Wait"/>
+    <eventBasedGateway id="Wait"/>
+    <sequenceFlow id="l3" sourceRef="Wait" targetRef="Heard"/>
+    <intermediateCatchEvent id="Heard"><messageEventDefinition messageRef="STATUS"/></intermediateCatchEvent>
+    <sequenceFlow id="l4" sourceRef="Heard" targetRef="LandedWord"/>
+    <endEvent id="LandedWord"/>
+    <sequenceFlow id="l5" sourceRef="Wait" targetRef="Silence"/>
+    <intermediateCatchEvent id="Silence"><timerEventDefinition><timeDuration>PT6H</timeDuration></timerEventDefinition></intermediateCatchEvent>
+    <sequenceFlow id="l6" sourceRef="Silence" targetRef="Alone"/>
+    <endEvent id="Alone"/>
+  </process>
+  <process id="S" isExecutable="true">
+    <startEvent id="ss"/>
+    <sequenceFlow id="s1" sourceRef="ss" targetRef="Fly"/>
+    <serviceTask id="Fly"/>
+    <sequenceFlow id="s2" sourceRef="Fly" targetRef="Tell"/>
+    <intermediateThrowEvent id="Tell"><messageEventDefinition messageRef="STATUS"/></intermediateThrowEvent>
+    <sequenceFlow id="s3" sourceRef="Tell" targetRef="ScoutDone"/>
+    <endEvent id="ScoutDone"/>
+  </process>"#;
+
+/// [`FLEET`]'s costs: the lander's battery of `lander` Wh at 10 W idle, digging at 100 W; the
+/// scout's of `scout` Wh at 5 W idle, flying at 195 W.
+fn fleet(g: &ProcessGraph, lander: f64, scout: f64) -> Costs {
+    let battery = |capacity_wh, idle_w| Battery {
+        capacity_wh,
+        idle_w,
+    };
+    let mut c = costs(
+        g,
+        lander,
+        10.0,
+        &[("Dig", 30.0, 30.0, 100.0), ("Fly", 60.0, 60.0, 195.0)],
+    );
+    c.vehicles = vec![
+        crate::resources::Vehicle {
+            pool: Some("lander".into()),
+            battery: battery(lander, 10.0),
+        },
+        crate::resources::Vehicle {
+            pool: Some("scout".into()),
+            battery: battery(scout, 5.0),
+        },
+    ];
+    c.owner = [
+        (g.process_by_id("L").expect("L"), 0),
+        (g.process_by_id("S").expect("S"), 1),
+    ]
+    .into_iter()
+    .collect();
+    c
+}
+
+#[test]
+fn each_vehicle_draws_from_its_own_battery() {
+    let g = definitions(FLEET);
+    let c = fleet(&g, 1000.0, 1000.0);
+    // The scout: an hour at 200 W: 200 Wh. The lander: half an hour at 110 W, half an hour
+    // idle at 10 W: 60 Wh. Neither is the other's.
+    let (t, v) = verdicts(
+        &g,
+        &c,
+        &[
+            "always energy of \"scout\" <= 200 Wh",
+            "always energy of \"Scout\" <= 199 Wh",
+            "always energy of \"lander\" <= 60 Wh",
+            "eventually done \"LandedWord\" with energy_left of \"lander\" >= 94 %",
+            "eventually done \"LandedWord\" within PT1H",
+        ],
+    );
+    assert_eq!(
+        v,
+        [
+            Verdict::Holds,
+            Verdict::Violated,
+            Verdict::Holds,
+            Verdict::Holds,
+            Verdict::Holds
+        ]
+    );
+    let end = t.end.clone().expect("runs end");
+    assert!((end.vehicles["lander"].hi - 60.0).abs() < 1e-6, "{end:?}");
+    assert!((end.energy_wh.hi - 260.0).abs() < 1e-6, "{end:?}");
+    // The counterexample shows each vehicle's energy.
+    let last = t.properties[1]
+        .counterexample
+        .last()
+        .and_then(|s| s.resources.clone())
+        .expect("timed steps");
+    assert!(last.vehicles["scout"].hi > 199.0, "{last:?}");
+}
+
+#[test]
+fn a_vehicle_whose_battery_is_empty_stops_and_the_other_goes_on() {
+    let g = definitions(FLEET);
+    // The scout's 100 Wh last half its flight: it never tells, the lander waits six hours and
+    // goes on alone, its own battery untouched by the scout's.
+    let c = fleet(&g, 1000.0, 100.0);
+    let (t, v) = verdicts(
+        &g,
+        &c,
+        &[
+            "eventually done \"Alone\" within P1D",
+            "never done \"ScoutDone\" after PT0S",
+            "never done \"LandedWord\" after PT0S",
+            "eventually done \"Alone\" with energy_left of \"lander\" > 0 %",
+        ],
+    );
+    assert_eq!(
+        v,
+        [
+            Verdict::Holds,
+            Verdict::Holds,
+            Verdict::Holds,
+            Verdict::Holds
+        ]
+    );
+    let end = t.end.expect("runs end");
+    assert!((end.vehicles["scout"].lo - 100.0).abs() < 1e-6, "{end:?}");
+    // Six and a half hours: half an hour of digging, six of waiting.
+    assert_eq!(end.time_ms.hi, 6.5 * 3_600_000.0, "{end:?}");
+}
+
+#[test]
+fn energy_must_say_whose_battery_when_each_vehicle_has_one() {
+    let g = definitions(FLEET);
+    let parse = |check: &str| {
+        let text = format!("[[requirement]]\nname = \"r\"\ncheck = '{check}'\n");
+        crate::requirements::parse(&text, "t.req.toml", &g).map(|r| r.requirements)
+    };
+    let per_vehicle = fleet(&g, 1000.0, 1000.0);
+    let one = costs(
+        &g,
+        1000.0,
+        10.0,
+        &[("Dig", 1.0, 1.0, 1.0), ("Fly", 1.0, 1.0, 1.0)],
+    );
+    let mission = parse("always energy_left >= 5 %").expect("parses");
+    assert!(vehicles(&mission, &one).is_empty());
+    let unread = vehicles(&mission, &per_vehicle);
+    assert!(unread[0].contains("say whose"), "{unread:?}");
+    let scout = parse("always energy_left of \"Scout\" >= 5 %").expect("parses");
+    assert!(vehicles(&scout, &per_vehicle).is_empty());
+    let unread = vehicles(&scout, &one);
+    assert!(unread[0].contains("--connectors scout=FILE"), "{unread:?}");
+    let err = parse("always energy of \"rover\" <= 5 Wh").expect_err("no rover");
+    assert!(err.to_string().contains("\"rover\""), "{err}");
 }

@@ -36,9 +36,8 @@ pub(super) fn step(cx: &Ctx, n: &Node, label: &str, node: Option<NodeId>) -> Tra
         step,
         cycle_start: false,
         resources: Some(Resources {
-            time_ms: n.t(),
-            energy_wh: n.total(),
             activity_wh: n.via.as_ref().and_then(|v| v.spent),
+            ..Resources::of(cx, n)
         }),
     }
 }
@@ -83,7 +82,7 @@ pub(super) fn replay(
     let mut guide = 0;
     for _ in 0..RUN_STEPS {
         let next = successors(cx, &n);
-        let running = n.state.instances.values().any(|i| i.outcome.is_none());
+        let running = !n.over(cx);
         if next.is_empty() || !running || n.dead {
             break;
         }
@@ -182,16 +181,14 @@ pub(super) fn replay(
             return Some(steps);
         }
     }
-    let ended = n.dead
-        || n.state.instances.values().all(|i| i.outcome.is_some())
-        || successors(cx, &n).is_empty();
+    let ended = n.dead || n.over(cx) || successors(cx, &n).is_empty();
     tracing::debug!(
         requirement = %r.name,
         late,
         steps = steps.len(),
         guided = guide,
         ended,
-        energy_wh = n.energy.hi,
+        energy_wh = n.total().hi,
         "replayed"
     );
     let violated = match &r.form {
