@@ -641,7 +641,7 @@ fn example(t: &connector_api::Type) -> serde_json::Value {
     match t {
         Type::Optional(inner) => example(inner),
         Type::Bool => serde_json::json!(true),
-        Type::Int => serde_json::json!(3),
+        Type::Int | Type::Sized(_) => serde_json::json!(3),
         Type::Float => serde_json::json!(2.5),
         Type::String => serde_json::json!("A"),
         Type::Timestamp => serde_json::json!("2026-11-27T10:00:00Z"),

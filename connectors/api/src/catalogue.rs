@@ -5,6 +5,8 @@
 //! Types are written the way mission models declare them: `int`, `f64`, `string`, `bool`,
 //! `timestamp`, `json`, `[T]` for lists, a trailing `?` for optional fields, and a JSON object
 //! of fields for a nested message (`"selected_site": {"site_id": "int", "score": "f64"}`).
+//! Integers of a fixed width (a ROS 2 `uint8`, an `int32`) are `i8`, `u8`, `i16`, `u16`, `i32`,
+//! `u32` and `u64`: a value outside the width's range is refused like a mistyped one.
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -20,6 +22,8 @@ use crate::wire::Fields;
 pub enum Type {
     /// 64-bit signed integer.
     Int,
+    /// An integer of a fixed width, in its range.
+    Sized(Width),
     /// 64-bit float (an integer is accepted).
     Float,
     /// UTF-8 text.
@@ -50,6 +54,13 @@ impl Type {
         }
         Some(match s {
             "int" | "i64" | "integer" | "long" => Type::Int,
+            "i8" => Type::Sized(Width::I8),
+            "u8" => Type::Sized(Width::U8),
+            "i16" => Type::Sized(Width::I16),
+            "u16" => Type::Sized(Width::U16),
+            "i32" => Type::Sized(Width::I32),
+            "u32" => Type::Sized(Width::U32),
+            "u64" => Type::Sized(Width::U64),
             "f64" | "float" | "double" | "number" => Type::Float,
             "string" | "str" => Type::String,
             "bool" | "boolean" => Type::Bool,
@@ -72,7 +83,10 @@ impl Type {
     pub fn accepts(&self, declared: &Type) -> bool {
         match (self.required(), declared.required()) {
             (Type::Json, _) | (_, Type::Json) => true,
-            (Type::Float, Type::Int) => true,
+            (Type::Float, Type::Int | Type::Sized(_)) => true,
+            // A declared `int` may fit or not: its values are checked when they are sent.
+            (Type::Sized(_), Type::Int) | (Type::Int, Type::Sized(_)) => true,
+            (Type::Sized(a), Type::Sized(b)) => a.holds(*b),
             (Type::Timestamp, Type::String) | (Type::String, Type::Timestamp) => true,
             (Type::List(a), Type::List(b)) => a.accepts(b),
             (Type::Object(a), Type::Object(b)) => b
@@ -90,6 +104,22 @@ impl Type {
             (Type::Optional(t), v) => t.check(path, v),
             (Type::Json, _) => Ok(()),
             (Type::Int, Value::Number(n)) if n.is_i64() => Ok(()),
+            (Type::Sized(w), Value::Number(n)) if n.is_i64() || n.is_u64() => {
+                let x = n
+                    .as_i64()
+                    .map(i128::from)
+                    .or_else(|| n.as_u64().map(i128::from))
+                    .unwrap_or_default();
+                if w.range().contains(&x) {
+                    Ok(())
+                } else {
+                    Err(format!(
+                        "`{path}` is {x}, outside the range of {w} ({}..={})",
+                        w.range().start(),
+                        w.range().end()
+                    ))
+                }
+            }
             (Type::Float, Value::Number(_)) => Ok(()),
             (Type::String | Type::Timestamp, Value::String(_)) => Ok(()),
             (Type::Bool, Value::Bool(_)) => Ok(()),
@@ -145,6 +175,7 @@ impl fmt::Display for Type {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Type::Int => f.write_str("int"),
+            Type::Sized(w) => write!(f, "{w}"),
             Type::Float => f.write_str("f64"),
             Type::String => f.write_str("string"),
             Type::Bool => f.write_str("bool"),
@@ -200,6 +231,60 @@ impl From<Type> for Value {
             }
             t => Value::String(t.to_string()),
         }
+    }
+}
+
+/// The width of a fixed-width integer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Width {
+    /// -128..=127.
+    I8,
+    /// 0..=255.
+    U8,
+    /// -32 768..=32 767.
+    I16,
+    /// 0..=65 535.
+    U16,
+    /// -2³¹..=2³¹-1.
+    I32,
+    /// 0..=2³²-1.
+    U32,
+    /// 0..=2⁶⁴-1.
+    U64,
+}
+
+impl Width {
+    /// The values it holds.
+    pub fn range(self) -> std::ops::RangeInclusive<i128> {
+        match self {
+            Width::I8 => i128::from(i8::MIN)..=i128::from(i8::MAX),
+            Width::U8 => 0..=i128::from(u8::MAX),
+            Width::I16 => i128::from(i16::MIN)..=i128::from(i16::MAX),
+            Width::U16 => 0..=i128::from(u16::MAX),
+            Width::I32 => i128::from(i32::MIN)..=i128::from(i32::MAX),
+            Width::U32 => 0..=i128::from(u32::MAX),
+            Width::U64 => 0..=i128::from(u64::MAX),
+        }
+    }
+
+    /// Whether every value of `other` is one of its own.
+    pub fn holds(self, other: Width) -> bool {
+        let (a, b) = (self.range(), other.range());
+        a.start() <= b.start() && b.end() <= a.end()
+    }
+}
+
+impl fmt::Display for Width {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Width::I8 => "i8",
+            Width::U8 => "u8",
+            Width::I16 => "i16",
+            Width::U16 => "u16",
+            Width::I32 => "i32",
+            Width::U32 => "u32",
+            Width::U64 => "u64",
+        })
     }
 }
 

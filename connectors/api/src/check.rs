@@ -20,6 +20,9 @@ pub struct TaskUse {
     pub resource: String,
     /// Goal field paths it writes, with the type the model declares (if any).
     pub inputs: Vec<(String, Option<Type>)>,
+    /// Goal field paths it sets to a constant (a literal with no declared type), with the
+    /// constant: checked against the field's type and range before flight.
+    pub constants: Vec<(String, serde_json::Value)>,
     /// Result field paths its outputs read, with the declared type (if any).
     pub outputs: Vec<(String, Option<Type>)>,
     /// Error codes caught by error boundaries on it (`None`: a catch-all boundary).
@@ -90,6 +93,13 @@ pub fn check(
                         ));
                     }
                 }
+            }
+        }
+        for (path, value) in &t.constants {
+            if let Some(want) = field_at(&spec.goal, path)
+                && let Err(e) = want.check(path, value)
+            {
+                problem(format!("input {e} (`{}` expects {want})", spec.name));
             }
         }
         // Required goal fields (nested ones too) the task does not write.
@@ -193,7 +203,7 @@ mod tests {
             actions: vec![
                 serde_json::from_value::<ActionSpec>(serde_json::json!({
                     "name": "arm.move",
-                    "goal": {"target": {"x": "f64", "y": "f64"}, "speed": "f64?"},
+                    "goal": {"target": {"x": "f64", "y": "f64"}, "speed": "f64?", "joint": "u8?", "mode": "i32?"},
                     "result": {"reached": "bool"},
                     "errors": {"ARM_FAULT": "joint fault"}
                 }))
@@ -209,6 +219,12 @@ mod tests {
                     ("target.x".into(), Some(Type::Int)),
                     ("target.z".into(), None),
                     ("speed".into(), Some(Type::String)),
+                    ("joint".into(), None),
+                    ("mode".into(), None),
+                ],
+                constants: vec![
+                    ("joint".into(), serde_json::json!(300)),
+                    ("mode".into(), serde_json::json!("fast")),
                 ],
                 outputs: vec![("reached".into(), Some(Type::Int)), ("pose".into(), None)],
                 caught: vec![
@@ -238,6 +254,8 @@ mod tests {
             [
                 "task `Move`: input `target.z` is not a goal field of `arm.move`",
                 "task `Move`: input `speed` is declared string but `arm.move` expects f64?",
+                "task `Move`: input `joint` is 300, outside the range of u8 (0..=255) (`arm.move` expects u8?)",
+                "task `Move`: input `mode` must be i32, got a string (`arm.move` expects i32?)",
                 "task `Move`: required goal field `target.y` of `arm.move` is not written by any input",
                 "task `Move`: output `reached` is declared int but `arm.move` returns bool",
                 "task `Move`: output reads `pose`, which is not a result field of `arm.move`",

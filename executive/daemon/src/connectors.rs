@@ -286,6 +286,17 @@ pub fn task_uses(g: &ProcessGraph) -> Vec<TaskUse> {
             ),
             None => (Vec::new(), Vec::new()),
         };
+        // Inputs set to a constant without a declared type: the constant is what is sent.
+        let constants = t
+            .binding
+            .iter()
+            .flat_map(|b| &b.inputs)
+            .filter(|i| !user && i.ty.is_none())
+            .filter_map(|i| {
+                let v = serde_json::from_str::<serde_json::Value>(i.source.text.trim()).ok()?;
+                (!v.is_null()).then(|| (i.target.clone(), v))
+            })
+            .collect();
         let caught = node
             .boundaries
             .iter()
@@ -304,6 +315,7 @@ pub fn task_uses(g: &ProcessGraph) -> Vec<TaskUse> {
             name: node.label().to_owned(),
             resource: resource.unwrap_or_else(|| node.id.clone()),
             inputs,
+            constants,
             outputs,
             caught,
         });
