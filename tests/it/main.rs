@@ -24,6 +24,7 @@ mod protocol;
 mod python;
 mod realworld;
 mod resources;
+mod ros2;
 mod run;
 mod studio;
 mod tidy;

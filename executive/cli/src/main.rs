@@ -113,6 +113,10 @@ enum Command {
     /// goal and result field. Camunda Modeler reads them from `.camunda/element-templates/`
     /// beside a diagram or above it; what they write loads in `trace validate` and `trace run`.
     Templates(TemplatesArgs),
+    /// Print the catalogue a middleware's definitions give, as JSON: for the studio, `trace
+    /// templates` and pre-flight checks of missions on systems that serve no catalogue.
+    #[command(subcommand)]
+    Catalogue(CatalogueKind),
     /// Verify a mission model with Spin before it flies: no deadlock, safeness, no dead
     /// activities, every run ends, no lost signal (exit 0 all hold, 1 violated, 2 incomplete
     /// or not verifiable).
@@ -238,6 +242,22 @@ fn logging(filter: &str, json: bool) {
     }
 }
 
+/// The middlewares whose definitions `trace catalogue` reads.
+#[derive(clap::Subcommand)]
+enum CatalogueKind {
+    /// ROS 2 actions: every `.action` definition under AMENT_PREFIX_PATH's `share/` and DIRs
+    /// (prefixes, `share/` directories or package directories), one entry per action named by
+    /// its type (`test_msgs/action/Fibonacci`); an unreadable definition is refused with its
+    /// file and line.
+    Ros2 {
+        /// Further directories of definitions.
+        dirs: Vec<PathBuf>,
+        /// The catalogue's server name.
+        #[arg(long, default_value = "ros2")]
+        server: String,
+    },
+}
+
 fn main() -> anyhow::Result<ExitCode> {
     let cli = Cli::parse();
     if !matches!(
@@ -314,6 +334,19 @@ fn main() -> anyhow::Result<ExitCode> {
         }
         Command::Studio(args) => studio(args),
         Command::Templates(args) => templates(args),
+        Command::Catalogue(CatalogueKind::Ros2 { dirs, server }) => {
+            let defs = connector_ros2::Definitions::from_env(&dirs);
+            match connector_ros2::definitions::catalogue(&defs, &server) {
+                Ok(cat) => {
+                    println!("{}", serde_json::to_string_pretty(&cat)?);
+                    Ok(ExitCode::SUCCESS)
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    Ok(ExitCode::FAILURE)
+                }
+            }
+        }
         Command::Verify(opts) => {
             let report = match executive::verify::verify(&opts) {
                 Ok(r) => r,
