@@ -128,6 +128,7 @@ fn connector_config(server: &str, grace_ms: u64) -> ConnectorConfig {
         clock: false,
         answers: false,
         limits: Default::default(),
+        ros2: Default::default(),
     }
 }
 

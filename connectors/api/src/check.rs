@@ -196,6 +196,7 @@ mod tests {
                 clock: false,
                 answers: false,
                 limits: Default::default(),
+                ros2: Default::default(),
             }],
         };
         let cat = Catalogue {

@@ -31,5 +31,7 @@ pub use catalogue::{ActionSpec, Catalogue, Type};
 pub use check::{Mismatch, TaskUse, check};
 pub use contract::{Command, Connector, ConnectorError, PeerState, Report, Reports, Verdict};
 pub use keys::{Channel, Keys};
-pub use routes::{ConnectorConfig, ConnectorsConfig, Kind, Route};
+pub use routes::{
+    ActionRoute, ConnectorConfig, ConnectorsConfig, Kind, Ros2Action, Ros2Settings, Route,
+};
 pub use wire::{Fields, Status};

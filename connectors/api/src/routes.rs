@@ -23,6 +23,8 @@ pub enum Kind {
     Zenoh,
     /// The in-process scripted connector (tests, dry runs).
     Script,
+    /// ROS 2 action servers (`connectors/ros2`).
+    Ros2,
 }
 
 /// One connector.
@@ -41,9 +43,11 @@ pub struct ConnectorConfig {
     #[serde(default)]
     pub resources: Vec<String>,
     /// Resource name → action name, where they differ (`functional.excavate_site` →
-    /// `excavation.excavate`); other resources call the action of the same name.
+    /// `excavation.excavate`); other resources call the action of the same name. ROS 2: the
+    /// action's name and type (`{ action = "/fibonacci", type = "test_msgs/action/Fibonacci" }`),
+    /// the resource naming its catalogue entry.
     #[serde(default)]
-    pub actions: BTreeMap<String, String>,
+    pub actions: BTreeMap<String, ActionRoute>,
     /// Telemetry keys fed to the mission as system data (conditional events, gateway
     /// conditions).
     #[serde(default)]
@@ -68,6 +72,52 @@ pub struct ConnectorConfig {
     /// how loudly refusals are logged (`[connector.limits]`; every field has a default).
     #[serde(default)]
     pub limits: crate::contract::Limits,
+    /// ROS 2: how the connector joins the ROS graph (`[connector.ros2]`).
+    #[serde(default)]
+    pub ros2: Ros2Settings,
+}
+
+/// Where a resource goes on its connector.
+#[derive(Clone, Debug, PartialEq, Eq, Deserialize)]
+#[serde(untagged)]
+pub enum ActionRoute {
+    /// An action of the connector's server, by name.
+    Name(String),
+    /// A ROS 2 action.
+    Ros2(Ros2Action),
+}
+
+/// A ROS 2 action a resource calls.
+#[derive(Clone, Debug, PartialEq, Eq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Ros2Action {
+    /// Its name in the ROS graph (`/fibonacci`; relative names take the connector's namespace).
+    pub action: String,
+    /// Its type (`test_msgs/action/Fibonacci`).
+    #[serde(rename = "type")]
+    pub ty: String,
+    /// A result field that carries an error code: an `ABORTED` goal fails with its value
+    /// (when it is a non-empty text) instead of `ABORTED`.
+    #[serde(default)]
+    pub error_field: Option<String>,
+}
+
+/// How a ROS 2 connector joins the ROS graph; every field has a default.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Ros2Settings {
+    /// `ROS_DOMAIN_ID` (default: the environment's, else 0).
+    pub domain_id: Option<u32>,
+    /// The namespace relative action names are resolved in (`/lander`).
+    pub namespace: Option<String>,
+    /// `ROS_AUTOMATIC_DISCOVERY_RANGE`: `localhost`, `subnet`, `off` or `system_default`
+    /// (default: the environment's).
+    pub discovery: Option<String>,
+    /// Directories of `.action` and `.msg` definitions besides `AMENT_PREFIX_PATH`'s.
+    #[serde(default)]
+    pub definitions: Vec<std::path::PathBuf>,
+    /// The Python that has `rclpy` and the actions' packages (default: `python3`).
+    pub python: Option<String>,
 }
 
 fn default_grace() -> u64 {
@@ -96,10 +146,13 @@ impl ConnectorsConfig {
     pub fn route(&self, resource: &str) -> Option<Route> {
         let mut best: Option<(usize, usize)> = None; // (score, connector)
         for (i, c) in self.connectors.iter().enumerate() {
-            if c.actions.contains_key(resource) {
+            if let Some(to) = c.actions.get(resource) {
                 return Some(Route {
                     connector: i,
-                    action: c.actions[resource].clone(),
+                    action: match to {
+                        ActionRoute::Name(n) => n.clone(),
+                        ActionRoute::Ros2(_) => resource.to_owned(),
+                    },
                 });
             }
             for p in &c.resources {
@@ -131,9 +184,18 @@ impl ConnectorsConfig {
             {
                 out.push(format!("connector `{}`: server {e}", c.name));
             }
-            for a in c.actions.values() {
-                if let Err(e) = crate::keys::check_chunk(a) {
-                    out.push(format!("connector `{}`: action {e}", c.name));
+            for (resource, a) in &c.actions {
+                match (a, c.kind) {
+                    (ActionRoute::Name(a), _) => {
+                        if let Err(e) = crate::keys::check_chunk(a) {
+                            out.push(format!("connector `{}`: action {e}", c.name));
+                        }
+                    }
+                    (ActionRoute::Ros2(_), Kind::Ros2) => {}
+                    (ActionRoute::Ros2(_), _) => out.push(format!(
+                        "connector `{}`: `{resource}` names a ROS 2 action, but the connector's kind is not `ros2`",
+                        c.name
+                    )),
                 }
             }
         }
@@ -155,7 +217,7 @@ mod tests {
                     resources: vec!["*".into(), "arm.*".into()],
                     actions: [(
                         "functional.excavate_site".into(),
-                        "excavation.excavate".into(),
+                        ActionRoute::Name("excavation.excavate".into()),
                     )]
                     .into(),
                     data: vec![],
@@ -164,6 +226,7 @@ mod tests {
                     clock: false,
                     answers: false,
                     limits: Default::default(),
+                    ros2: Default::default(),
                 },
                 ConnectorConfig {
                     name: "ground".into(),
@@ -177,6 +240,7 @@ mod tests {
                     clock: false,
                     answers: false,
                     limits: Default::default(),
+                    ros2: Default::default(),
                 },
             ],
         }

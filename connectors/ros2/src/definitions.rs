@@ -325,3 +325,23 @@ pub fn catalogue(defs: &Definitions, server: &str) -> Result<connector_api::Cata
         ..connector_api::Catalogue::default()
     })
 }
+
+/// The catalogue a ROS 2 connector serves: one entry per resource its `actions` route to a ROS 2
+/// action, named by the resource, from the action's definition (found under
+/// `AMENT_PREFIX_PATH` and the connector's `definitions`).
+pub fn catalogue_of(
+    c: &connector_api::ConnectorConfig,
+) -> Result<connector_api::Catalogue, IdlError> {
+    let defs = Definitions::from_env(&c.ros2.definitions);
+    let mut actions = Vec::new();
+    for (resource, route) in &c.actions {
+        if let connector_api::ActionRoute::Ros2(a) = route {
+            actions.push(defs.action(&a.ty)?.spec(resource, &a.action));
+        }
+    }
+    Ok(connector_api::Catalogue {
+        server: c.server().to_owned(),
+        actions,
+        ..connector_api::Catalogue::default()
+    })
+}

@@ -122,6 +122,7 @@ async fn main() {
                 clock: false,
                 answers: false,
                 limits: Default::default(),
+                ros2: Default::default(),
             },
             client: "bench".into(),
             mission: "bench".into(),

@@ -106,6 +106,14 @@ pub fn served(config: &ConnectorsConfig, catalogues: &[Catalogue]) -> Vec<Option
             connector_api::Kind::Zenoh => {
                 catalogues.iter().find(|k| k.server == c.server()).cloned()
             }
+            // Generated from the actions' definitions, as the connector serves it.
+            connector_api::Kind::Ros2 => match connector_ros2::catalogue_of(c) {
+                Ok(cat) => Some(cat),
+                Err(e) => {
+                    tracing::error!(connector = c.name, error = %e, "no catalogue: its tasks are not checked");
+                    None
+                }
+            },
         })
         .collect()
 }

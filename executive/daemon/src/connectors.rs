@@ -110,6 +110,7 @@ impl Connectors {
                     clock: false,
                     answers: false,
                     limits: Default::default(),
+                    ros2: Default::default(),
                 }],
             },
         };
@@ -172,6 +173,7 @@ impl Connectors {
                     .map_err(|e| failed(e.to_string()))?,
                 ),
                 (Kind::Zenoh, None) => unreachable!("a session is opened for zenoh connectors"),
+                (Kind::Ros2, _) => Box::new(connector_ros2::Ros2Connector::new(c, reports.clone())),
             });
         }
         Ok(Connectors {

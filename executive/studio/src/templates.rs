@@ -52,9 +52,12 @@ pub fn resource_for(config: Option<&ConnectorsConfig>, server: &str, action: &st
     config
         .into_iter()
         .flat_map(|c| &c.connectors)
-        .filter(|c| c.kind == Kind::Zenoh && c.server() == server)
+        .filter(|c| c.kind != Kind::Script && c.server() == server)
         .flat_map(|c| &c.actions)
-        .find(|(_, a)| a.as_str() == action)
+        .find(|(resource, a)| match a {
+            connector_api::ActionRoute::Name(n) => n == action,
+            connector_api::ActionRoute::Ros2(_) => resource.as_str() == action,
+        })
         .map_or_else(|| action.to_owned(), |(resource, _)| resource.clone())
 }
 

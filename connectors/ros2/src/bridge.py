@@ -1,0 +1,212 @@
+"""TRACE's bridge to ROS 2 actions (connectors/ros2): one rclpy node whose action clients the
+connector drives over this process's stdin and stdout, one JSON object per line.
+
+Commands (stdin):
+  {"op": "goal", "goal_id": ID, "uuid": HEX32, "action": "/fibonacci",
+   "type": "test_msgs/action/Fibonacci", "fields": {...}}
+  {"op": "resume", ...the same}: a goal sent before a restart: its result by its UUID
+  {"op": "cancel", "goal_id": ID}
+  {"op": "watch", "action": NAME, "type": TYPE}: say when the server appears and goes
+Events (stdout):
+  {"ev": "ready"}
+  {"ev": "accepted" | "rejected", "goal_id": ID, "reason": ...}
+  {"ev": "feedback", "goal_id": ID, "fields": {...}}
+  {"ev": "result", "goal_id": ID, "status": "SUCCEEDED" | "ABORTED" | "CANCELED" | "UNKNOWN",
+   "fields": {...}}
+  {"ev": "server", "action": NAME, "up": true | false}
+  {"ev": "error", "goal_id": ID, "reason": ...}: the goal could not be sent
+
+The goal's UUID is the connector's (derived from TRACE's goal id), so a goal sent again after a
+restart is the same goal to the server, which refuses a UUID it already holds.
+"""
+
+import array
+import importlib
+import json
+import sys
+import threading
+import uuid as uuidlib
+
+import rclpy
+from action_msgs.msg import GoalStatus
+from rclpy.action import ActionClient
+from rclpy.action.client import ClientGoalHandle
+from rclpy.executors import MultiThreadedExecutor
+from unique_identifier_msgs.msg import UUID
+
+OUT = threading.Lock()
+
+STATUS = {
+    GoalStatus.STATUS_SUCCEEDED: "SUCCEEDED",
+    GoalStatus.STATUS_ABORTED: "ABORTED",
+    GoalStatus.STATUS_CANCELED: "CANCELED",
+    GoalStatus.STATUS_UNKNOWN: "UNKNOWN",
+}
+
+
+def say(event):
+    with OUT:
+        sys.stdout.write(json.dumps(event) + "\n")
+        sys.stdout.flush()
+
+
+def action_type(name):
+    pkg, _, cls = name.split("/")
+    return getattr(importlib.import_module(f"{pkg}.action"), cls)
+
+
+def to_ros(msg, fields, path=""):
+    """Sets a message's fields from JSON; rclpy's setters check each type and range."""
+    slots = dict(zip(msg.get_fields_and_field_types().keys(), msg.SLOT_TYPES))
+    for key, value in fields.items():
+        where = f"{path}{key}"
+        if key not in slots:
+            raise ValueError(f"`{where}` is not a field")
+        current = getattr(msg, key)
+        if isinstance(value, dict):
+            to_ros(current, value, where + ".")
+        elif isinstance(value, list) and hasattr(slots[key], "value_type") and hasattr(
+            slots[key].value_type, "namespaces"
+        ):
+            t = slots[key].value_type
+            cls = getattr(importlib.import_module(".".join(t.namespaces)), t.name)
+            items = []
+            for i, item in enumerate(value):
+                m = cls()
+                to_ros(m, item, f"{where}[{i}].")
+                items.append(m)
+            setattr(msg, key, items)
+        else:
+            try:
+                setattr(msg, key, value)
+            except (AssertionError, TypeError, ValueError) as e:
+                raise ValueError(f"`{where}`: {e}") from e
+    return msg
+
+
+def to_json(value):
+    if hasattr(value, "get_fields_and_field_types"):
+        return {k: to_json(getattr(value, k)) for k in value.get_fields_and_field_types()}
+    if isinstance(value, (bytes, bytearray)):
+        return list(value)
+    if isinstance(value, (list, tuple, array.array)) or type(value).__name__ == "ndarray":
+        return [to_json(v) for v in value]
+    if hasattr(value, "item"):  # a numpy scalar
+        return value.item()
+    return value
+
+
+class Bridge:
+    def __init__(self, node):
+        self.node = node
+        self.clients = {}
+        self.handles = {}
+        self.lock = threading.Lock()
+
+    def client(self, action, type_name):
+        with self.lock:
+            c = self.clients.get(action)
+            if c is None:
+                c = ActionClient(self.node, action_type(type_name), action)
+                self.clients[action] = c
+            return c
+
+    def goal(self, cmd, resume):
+        gid = cmd["goal_id"]
+        try:
+            client = self.client(cmd["action"], cmd["type"])
+            goal = to_ros(action_type(cmd["type"]).Goal(), cmd.get("fields", {}))
+        except Exception as e:  # a definition that does not import, a field that does not fit
+            say({"ev": "error", "goal_id": gid, "reason": str(e)})
+            return
+        goal_uuid = UUID(uuid=list(uuidlib.UUID(hex=cmd["uuid"]).bytes))
+        if resume:
+            self.follow(gid, client, ClientGoalHandle(client, goal_uuid, None))
+            return
+
+        def feedback(msg):
+            say({"ev": "feedback", "goal_id": gid, "fields": to_json(msg.feedback)})
+
+        try:
+            future = client.send_goal_async(goal, feedback_callback=feedback, goal_uuid=goal_uuid)
+        except Exception as e:  # a value rclpy cannot serialise
+            say({"ev": "error", "goal_id": gid, "reason": str(e)})
+            return
+
+        def answered(f):
+            try:
+                handle = f.result()
+            except Exception as e:
+                say({"ev": "error", "goal_id": gid, "reason": str(e)})
+                return
+            if not handle.accepted:
+                # Refused, or already held (a goal sent again): its result, if it has one.
+                self.follow(gid, client, ClientGoalHandle(client, goal_uuid, None), refused=True)
+                return
+            say({"ev": "accepted", "goal_id": gid})
+            self.follow(gid, client, handle)
+
+        future.add_done_callback(answered)
+
+    def follow(self, gid, client, handle, refused=False):
+        with self.lock:
+            self.handles[gid] = handle
+
+        def done(f):
+            try:
+                r = f.result()
+            except Exception as e:
+                say({"ev": "error", "goal_id": gid, "reason": str(e)})
+                return
+            status = STATUS.get(r.status, "UNKNOWN")
+            if refused and status == "UNKNOWN":
+                say({"ev": "rejected", "goal_id": gid, "reason": "the server refused the goal"})
+                return
+            say({"ev": "result", "goal_id": gid, "status": status, "fields": to_json(r.result)})
+
+        client._get_result_async(handle).add_done_callback(done)
+
+    def cancel(self, gid):
+        with self.lock:
+            handle = self.handles.get(gid)
+        if handle is not None:
+            handle.cancel_goal_async()
+
+    def watch(self, action, type_name):
+        client = self.client(action, type_name)
+        state = {"up": None}
+
+        def check():
+            up = client.server_is_ready()
+            if up != state["up"]:
+                state["up"] = up
+                say({"ev": "server", "action": action, "up": up})
+
+        self.node.create_timer(0.2, check)
+
+
+def main():
+    rclpy.init()
+    node = rclpy.create_node(sys.argv[1] if len(sys.argv) > 1 else "trace_executive")
+    bridge = Bridge(node)
+    executor = MultiThreadedExecutor()
+    executor.add_node(node)
+    threading.Thread(target=executor.spin, daemon=True).start()
+    say({"ev": "ready"})
+    for line in sys.stdin:
+        try:
+            cmd = json.loads(line)
+            op = cmd["op"]
+            if op in ("goal", "resume"):
+                bridge.goal(cmd, op == "resume")
+            elif op == "cancel":
+                bridge.cancel(cmd["goal_id"])
+            elif op == "watch":
+                bridge.watch(cmd["action"], cmd["type"])
+        except Exception as e:
+            say({"ev": "error", "goal_id": None, "reason": f"unreadable command: {e}"})
+    executor.shutdown()
+    rclpy.shutdown()
+
+
+main()
