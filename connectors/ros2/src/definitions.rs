@@ -45,6 +45,9 @@ pub struct Action {
     /// Each part's fields with their types as `rclpy` names them (`int32`,
     /// `sequence<int32>`, `test_msgs/BasicTypes`), in order: goal, result, feedback.
     pub ros_types: [Vec<(String, String)>; 3],
+    /// The result's string constants, value by name: the error codes a result field may carry
+    /// (`string TOOL_STUCK="TOOL_STUCK"`).
+    pub codes: BTreeMap<String, String>,
 }
 
 impl Definitions {
@@ -142,12 +145,19 @@ impl Definitions {
                 .collect();
         }
         let [goal, result, feedback] = maps;
+        let codes = parts[1]
+            .constants
+            .iter()
+            .filter(|c| matches!(c.ty.base, Base::String(_) | Base::WString(_)))
+            .map(|c| (c.name.clone(), unquote(&c.value)))
+            .collect();
         Ok(Action {
             ty: format!("{package}/action/{name}"),
             goal,
             result,
             feedback,
             ros_types: types,
+            codes,
         })
     }
 
@@ -296,17 +306,37 @@ fn qualified(ty: &FieldType, package: &str) -> String {
     }
 }
 
+/// A string constant's value without its quotes.
+fn unquote(v: &str) -> String {
+    let v = v.trim();
+    for q in ['"', '\''] {
+        if let Some(inner) = v.strip_prefix(q).and_then(|r| r.strip_suffix(q)) {
+            return inner.to_owned();
+        }
+    }
+    v.to_owned()
+}
+
 impl Action {
     /// The catalogue entry of this action served as `name` (the resource a mission names)
-    /// under the ROS 2 action `ros_name`.
-    pub fn spec(&self, name: &str, ros_name: &str) -> ActionSpec {
+    /// under the ROS 2 action `ros_name`; with an `error_field`, the error codes it may raise
+    /// are the result's string constants.
+    pub fn spec(&self, name: &str, ros_name: &str, error_field: Option<&str>) -> ActionSpec {
+        let errors = match error_field {
+            Some(field) => self
+                .codes
+                .iter()
+                .map(|(constant, code)| (code.clone(), format!("`{field}` = {constant}")))
+                .collect(),
+            None => BTreeMap::new(),
+        };
         ActionSpec {
             name: name.to_owned(),
             description: format!("ROS 2 action `{ros_name}` ({})", self.ty),
             goal: self.goal.clone(),
             result: self.result.clone(),
             feedback: self.feedback.clone(),
-            errors: BTreeMap::new(),
+            errors,
             cost: None,
         }
     }
@@ -317,7 +347,7 @@ impl Action {
 pub fn catalogue(defs: &Definitions, server: &str) -> Result<connector_api::Catalogue, IdlError> {
     let mut actions = Vec::new();
     for ty in defs.actions() {
-        actions.push(defs.action(&ty)?.spec(&ty, &ty));
+        actions.push(defs.action(&ty)?.spec(&ty, &ty, None));
     }
     Ok(connector_api::Catalogue {
         server: server.to_owned(),
@@ -336,7 +366,10 @@ pub fn catalogue_of(
     let mut actions = Vec::new();
     for (resource, route) in &c.actions {
         if let connector_api::ActionRoute::Ros2(a) = route {
-            actions.push(defs.action(&a.ty)?.spec(resource, &a.action));
+            actions.push(
+                defs.action(&a.ty)?
+                    .spec(resource, &a.action, a.error_field.as_deref()),
+            );
         }
     }
     Ok(connector_api::Catalogue {
@@ -344,4 +377,64 @@ pub fn catalogue_of(
         actions,
         ..connector_api::Catalogue::default()
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn package(files: &[(&str, &str)]) -> PathBuf {
+        static N: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+        let n = N.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let root = std::env::temp_dir().join(format!("trace-ros2-defs-{}-{n}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        for (path, text) in files {
+            let p = root.join(path);
+            std::fs::create_dir_all(p.parent().expect("a folder")).expect("folder");
+            std::fs::write(p, text).expect("file");
+        }
+        root
+    }
+
+    #[test]
+    fn a_result_s_string_constants_are_the_codes_its_error_field_carries() {
+        let root = package(&[
+            (
+                "dig_msgs/action/Dig.action",
+                "int32 site_id\nfloat64 depth_cm 10.0\nSite site\n---\nstring TOOL_STUCK=\"TOOL_STUCK\"\n\
+                 string HARD='HARD_MATERIAL'\nstring error_code\nfloat64 achieved_cm\n---\nfloat64 depth_cm",
+            ),
+            ("dig_msgs/msg/Site.msg", "uint8 id\nstring<=8 name"),
+        ]);
+        let defs = Definitions::new(std::slice::from_ref(&root));
+        let a = defs.action("dig_msgs/action/Dig").expect("resolves");
+        let spec = a.spec("excavation.excavate", "/dig", Some("error_code"));
+        assert_eq!(
+            spec.errors.keys().collect::<Vec<_>>(),
+            ["HARD_MATERIAL", "TOOL_STUCK"]
+        );
+        assert_eq!(spec.goal["site_id"].to_string(), "i32");
+        assert_eq!(spec.goal["depth_cm"].to_string(), "f64?");
+        assert_eq!(spec.goal["site"].to_string(), "{id: u8, name: string}");
+        assert!(a.spec("x", "/dig", None).errors.is_empty());
+        let _ = std::fs::remove_dir_all(&root);
+    }
+
+    #[test]
+    fn a_message_that_is_not_there_is_named_with_the_field_that_needs_it() {
+        let root = package(&[(
+            "dig_msgs/action/Dig.action",
+            "int32 a\nPose pose\n---\n---\n",
+        )]);
+        let e = Definitions::new(std::slice::from_ref(&root))
+            .action("dig_msgs/action/Dig")
+            .expect_err("no Pose");
+        assert!(e.file.ends_with("Dig.action") && e.line == 2, "{e}");
+        assert!(e.reason.contains("dig_msgs/msg/Pose"), "{e}");
+        let e = Definitions::new(std::slice::from_ref(&root))
+            .action("nav_msgs/action/Go")
+            .expect_err("no package");
+        assert!(e.reason.contains("no package `nav_msgs`"), "{e}");
+        let _ = std::fs::remove_dir_all(&root);
+    }
 }
