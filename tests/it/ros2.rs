@@ -2,7 +2,8 @@
 //! (`TRACE_ROS2`, default `~/.cache/trace-ros2/venv`: the `ros-jazzy-rclpy` and
 //! `ros-jazzy-test-msgs` wheels): TRACE's reading of every `test_msgs`, `builtin_interfaces`,
 //! `action_msgs` and `unique_identifier_msgs` definition gives each field the type `rclpy`
-//! gives it, and `trace catalogue ros2` prints them; and `trace run` commands a real `rclpy`
+//! gives it, `trace catalogue ros2` prints them and `trace templates` offers them; and `trace
+//! run` commands a real `rclpy`
 //! action server (`tests/python/ros2/server.py`, Fast DDS on localhost, a ROS domain per test)
 //! through success with feedback, an `ABORTED` goal caught by an error boundary, a cancel by a
 //! timer boundary that the server sees, a server killed mid-goal (`CONNECTOR_LOST`), the
@@ -385,6 +386,32 @@ fn the_executive_killed_mid_goal_resumes_and_the_goal_runs_and_ends_once() {
     let completed = lines.iter().filter(|l| l["kind"] == "completed").count();
     assert_eq!(completed, 1, "{lines:#?}");
     assert_eq!(server.said("goal 12"), 1, "the server ran the goal again");
+}
+
+#[test]
+fn trace_templates_offers_the_ros2_actions_of_the_connectors() {
+    let dir = crate::protocol::tempdir("ros2-templates");
+    std::fs::write(dir.join("connectors.toml"), connectors(68)).expect("connectors");
+    let out = Command::new(bin("trace"))
+        .arg("templates")
+        .arg(&*dir)
+        .arg("--connectors")
+        .arg(dir.join("connectors.toml"))
+        .arg("--out")
+        .arg(dir.join("templates"))
+        .output()
+        .expect("trace runs");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let c8 = std::fs::read_to_string(dir.join("templates/trace-fib.c8.json")).expect("templates");
+    assert!(
+        c8.contains("fib.compute") && c8.contains("order (i32)"),
+        "{c8}"
+    );
 }
 
 #[test]

@@ -528,12 +528,13 @@ fn connectors_of(
 
 fn templates(args: TemplatesArgs) -> anyhow::Result<ExitCode> {
     let paths = catalogue_paths(&args.dir, &args.catalogues);
-    anyhow::ensure!(
-        !paths.is_empty(),
-        "no catalogue: pass --catalogue PATH (a system's catalogue: elap-sim --print-catalogue)"
-    );
-    let catalogues = executive_studio::read_catalogues(&paths)?;
+    let mut catalogues = executive_studio::read_catalogues(&paths)?;
     let connectors = connectors_of(&args.dir, args.connectors)?;
+    catalogues.extend(connectors.iter().flat_map(executive::catalogues::generated));
+    anyhow::ensure!(
+        !catalogues.is_empty(),
+        "no catalogue: pass --catalogue PATH (a system's catalogue: elap-sim --print-catalogue), or --connectors with ROS 2 connectors"
+    );
     let out = args
         .out
         .unwrap_or_else(|| args.dir.join(".camunda/element-templates"));
@@ -548,7 +549,7 @@ fn templates(args: TemplatesArgs) -> anyhow::Result<ExitCode> {
 fn studio(args: StudioArgs) -> anyhow::Result<ExitCode> {
     logging("warn,zenoh=error", false);
     let paths = catalogue_paths(&args.dir, &args.catalogues);
-    let catalogues = executive_studio::read_catalogues(&paths)?;
+    let mut catalogues = executive_studio::read_catalogues(&paths)?;
     if !executive_studio::has_page() {
         eprintln!(
             "warning: this trace was built without the studio's page (Node.js and npm were \
@@ -556,6 +557,7 @@ fn studio(args: StudioArgs) -> anyhow::Result<ExitCode> {
         );
     }
     let connectors = connectors_of(&args.dir, args.connectors.clone())?;
+    catalogues.extend(connectors.iter().flat_map(executive::catalogues::generated));
     let rt = one_worker()?;
     rt.block_on(async {
         let live = if args.offline {

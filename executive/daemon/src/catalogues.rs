@@ -95,6 +95,23 @@ pub fn read_connectors(path: &std::path::Path) -> Result<ConnectorsConfig, Catal
     })
 }
 
+/// The catalogues the connectors make themselves (ROS 2's, from the actions' definitions), for
+/// the studio and `trace templates`; one that cannot be made is logged and left out.
+pub fn generated(config: &ConnectorsConfig) -> Vec<Catalogue> {
+    config
+        .connectors
+        .iter()
+        .filter(|c| c.kind == connector_api::Kind::Ros2)
+        .filter_map(|c| match connector_ros2::catalogue_of(c) {
+            Ok(cat) => Some(cat),
+            Err(e) => {
+                tracing::error!(connector = c.name, error = %e, "no catalogue from the ROS 2 definitions");
+                None
+            }
+        })
+        .collect()
+}
+
 /// Each configured connector's catalogue, by its server id (`None`: none known, or a scripted
 /// connector, which serves anything).
 pub fn served(config: &ConnectorsConfig, catalogues: &[Catalogue]) -> Vec<Option<Catalogue>> {
@@ -107,13 +124,10 @@ pub fn served(config: &ConnectorsConfig, catalogues: &[Catalogue]) -> Vec<Option
                 catalogues.iter().find(|k| k.server == c.server()).cloned()
             }
             // Generated from the actions' definitions, as the connector serves it.
-            connector_api::Kind::Ros2 => match connector_ros2::catalogue_of(c) {
-                Ok(cat) => Some(cat),
-                Err(e) => {
-                    tracing::error!(connector = c.name, error = %e, "no catalogue: its tasks are not checked");
-                    None
-                }
-            },
+            connector_api::Kind::Ros2 => generated(&ConnectorsConfig {
+                connectors: vec![c.clone()],
+            })
+            .pop(),
         })
         .collect()
 }
