@@ -3,9 +3,8 @@
 //! `ros-jazzy-test-msgs` wheels): TRACE's reading of every `test_msgs`, `builtin_interfaces`,
 //! `action_msgs` and `unique_identifier_msgs` definition gives each field the type `rclpy`
 //! gives it, `trace catalogue ros2` prints them and `trace templates` offers them; and `trace
-//! run` commands a real `rclpy`
-//! action server (`tests/python/ros2/server.py`, Fast DDS on localhost, a ROS domain per test)
-//! through success with feedback, an `ABORTED` goal caught by an error boundary, a cancel by a
+//! run` commands a real `rclpy` action server (`tests/python/ros2/server.py`, Fast DDS on
+//! localhost, a ROS domain per test) through success with feedback, an `ABORTED` goal caught by an error boundary, a cancel by a
 //! timer boundary that the server sees, a server killed mid-goal (`CONNECTOR_LOST`), the
 //! executive killed and resumed mid-goal (the goal runs and ends once), a refused goal, and a
 //! mission whose goal field path or integer range is wrong refused before it starts.
