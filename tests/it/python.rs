@@ -147,6 +147,14 @@ fn a_python_system_and_ground_station_written_from_the_document_fly_a_mission() 
     let status = finish(exec, "trace run", &exec_log);
     let log = std::fs::read_to_string(&exec_log).unwrap_or_default();
     assert!(status.success(), "trace run failed ({status}):\n{log}");
+    // Like every process of a deployment, the executive named it when it started (§1).
+    assert!(
+        log.lines().any(|l| l.starts_with("mission ")
+            && l.ends_with(&format!(
+                "— deployment {deployment} (keys trace/{deployment}/…)"
+            ))),
+        "{log}"
+    );
     // Both Python processes end on their own once the executive's token is gone.
     assert!(finish(system, "the Python system", &system_log).success());
     assert!(finish(ground, "the Python ground station", &ground_log).success());

@@ -266,15 +266,27 @@ fn trace(dir: &Path, resume: bool, domain: u32) -> Command {
         .arg(dir.join("connectors.toml"))
         .args(["--catalogue-wait", "30"])
         .env_remove("ROS_DOMAIN_ID")
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped());
+        .stdout(Stdio::null());
     c
+}
+
+/// [`trace`] started, its standard error appended to `trace.log` in `dir`.
+fn spawn(dir: &Path, resume: bool, domain: u32) -> Child {
+    let log = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(dir.join("trace.log"))
+        .expect("log");
+    trace(dir, resume, domain)
+        .stderr(log)
+        .spawn()
+        .expect("trace runs")
 }
 
 /// Runs the mission to its end (two minutes at most); its record's lines.
 fn fly(dir: &Path, order: &str, timeout: &str, domain: u32) -> Vec<serde_json::Value> {
     std::fs::write(dir.join("mission.bpmn"), mission(order, timeout)).expect("mission");
-    let child = trace(dir, false, domain).spawn().expect("trace runs");
+    let child = spawn(dir, false, domain);
     finish(dir, child)
 }
 
@@ -355,7 +367,7 @@ fn a_server_killed_mid_goal_gives_connector_lost() {
     let mut server = Server::start(65, 0.05);
     let dir = crate::protocol::tempdir("ros2-lost");
     std::fs::write(dir.join("mission.bpmn"), mission("300", "PT1H")).expect("mission");
-    let child = trace(&dir, false, 65).spawn().expect("trace runs");
+    let child = spawn(&dir, false, 65);
     let going = mission_tests::hosts::poll(Duration::from_secs(60), || {
         (server.said("goal 300") == 1).then_some(())
     });
@@ -370,7 +382,7 @@ fn the_executive_killed_mid_goal_resumes_and_the_goal_runs_and_ends_once() {
     let server = Server::start(66, 0.25);
     let dir = crate::protocol::tempdir("ros2-resume");
     std::fs::write(dir.join("mission.bpmn"), mission("12", "PT1H")).expect("mission");
-    let mut first = trace(&dir, false, 66).spawn().expect("trace runs");
+    let mut first = spawn(&dir, false, 66);
     let record = dir.join("store/record.jsonl");
     let accepted = mission_tests::hosts::poll(Duration::from_secs(60), || {
         let text = std::fs::read_to_string(&record).unwrap_or_default();
@@ -379,7 +391,7 @@ fn the_executive_killed_mid_goal_resumes_and_the_goal_runs_and_ends_once() {
     assert!(accepted.is_some(), "no feedback recorded");
     first.kill().expect("SIGKILL");
     let _ = first.wait();
-    let child = trace(&dir, true, 66).spawn().expect("trace resumes");
+    let child = spawn(&dir, true, 66);
     let lines = finish(&dir, child);
     assert_eq!(end(&lines), "Done", "{lines:#?}");
     let completed = lines.iter().filter(|l| l["kind"] == "completed").count();

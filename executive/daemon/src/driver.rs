@@ -725,6 +725,12 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
     let mut monitor = match connectors.session() {
         Some(session) => {
             let keys = opts.zenoh.keys().map_err(|e| RunError::Io(e.to_string()))?;
+            // Every process of a deployment names it when it starts (docs/protocol.md §1).
+            eprintln!(
+                "mission {mission} — deployment {} (keys {}/…)",
+                keys.deployment(),
+                keys.root()
+            );
             match crate::monitor::Publisher::start(
                 session,
                 &keys,
