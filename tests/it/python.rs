@@ -1,7 +1,9 @@
 //! `docs/protocol.md` is the contract: a system and a ground station written in Python from
 //! the document alone (`tests/python/`, the `eclipse-zenoh` package) fly a mission with
 //! `trace run` — goals, feedback, an error boundary, a ground decision — while sending wrong
-//! messages that the executive must refuse, log and count without changing the mission.
+//! messages that the executive must refuse, log and count without changing the mission; and a
+//! system that accepts a goal and then says nothing more cannot make the task wait without end
+//! (the executive's watchdog fails it with `OVERRUN`, caught by a boundary, and cancels it).
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -267,4 +269,101 @@ fn a_python_system_and_ground_station_written_from_the_document_fly_a_mission() 
         .find(|g| g["action"] == "drill.dig")
         .unwrap_or_else(|| panic!("no dig goal in {system}"));
     assert_eq!(dig_goal["fields"]["depth_cm"], 5.0);
+}
+
+/// One task on `probe.scan` (declared to take a second) with a boundary catching `OVERRUN`.
+const SILENT_MISSION: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
+<definitions xmlns="http://www.omg.org/spec/BPMN/20100524/MODEL" xmlns:trace="urn:trace:bpmn:1.0" id="D" targetNamespace="t">
+  <error id="EO" errorCode="OVERRUN"/>
+  <process id="P" isExecutable="true">
+    <startEvent id="S"/>
+    <sequenceFlow id="f1" sourceRef="S" targetRef="Scan"/>
+    <serviceTask id="Scan"><extensionElements><trace:task resource="probe.scan"/></extensionElements></serviceTask>
+    <sequenceFlow id="f2" sourceRef="Scan" targetRef="Scanned"/>
+    <endEvent id="Scanned"/>
+    <boundaryEvent id="Overrun" attachedToRef="Scan"><errorEventDefinition errorRef="EO"/></boundaryEvent>
+    <sequenceFlow id="f3" sourceRef="Overrun" targetRef="GaveUp"/>
+    <endEvent id="GaveUp"/>
+  </process>
+</definitions>"#;
+
+#[test]
+fn a_system_that_goes_silent_after_accepting_a_goal_is_overrun_and_cancelled() {
+    let dir = tempdir("python-silent");
+    let hub = endpoint(port());
+    let deployment = format!("py-silent-{}", std::process::id());
+    let (report, log, exec_log) = (
+        dir.join("system.json"),
+        dir.join("system.log"),
+        dir.join("exec.log"),
+    );
+    let args: Vec<String> = [
+        "--connect",
+        &hub,
+        "--deployment",
+        &deployment,
+        "--report",
+        &report.display().to_string(),
+        "--silent",
+    ]
+    .map(str::to_owned)
+    .into();
+    let system = start("trace_system.py", &args, &log);
+    std::fs::write(dir.join("mission.bpmn"), SILENT_MISSION).expect("mission");
+    // The watchdog's margins made short: half a second past the declared second, then a second
+    // for the state query.
+    std::fs::write(
+        dir.join("connectors.toml"),
+        "[[connector]]\nname = \"py_lander\"\nkind = \"zenoh\"\nserver = \"py_lander\"\n\
+         resources = [\"probe.*\"]\ngrace_ms = 5000\n\
+         limits = { overrun_margin_ms = 500, overrun_state_wait_ms = 1000 }\n",
+    )
+    .expect("connectors");
+    let exec = Command::new(bin("trace"))
+        .arg("run")
+        .arg(dir.join("mission.bpmn"))
+        .arg("--connectors")
+        .arg(dir.join("connectors.toml"))
+        .arg("--store")
+        .arg(dir.join("store"))
+        .args([
+            "--catalogue-wait",
+            "60",
+            "-l",
+            &hub,
+            "--deployment",
+            &deployment,
+        ])
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(&exec_log).expect("exec log"))
+        .spawn()
+        .expect("trace run starts");
+    let status = finish(exec, "trace run", &exec_log);
+    let exec_text = std::fs::read_to_string(&exec_log).unwrap_or_default();
+    assert!(
+        status.success(),
+        "trace run failed ({status}):\n{exec_text}"
+    );
+    assert!(finish(system, "the Python system", &log).success());
+    let lines = records(&dir.join("store/record.jsonl"));
+    let failed: Vec<&Value> = lines.iter().filter(|v| v["kind"] == "failed").collect();
+    assert_eq!(failed.len(), 1, "{lines:#?}");
+    assert_eq!(failed[0]["code"], "OVERRUN", "{failed:?}");
+    assert!(
+        lines
+            .iter()
+            .any(|v| v["kind"] == "entered" && v["element"]["id"] == "GaveUp"),
+        "{lines:#?}"
+    );
+    // Before giving up the executive asked the goal's state, and after it sent a cancel: the
+    // silent system heard both and answered neither.
+    let r = json_file(&report);
+    let events: Vec<&str> = r["events"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter_map(|e| e["what"].as_str())
+        .collect();
+    assert!(events.contains(&"state_ignored"), "{r}");
+    assert!(events.contains(&"cancel_ignored"), "{r}");
 }

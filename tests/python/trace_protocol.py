@@ -241,6 +241,10 @@ class Server:
         """Called when `g` has gone CANCELING (the status published), before its `cancel`
         event is set; the activity sees the event and publishes its own ending."""
 
+    def ignores(self, gid):
+        """Whether requests about goal `gid` go unanswered (a server gone silent)."""
+        return False
+
     def action_token(self, action):
         """The liveliness token that says `action` is served (§6)."""
         return f"{self.root}/alive/act/{self.server}/{action}"
@@ -481,6 +485,10 @@ class Server:
         except ValueError as e:
             self.refuse(query, "cancel", e)
             return
+        if self.ignores(gid):
+            self.log.info("cancel %s (%s): not answered (silent)", gid, reason)
+            self.report.event("cancel_ignored", goal_id=gid)
+            return
         st = None
         with self.lock:
             g = self.goals.get(gid)
@@ -526,6 +534,10 @@ class Server:
             self.log.info("state %s: %d goals", key, n)
             return
         action, gid = parsed
+        if self.ignores(gid):
+            self.log.info("state %s: not answered (silent)", gid)
+            self.report.event("state_ignored", goal_id=gid)
+            return
         if action not in self.actions:
             self.refuse(query, "state", f"action `{action}` is not served by {self.server} (key {key})")
             return

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """A TRACE system (server) `py_lander`, written from docs/protocol.md alone.
 
-Serves `drill.dig`, `thermal.heat`, `thermal.cool` and `arm.stow` over Zenoh (protocol version 1):
+Serves `drill.dig`, `thermal.heat`, `thermal.cool`, `probe.scan` and `arm.stow` over Zenoh
+(protocol version 1):
 catalogue, goal/cancel/state queryables with an idempotent goal table, liveliness tokens,
 statuses, feedback, results and `battery_soc_pct` telemetry. On purpose it also sends messages
 the executive must refuse (mistyped feedback and telemetry, a non-JSON result, a result for a
@@ -54,6 +55,15 @@ CATALOGUE = {
             "errors": {},
         },
         {
+            "name": "probe.scan",
+            "description": "Scan with the probe (with --silent: accept, then say nothing more)",
+            "goal": {},
+            "result": {},
+            "feedback": {},
+            "errors": {},
+            "cost": {"duration_s": 1.0, "power_w": 0.0},
+        },
+        {
             "name": "arm.stow",
             "description": "Stow the arm",
             "goal": {},
@@ -79,6 +89,12 @@ class System(trace_protocol.Server):
             report_fields={"telemetry_sent": 0, "bad_telemetry_sent": False},
         )
         self.bad_tm_sent = False
+        self.silent = set()
+
+    def ignores(self, gid):
+        """With --silent, a `probe.scan` goal, once accepted, gets no status, result, state or
+        cancel reply: the system stays connected and says nothing (the executive's watchdog)."""
+        return gid in self.silent
 
     def started(self):
         """Telemetry starts once the tokens are declared (§7)."""
@@ -153,6 +169,15 @@ class System(trace_protocol.Server):
             return self.finish(g, "CANCELED")
         self.finish(g, "SUCCEEDED", {})
 
+    def do_probe_scan(self, g):
+        if self.args.silent:
+            self.silent.add(g.gid)
+            self.log.info("goal %s accepted; silent from now on", g.gid)
+            return
+        if self.step(g, 0.3):
+            return self.finish(g, "CANCELED")
+        self.finish(g, "SUCCEEDED", {})
+
     def do_arm_stow(self, g):
         if self.step(g, 0.3):
             return self.finish(g, "CANCELED")
@@ -197,6 +222,8 @@ def main():
     p.add_argument("--stranger", choices=("mission", "other", "none"), default="mission",
                    help="the goal id of the well-formed result for a goal nobody sent, published during drill.dig: "
                         "`<mission>.99.99.1` (default), `other-mission.99.99.1`, or none (to isolate executive issues)")
+    p.add_argument("--silent", action="store_true",
+                   help="accept `probe.scan` goals, then answer nothing about them (no status, result, state or cancel reply)")
     trace_protocol.serve(System(p.parse_args()))
 
 

@@ -215,6 +215,15 @@ pub struct Limits {
     /// Wall-time tolerance on a mission clock report's advance (1 000; see
     /// [`crate::wire::check_clock`]).
     pub clock_slack_ms: u64,
+    /// The watchdog: mission time a goal may run past its action's declared maximum duration
+    /// before the executive asks its state (60 000).
+    pub overrun_margin_ms: u64,
+    /// The maximum assumed for an action whose catalogue declares no upper bound on its
+    /// duration, mission ms (86 400 000, a day; 0: no watchdog for such actions).
+    pub overrun_default_ms: u64,
+    /// How long, wall time, the server has to end the goal once asked its state at the
+    /// watchdog's deadline, before the goal fails with `OVERRUN` (10 000).
+    pub overrun_state_wait_ms: u64,
 }
 
 impl Default for Limits {
@@ -226,6 +235,9 @@ impl Default for Limits {
             unreadable_max: 5,
             drop_log_every_ms: 10_000,
             clock_slack_ms: 1_000,
+            overrun_margin_ms: 60_000,
+            overrun_default_ms: 86_400_000,
+            overrun_state_wait_ms: 10_000,
         }
     }
 }

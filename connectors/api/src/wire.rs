@@ -72,8 +72,11 @@ pub mod codes {
     /// The server aborted the goal without an error code (`ABORTED` with no `error`, or an
     /// empty `error.code`).
     pub const ABORTED: &str = "ABORTED";
+    /// The goal ran past its action's declared maximum duration by the connector's margin, and
+    /// the server, asked for the goal's state, did not end it (the executive's watchdog).
+    pub const OVERRUN: &str = "OVERRUN";
     /// Every protocol-level code, for load-time checks (a boundary may catch them undeclared).
-    pub const ALL: [&str; 7] = [
+    pub const ALL: [&str; 8] = [
         CONNECTOR_LOST,
         REJECTED,
         TYPE_MISMATCH,
@@ -81,6 +84,7 @@ pub mod codes {
         NOT_ACCEPTED,
         PROTOCOL_ERROR,
         ABORTED,
+        OVERRUN,
     ];
 }
 

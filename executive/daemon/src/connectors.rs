@@ -45,6 +45,8 @@ pub struct Connectors {
     pub config: ConnectorsConfig,
     /// One per configured connector, in order.
     pub list: Vec<Box<dyn Connector>>,
+    /// Each connector's catalogue, once [`Connectors::check`] has asked for them.
+    pub catalogues: Vec<Option<Catalogue>>,
     session: Option<zenoh::Session>,
 }
 
@@ -179,6 +181,7 @@ impl Connectors {
         Ok(Connectors {
             config,
             list,
+            catalogues: Vec::new(),
             session,
         })
     }
@@ -207,6 +210,7 @@ impl Connectors {
             })
             .collect();
         let mismatches = connector_api::check(&uses, &self.config, &catalogues);
+        self.catalogues = catalogues;
         if mismatches.is_empty() {
             Ok(())
         } else {

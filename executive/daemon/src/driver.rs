@@ -34,6 +34,7 @@ use crate::script::{Agenda, Due};
 use crate::waiting::{Assessment, Item, Outside, What};
 
 mod fleet;
+mod watchdog;
 pub use fleet::Counts as FleetCounts;
 
 /// A wait this close (wall time) is not reported: the run is busy, not waiting.
@@ -194,6 +195,8 @@ struct Flight {
     mark: Option<(u64, u32)>,
     /// The system acknowledged the goal.
     acked: bool,
+    /// The goal as sent (the watchdog asks its state with it).
+    command: Command,
 }
 
 /// The store's meta key listing, as of the newest snapshot, the tasks whose goals no system
@@ -397,6 +400,8 @@ struct Driver {
     clock: Box<dyn MissionClock>,
     seq: u64,
     tx: mpsc::UnboundedSender<Event>,
+    /// Where the watchdog's stages arrive (`driver/watchdog.rs`).
+    watch_tx: mpsc::UnboundedSender<watchdog::Watch>,
     /// Armed timers with their mission-time deadlines (re-armed when the clock changes); on
     /// the virtual clock they are on the agenda and have no sleeping task.
     timers: BTreeMap<TimerKey, (Millis, Option<JoinHandle<()>>)>,
@@ -721,6 +726,7 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
     let record = RecordWriter::open(&record_path, Arc::clone(&graph))
         .map_err(|e| RunError::Io(format!("{}: {e}", record_path.display())))?;
     let (tx, mut rx) = mpsc::unbounded_channel();
+    let (watch_tx, mut watch_rx) = mpsc::unbounded_channel();
     let mut record = record;
     let mut monitor = match connectors.session() {
         Some(session) => {
@@ -789,6 +795,7 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
         clock,
         seq,
         tx,
+        watch_tx,
         timers: BTreeMap::new(),
         last_at: 0,
         flights: BTreeMap::new(),
@@ -926,6 +933,10 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
             _ = term.recv() => { interrupted = true; break }
             m = rx.recv() => m,
             r = reports.recv() => r.and_then(|r| d.event_of(r)),
+            Some(w) = watch_rx.recv() => {
+                d.on_watch(w);
+                None
+            }
             Some((q, key)) = state_query => {
                 crate::monitor::answer(q, &key, d.snapshot()).await;
                 None
@@ -1680,8 +1691,12 @@ impl Driver {
                 feedback: None,
                 mark,
                 acked: false,
+                command: command.clone(),
             },
         );
+        if !user {
+            self.arm_watchdog(task, route.connector, &command);
+        }
         let c = &mut self.connectors.list[route.connector];
         if reconcile {
             c.reconcile(command);
