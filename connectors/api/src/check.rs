@@ -27,6 +27,61 @@ pub struct TaskUse {
     pub outputs: Vec<(String, Option<Type>)>,
     /// Error codes caught by error boundaries on it (`None`: a catch-all boundary).
     pub caught: Vec<String>,
+    /// It has a timer boundary (a deadline of its own).
+    pub timed: bool,
+}
+
+/// The tasks that call an action with no upper bound on its duration and have no timer
+/// boundary: only the executive's watchdog, with the connector's default bound, ends them if
+/// their system goes silent. One line per task.
+pub fn unbounded(
+    tasks: &[TaskUse],
+    config: &ConnectorsConfig,
+    catalogues: &[Option<Catalogue>],
+) -> Vec<Mismatch> {
+    let mut out = Vec::new();
+    for t in tasks.iter().filter(|t| !t.timed) {
+        let Some(route) = config.route(&t.resource) else {
+            continue;
+        };
+        // Ground stations answer whenever the operator does: user tasks have no duration.
+        if config.connectors[route.connector].answers {
+            continue;
+        }
+        let Some(Some(cat)) = catalogues.get(route.connector) else {
+            continue;
+        };
+        let Some(spec) = cat.action(&route.action) else {
+            continue;
+        };
+        let bounded = match &spec.cost {
+            None => false,
+            Some(c) => c
+                .duration_s
+                .range(|_| Ok(None))
+                .map_or(true, |(_, hi)| hi.is_finite()),
+        };
+        if !bounded {
+            let c = &config.connectors[route.connector];
+            let ends = match (c.limits.overrun_margin_ms, c.limits.overrun_default_ms) {
+                (Some(_), ms) if ms > 0 => format!(
+                    "only the watchdog's default bound ({ms} ms of mission time, `overrun_default_ms`) ends it"
+                ),
+                _ => format!(
+                    "nothing ends it (connector `{}` has no watchdog for it: set `limits.overrun_margin_ms`)",
+                    c.name
+                ),
+            };
+            out.push(Mismatch {
+                task: t.task.clone(),
+                problem: format!(
+                    "`{}` declares no upper bound on its duration and the task has no timer boundary: if its system goes silent, {ends}",
+                    spec.name
+                ),
+            });
+        }
+    }
+    out
 }
 
 /// One mismatch between the mission and the systems.
@@ -183,22 +238,7 @@ mod tests {
 
     #[test]
     fn every_problem_is_listed() {
-        let config = ConnectorsConfig {
-            connectors: vec![ConnectorConfig {
-                name: "lander".into(),
-                kind: Kind::Zenoh,
-                server: None,
-                resources: vec!["arm.*".into()],
-                actions: Default::default(),
-                data: vec![],
-                deadband: Default::default(),
-                grace_ms: 1,
-                clock: false,
-                answers: false,
-                limits: Default::default(),
-                ros2: Default::default(),
-            }],
-        };
+        let config = lander_config();
         let cat = Catalogue {
             server: "lander".into(),
             actions: vec![
@@ -265,5 +305,52 @@ mod tests {
                 "task `Pic`: no connector serves resource `camera.pic`",
             ]
         );
+    }
+
+    #[test]
+    fn a_task_on_an_unbounded_action_without_a_timer_boundary_is_named() {
+        let config: ConnectorsConfig = lander_config();
+        let cat: Catalogue = serde_json::from_value(serde_json::json!({
+            "server": "lander",
+            "actions": [
+                {"name": "arm.move", "cost": {"duration_s": 30.0, "power_w": 1.0}},
+                {"name": "arm.wait"},
+            ]
+        }))
+        .unwrap();
+        let task = |id: &str, resource: &str, timed: bool| TaskUse {
+            task: id.into(),
+            resource: resource.into(),
+            timed,
+            ..Default::default()
+        };
+        let tasks = [
+            task("Move", "arm.move", false),
+            task("Wait", "arm.wait", false),
+            task("Guarded", "arm.wait", true),
+        ];
+        let found = unbounded(&tasks, &config, &[Some(cat)]);
+        assert_eq!(found.len(), 1, "{found:?}");
+        assert_eq!(found[0].task, "Wait");
+        assert!(found[0].problem.contains("no upper bound"), "{}", found[0]);
+    }
+
+    fn lander_config() -> ConnectorsConfig {
+        ConnectorsConfig {
+            connectors: vec![ConnectorConfig {
+                name: "lander".into(),
+                kind: Kind::Zenoh,
+                server: None,
+                resources: vec!["arm.*".into()],
+                actions: Default::default(),
+                data: vec![],
+                deadband: Default::default(),
+                grace_ms: 1,
+                clock: false,
+                answers: false,
+                limits: Default::default(),
+                ros2: Default::default(),
+            }],
+        }
     }
 }

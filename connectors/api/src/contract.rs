@@ -216,8 +216,8 @@ pub struct Limits {
     /// [`crate::wire::check_clock`]).
     pub clock_slack_ms: u64,
     /// The watchdog: mission time a goal may run past its action's declared maximum duration
-    /// before the executive asks its state (60 000).
-    pub overrun_margin_ms: u64,
+    /// before the executive asks its state (off unless set: `60000` is a minute).
+    pub overrun_margin_ms: Option<u64>,
     /// The maximum assumed for an action whose catalogue declares no upper bound on its
     /// duration, mission ms (86 400 000, a day; 0: no watchdog for such actions).
     pub overrun_default_ms: u64,
@@ -235,7 +235,7 @@ impl Default for Limits {
             unreadable_max: 5,
             drop_log_every_ms: 10_000,
             clock_slack_ms: 1_000,
-            overrun_margin_ms: 60_000,
+            overrun_margin_ms: None,
             overrun_default_ms: 86_400_000,
             overrun_state_wait_ms: 10_000,
         }

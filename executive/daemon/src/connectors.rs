@@ -210,6 +210,10 @@ impl Connectors {
             })
             .collect();
         let mismatches = connector_api::check(&uses, &self.config, &catalogues);
+        for w in connector_api::check::unbounded(&uses, &self.config, &catalogues) {
+            tracing::warn!(task = w.task, "{}", w.problem);
+            eprintln!("warning: {w}");
+        }
         self.catalogues = catalogues;
         if mismatches.is_empty() {
             Ok(())
@@ -316,7 +320,12 @@ pub fn task_uses(g: &ProcessGraph) -> Vec<TaskUse> {
                 _ => None,
             })
             .collect();
+        let timed = node.boundaries.iter().any(|b| {
+            matches!(&g.node(*b).kind, NodeKind::Boundary(be)
+                if be.triggers.iter().any(|d| matches!(d, EventDefinition::Timer(_))))
+        });
         out.push(TaskUse {
+            timed,
             task: node.id.clone(),
             name: node.label().to_owned(),
             resource: resource.unwrap_or_else(|| node.id.clone()),

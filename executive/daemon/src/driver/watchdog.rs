@@ -1,4 +1,5 @@
-//! The watchdog: no task waits without end on a system that accepted its goal and went silent.
+//! The watchdog: no task waits without end on a system that accepted its goal and went silent
+//! (on for a connector whose `limits.overrun_margin_ms` is set).
 //! A goal is due by its action's declared maximum duration (the catalogue's `cost`, resolved
 //! for the goal's fields; `limits.overrun_default_ms` when none is declared) plus the
 //! connector's `limits.overrun_margin_ms`, in mission time (and at least a second of wall
@@ -32,6 +33,9 @@ impl Driver {
             return;
         }
         let limits = &cfg.limits;
+        let Some(margin) = limits.overrun_margin_ms else {
+            return;
+        };
         let fields = &command.fields;
         let declared = self
             .connectors
@@ -52,7 +56,7 @@ impl Driver {
             None if limits.overrun_default_ms > 0 => limits.overrun_default_ms as f64,
             None => return,
         };
-        let due = self.clock.now() + most as i64 + limits.overrun_margin_ms as i64;
+        let due = self.clock.now() + most as i64 + margin as i64;
         // At least a second of wall time: a fast mission clock must not outrun the transport.
         let delay = self.clock.wall_delay(due).max(Duration::from_secs(1));
         self.watch_later(task, command.goal_id.clone(), 1, delay);
@@ -95,7 +99,8 @@ impl Driver {
         self.connectors.list[connector].abort(&w.goal_id);
         let message = format!(
             "`{resource}` ran past its declared maximum duration by more than {} ms of mission time, and the system did not end it within {} ms of being asked its state (the system is sent a cancel)",
-            limits.overrun_margin_ms, limits.overrun_state_wait_ms
+            limits.overrun_margin_ms.unwrap_or_default(),
+            limits.overrun_state_wait_ms
         );
         tracing::warn!(goal = w.goal_id, "{message}");
         let _ = self.tx.send(Event::TaskFailed {
