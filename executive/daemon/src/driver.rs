@@ -1173,8 +1173,14 @@ impl Driver {
             Report::Accepted { goal_id } => {
                 let task = task_of(&self.goals, &goal_id)?;
                 if let Some(f) = self.flights.get_mut(&task) {
+                    let first = !f.acked;
                     f.acked = true;
                     self.acked.extend(f.mark.take());
+                    // The goal runs from now: the watchdog counts from here.
+                    if first && !f.user {
+                        let (connector, command) = (f.connector, f.command.clone());
+                        self.arm_watchdog(task, connector, &command);
+                    }
                 }
                 self.note("accepted", task, &goal_id, serde_json::json!({}));
                 None
@@ -1607,6 +1613,10 @@ impl Driver {
             && let Some(f) = self.flights.get_mut(&task)
         {
             f.acked = true;
+            if !f.user {
+                let (connector, command) = (f.connector, f.command.clone());
+                self.arm_watchdog(task, connector, &command);
+            }
         }
     }
 
@@ -1694,9 +1704,6 @@ impl Driver {
                 command: command.clone(),
             },
         );
-        if !user {
-            self.arm_watchdog(task, route.connector, &command);
-        }
         let c = &mut self.connectors.list[route.connector];
         if reconcile {
             c.reconcile(command);

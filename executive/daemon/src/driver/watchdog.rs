@@ -1,6 +1,7 @@
 //! The watchdog: no task waits without end on a system that accepted its goal and went silent
 //! (on for a connector whose `limits.overrun_margin_ms` is set).
-//! A goal is due by its action's declared maximum duration (the catalogue's `cost`, resolved
+//! A goal is due, from its acknowledgement (or from the restart that asked about it), by its
+//! action's declared maximum duration (the catalogue's `cost`, resolved
 //! for the goal's fields; `limits.overrun_default_ms` when none is declared) plus the
 //! connector's `limits.overrun_margin_ms`, in mission time (and at least a second of wall
 //! time). At that moment the executive asks
@@ -25,8 +26,8 @@ pub(super) struct Watch {
 }
 
 impl Driver {
-    /// Arms the watchdog of a goal just sent on `connector` (a scripted connector's goals end
-    /// on their own).
+    /// Arms the watchdog of a goal its system has just acknowledged on `connector` (a scripted
+    /// connector's goals end on their own; a goal not yet acknowledged has `accept_within_ms`).
     pub(super) fn arm_watchdog(&self, task: TaskKey, connector: usize, command: &Command) {
         let cfg = &self.connectors.config.connectors[connector];
         if cfg.kind == Kind::Script || cfg.answers {
