@@ -134,8 +134,16 @@ fn the_fleet_flies_across_three_hosts_and_a_cut_between_the_vehicles_loses_and_r
     // Both parts end; the lander heard every report, the one sent into the cut once.
     for pool in ["lander", "scout"] {
         let name = format!("{pool}-executive");
-        let child = &mut lab.proc(&name).child;
-        let status = child.wait().expect("executive exits");
+        let pid = lab.proc(&name).child.id();
+        let ended = mission_tests::hosts::poll(Duration::from_secs(120), || {
+            lab.proc(&name).child.try_wait().ok().flatten()
+        });
+        let Some(status) = ended else {
+            let _ = std::process::Command::new("kill")
+                .args(["-9", &pid.to_string()])
+                .status();
+            panic!("{name} did not end within two minutes:\n{}", lab.log(&name));
+        };
         assert!(status.success(), "{name}: {status}\n{}", lab.log(&name));
     }
     let (l, s) = (lines(&lr), lines(&sr));

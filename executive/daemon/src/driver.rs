@@ -982,6 +982,9 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
     }
     let fleet = d.post.as_ref().map(|p| (p.pool.clone(), p.counts));
     if let Some(p) = d.post.as_mut() {
+        if !interrupted {
+            p.linger().await;
+        }
         p.fleet.close().await;
     }
     d.connectors.close().await;

@@ -18,6 +18,10 @@ use executive_model::{ProcessGraph, ProcessId};
 
 use super::{Driver, Report, RunError, crash_point, wall_ms};
 
+/// How long an executive whose part has ended stays while a peer is still there (see
+/// [`Post::linger`]).
+const LINGER: Duration = Duration::from_secs(2);
+
 /// The store's meta key listing, as of the newest snapshot, the messages no receiver had
 /// acknowledged: their steps may be pruned after that snapshot, so a restart learns from here
 /// that they must be sent again.
@@ -119,6 +123,28 @@ impl Post {
     }
 
     /// The pools whose executives have not ended their part (running or away).
+    /// Before leaving: this executive stays, its `done` token declared, while another pool's
+    /// executive is still there, for at most [`LINGER`]. A peer waiting for this part's end
+    /// learns it from the token. Closed at once, the declaration can be lost with the session
+    /// (seen across routers: a peer then saw only the `running` token go and waited for ever).
+    pub(super) async fn linger(&self) {
+        let start = std::time::Instant::now();
+        while start.elapsed() < LINGER {
+            let states = self.fleet.peers();
+            let present = self.peers.iter().any(|p| {
+                matches!(
+                    states.get(p),
+                    Some(connector_api::PeerState::Running | connector_api::PeerState::Done)
+                )
+            });
+            if !present {
+                return;
+            }
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+        tracing::debug!("left while another pool's executive is still there");
+    }
+
     pub(super) fn peers_running(&self) -> Vec<String> {
         let states = self.fleet.peers();
         self.peers
