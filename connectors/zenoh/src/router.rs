@@ -14,9 +14,16 @@
 //! publisher, and the tests wait for that line. The price: with access control on, each message
 //! the router decides on is one trace event formatted for [`log_router`]'s filter (a string
 //! per message, not a lock or a write).
+//!
+//! A flood of refused messages does not flood the log ([`Limiter`]): the same refusal (peer,
+//! operation, key) is written at most once every 10 s, and at most 50 refusals in all every
+//! 10 s; the next line written says how many were not.
 
 use std::cell::RefCell;
+use std::collections::HashMap;
 use std::fmt;
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
 
 use tracing::field::{Field, Visit};
 use tracing_subscriber::filter::{EnvFilter, filter_fn};
@@ -99,10 +106,80 @@ impl<S: tracing::Subscriber> Layer<S> for Refusals {
     fn on_event(&self, event: &tracing::Event<'_>, _: Context<'_, S>) {
         let mut message = Message(String::new());
         event.record(&mut message);
-        if is_refusal(&message.0) {
-            // Written directly: emitting a tracing event from inside a layer would re-enter it.
-            eprintln!("WARN trace::router: {REFUSAL} {}", message.0);
+        if !is_refusal(&message.0) {
+            return;
         }
+        let line = message.0.trim_start_matches("Using cached result: ");
+        let admitted = LIMITER
+            .lock()
+            .map(|mut l| l.admit(line, Instant::now()))
+            .unwrap_or(Some(0));
+        if let Some(unlogged) = admitted {
+            let more = if unlogged > 0 {
+                format!(" ({unlogged} refusals not logged since the last line)")
+            } else {
+                String::new()
+            };
+            // Written directly: emitting a tracing event from inside a layer would re-enter it.
+            eprintln!("WARN trace::router: {REFUSAL} {line}{more}");
+        }
+    }
+}
+
+/// How often one refusal is written, and the window of the overall budget.
+const EVERY: Duration = Duration::from_secs(10);
+
+/// Refusal lines written at most per [`EVERY`], whatever they are.
+const BUDGET: u32 = 50;
+
+/// Different refusals remembered at most (a flood of new keys forgets the oldest first).
+const REMEMBERED: usize = 4096;
+
+static LIMITER: Mutex<Limiter> = Mutex::new(Limiter {
+    last: None,
+    window: None,
+    written: 0,
+    unlogged: 0,
+});
+
+/// Which refusal lines are written: each line at most once every [`EVERY`], at most
+/// [`BUDGET`] lines in all per [`EVERY`]; the lines not written are counted.
+struct Limiter {
+    last: Option<HashMap<String, Instant>>,
+    window: Option<Instant>,
+    written: u32,
+    unlogged: u64,
+}
+
+impl Limiter {
+    /// Whether `line`, refused at `now`, is written: `Some(n)` with the refusals not written
+    /// since the last line that was, `None` when it is not written (it is counted).
+    fn admit(&mut self, line: &str, now: Instant) -> Option<u64> {
+        let last = self.last.get_or_insert_with(HashMap::new);
+        if last
+            .get(line)
+            .is_some_and(|at| now.duration_since(*at) < EVERY)
+        {
+            self.unlogged += 1;
+            return None;
+        }
+        if self.window.is_none_or(|w| now.duration_since(w) >= EVERY) {
+            self.window = Some(now);
+            self.written = 0;
+        }
+        if self.written >= BUDGET {
+            self.unlogged += 1;
+            return None;
+        }
+        if last.len() >= REMEMBERED {
+            last.retain(|_, at| now.duration_since(*at) < EVERY);
+            if last.len() >= REMEMBERED {
+                last.clear();
+            }
+        }
+        last.insert(line.to_owned(), now);
+        self.written += 1;
+        Some(std::mem::take(&mut self.unlogged))
     }
 }
 
@@ -147,6 +224,41 @@ impl Visit for Message {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_flood_of_refusals_writes_a_bounded_number_of_lines_and_counts_the_rest() {
+        let mut l = Limiter {
+            last: None,
+            window: None,
+            written: 0,
+            unlogged: 0,
+        };
+        let t0 = Instant::now();
+        let same =
+            "5c6f on CertCommonName(station-a) is unauthorized to Put (ingress) on trace/d/tm/x";
+        // The same refusal 1,000 times within a second: written once.
+        let written = (0..1000)
+            .filter(|i| l.admit(same, t0 + Duration::from_micros(*i)).is_some())
+            .count();
+        assert_eq!(written, 1);
+        // After 10 s it is written again, saying how many were not.
+        assert_eq!(l.admit(same, t0 + EVERY), Some(999));
+        // 10,000 different refusals within the window: the budget's worth are written.
+        let written = (0..10_000)
+            .filter(|i| {
+                l.admit(
+                    &format!("{same}/{i}"),
+                    t0 + EVERY + Duration::from_micros(*i),
+                )
+                .is_some()
+            })
+            .count();
+        assert_eq!(written, BUDGET as usize - 1);
+        // The next window writes again, with the count of the ones it left out.
+        let next = l.admit("another", t0 + EVERY * 2);
+        assert_eq!(next, Some(10_000 - (BUDGET as u64 - 1)));
+        assert!(l.last.as_ref().is_some_and(|m| m.len() <= REMEMBERED));
+    }
 
     #[test]
     fn permissions_worked_out_for_a_new_key_are_not_refusals_but_decisions_are() {
