@@ -101,15 +101,21 @@ pub fn generated(config: &ConnectorsConfig) -> Vec<Catalogue> {
     config
         .connectors
         .iter()
-        .filter(|c| c.kind == connector_api::Kind::Ros2)
-        .filter_map(|c| match connector_ros2::catalogue_of(c) {
-            Ok(cat) => Some(cat),
-            Err(e) => {
-                tracing::error!(connector = c.name, error = %e, "no catalogue from the ROS 2 definitions");
-                None
-            }
-        })
+        .filter_map(ros2_catalogue)
         .collect()
+}
+
+/// A ROS 2 connector's catalogue, from its actions' definitions (`None` for other kinds, or,
+/// logged, when the definitions cannot be read).
+fn ros2_catalogue(c: &connector_api::ConnectorConfig) -> Option<Catalogue> {
+    if c.kind != connector_api::Kind::Ros2 {
+        return None;
+    }
+    connector_ros2::catalogue_of(c)
+        .inspect_err(|e| {
+            tracing::error!(connector = c.name, error = %e, "no catalogue from the ROS 2 definitions");
+        })
+        .ok()
 }
 
 /// Each configured connector's catalogue, by its server id (`None`: none known, or a scripted
@@ -124,10 +130,7 @@ pub fn served(config: &ConnectorsConfig, catalogues: &[Catalogue]) -> Vec<Option
                 catalogues.iter().find(|k| k.server == c.server()).cloned()
             }
             // Generated from the actions' definitions, as the connector serves it.
-            connector_api::Kind::Ros2 => generated(&ConnectorsConfig {
-                connectors: vec![c.clone()],
-            })
-            .pop(),
+            connector_api::Kind::Ros2 => ros2_catalogue(c),
         })
         .collect()
 }

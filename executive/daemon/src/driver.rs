@@ -1180,9 +1180,8 @@ impl Driver {
                     f.acked = true;
                     self.acked.extend(f.mark.take());
                     // The goal runs from now: the watchdog counts from here.
-                    if first && !f.user {
-                        let (connector, command) = (f.connector, f.command.clone());
-                        self.arm_watchdog(task, connector, &command);
+                    if first {
+                        self.arm_watchdog(task);
                     }
                 }
                 self.note("accepted", task, &goal_id, serde_json::json!({}));
@@ -1616,10 +1615,7 @@ impl Driver {
             && let Some(f) = self.flights.get_mut(&task)
         {
             f.acked = true;
-            if !f.user {
-                let (connector, command) = (f.connector, f.command.clone());
-                self.arm_watchdog(task, connector, &command);
-            }
+            self.arm_watchdog(task);
         }
     }
 

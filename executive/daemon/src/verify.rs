@@ -193,14 +193,13 @@ pub fn systems(
             .into_iter()
             .find(|f| f.exists())
     };
-    let pools: Vec<String> = loaded
+    let with_process: Vec<&executive_model::Participant> = loaded
         .graph
         .iter()
-        .flat_map(|g| &g.collaborations)
-        .flat_map(|c| &c.participants)
+        .flat_map(|g| g.participants())
         .filter(|p| p.process.is_some())
-        .map(|p| p.id.clone())
         .collect();
+    let pools: Vec<String> = with_process.iter().map(|p| p.id.clone()).collect();
     let files: Vec<(Option<String>, PathBuf)> = if connectors.is_empty() {
         let fleet: Vec<(Option<String>, PathBuf)> = pools
             .iter()
@@ -224,12 +223,9 @@ pub fn systems(
         for c in connectors {
             match c.split_once('=') {
                 Some((pool, file)) => {
-                    let id = loaded
-                        .graph
+                    let id = with_process
                         .iter()
-                        .flat_map(|g| &g.collaborations)
-                        .flat_map(|c| &c.participants)
-                        .find(|p| p.process.is_some() && (p.id == pool || p.name.as_deref() == Some(pool)))
+                        .find(|p| p.id == pool || p.name.as_deref() == Some(pool))
                         .map(|p| p.id.clone())
                         .ok_or_else(|| {
                             format!(

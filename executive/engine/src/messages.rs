@@ -33,11 +33,7 @@ pub fn remote_processes(
     g: &ProcessGraph,
     participant: &str,
 ) -> Result<BTreeMap<ProcessId, String>, String> {
-    let pools: Vec<_> = g
-        .collaborations
-        .iter()
-        .flat_map(|c| &c.participants)
-        .collect();
+    let pools: Vec<_> = g.participants().collect();
     let ours: Vec<_> = pools
         .iter()
         .filter(|p| p.id == participant || p.name.as_deref() == Some(participant))
@@ -231,11 +227,7 @@ impl Run<'_> {
                 _ => None,
             };
         }
-        let pool = g
-            .collaborations
-            .iter()
-            .flat_map(|c| &c.participants)
-            .find(|p| p.id == target)?;
+        let pool = g.participants().find(|p| p.id == target)?;
         let Some(p) = pool.process else {
             // A black box (§9.2): nothing here runs it; the message leaves for it.
             return Some(Receiver::Away(pool.id.clone()));

@@ -96,6 +96,11 @@ pub struct ProcessGraph {
 }
 
 impl ProcessGraph {
+    /// The pools of every collaboration, in document order.
+    pub fn participants(&self) -> impl Iterator<Item = &Participant> {
+        self.collaborations.iter().flat_map(|c| &c.participants)
+    }
+
     /// The node with this index.
     pub fn node(&self, id: NodeId) -> &Node {
         &self.nodes[id.index()]

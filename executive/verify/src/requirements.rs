@@ -509,9 +509,7 @@ impl Parser<'_> {
         let name = self.string("of")?;
         let pools: Vec<&executive_model::Participant> = self
             .g
-            .collaborations
-            .iter()
-            .flat_map(|c| &c.participants)
+            .participants()
             .filter(|p| p.process.is_some())
             .collect();
         let found: Vec<&&executive_model::Participant> = pools

@@ -127,9 +127,7 @@ fn owners(g: &ProcessGraph, sources: &[Source]) -> Result<BTreeMap<ProcessId, us
     for (v, s) in sources.iter().enumerate() {
         let Some(pool) = s.pool else { continue };
         let process = g
-            .collaborations
-            .iter()
-            .flat_map(|c| &c.participants)
+            .participants()
             .find(|p| p.id == pool)
             .and_then(|p| p.process)
             .ok_or_else(|| format!("no pool with a process has the id `{pool}`"))?;

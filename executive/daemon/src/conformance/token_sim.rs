@@ -263,9 +263,7 @@ impl Player {
         // A pool: start its process.
         let process = self
             .g
-            .collaborations
-            .iter()
-            .flat_map(|c| &c.participants)
+            .participants()
             .find(|p| p.id == target)
             .and_then(|p| p.process)
             .ok_or_else(|| {

@@ -35,9 +35,7 @@ pub(super) fn resolve(
 ) -> Result<(String, BTreeMap<ProcessId, String>), RunError> {
     let remote = executive_engine::remote_processes(g, given).map_err(RunError::Participant)?;
     let id = g
-        .collaborations
-        .iter()
-        .flat_map(|c| &c.participants)
+        .participants()
         .find(|p| p.id == given || p.name.as_deref() == Some(given))
         .map_or_else(|| given.to_owned(), |p| p.id.clone());
     Ok((id, remote))
@@ -122,7 +120,6 @@ impl Post {
             "flows": self.crossed, "unacknowledged": self.unsent.keys().collect::<Vec<_>>()})
     }
 
-    /// The pools whose executives have not ended their part (running or away).
     /// Before leaving: this executive stays, its `done` token declared, while another pool's
     /// executive is still there, for at most [`LINGER`]. A peer waiting for this part's end
     /// learns it from the token. Closed at once, the declaration can be lost with the session
@@ -145,6 +142,7 @@ impl Post {
         tracing::debug!("left while another pool's executive is still there");
     }
 
+    /// The pools whose executives have not ended their part (running or away).
     pub(super) fn peers_running(&self) -> Vec<String> {
         let states = self.fleet.peers();
         self.peers
@@ -274,11 +272,7 @@ impl Post {
             .flat_map(|c| &c.message_flows)
             .find(|m| m.id == letter.flow)
             .ok_or_else(|| format!("the model has no message flow `{}`", letter.flow))?;
-        let pool = g
-            .collaborations
-            .iter()
-            .flat_map(|c| &c.participants)
-            .find(|p| p.id == letter.from);
+        let pool = g.participants().find(|p| p.id == letter.from);
         let from_pool = flow.source == letter.from
             || g.node_by_id(&flow.source)
                 .is_some_and(|n| pool.and_then(|p| p.process) == Some(g.process_of(n)));

@@ -1,18 +1,16 @@
 //! The watchdog: no task waits without end on a system that accepted its goal and went silent
-//! (on for a connector whose `limits.overrun_margin_ms` is set).
-//! A goal is due, from its acknowledgement (or from the restart that asked about it), by its
-//! action's declared maximum duration (the catalogue's `cost`, resolved
-//! for the goal's fields; `limits.overrun_default_ms` when none is declared) plus the
-//! connector's `limits.overrun_margin_ms`, in mission time (and at least a second of wall
-//! time). At that moment the executive asks
-//! the system for the goal's state (an unanswered state query counts as an answer it could not
-//! understand, §4.4 of `docs/protocol.md`); if the goal has not ended `overrun_state_wait_ms`
-//! (wall time) later, the task fails with `OVERRUN`, which a boundary may catch, and the system
-//! is sent a cancel for the goal.
+//! (on for a connector whose `limits.overrun_margin_ms` is set). A goal is due, counted from
+//! its acknowledgement (or from the restart that asked about it), by its action's declared
+//! maximum duration (the catalogue's `cost`, resolved for the goal's fields;
+//! `limits.overrun_default_ms` when none is declared) plus `limits.overrun_margin_ms`, in
+//! mission time, and at least a second of wall time. Then the executive asks the system for the
+//! goal's state (an unanswered state query counts as an answer it could not understand, §4.4 of
+//! `docs/protocol.md`); if the goal has not ended `overrun_state_wait_ms` (wall time) later, the
+//! task fails with `OVERRUN`, which a boundary may catch, and the system is sent a cancel.
 
 use std::time::Duration;
 
-use connector_api::{Command, Kind};
+use connector_api::Kind;
 use executive_engine::{Event, TaskKey};
 
 use super::Driver;
@@ -26,9 +24,14 @@ pub(super) struct Watch {
 }
 
 impl Driver {
-    /// Arms the watchdog of a goal its system has just acknowledged on `connector` (a scripted
-    /// connector's goals end on their own; a goal not yet acknowledged has `accept_within_ms`).
-    pub(super) fn arm_watchdog(&self, task: TaskKey, connector: usize, command: &Command) {
+    /// Arms the watchdog of the goal of `task`, just acknowledged by its system (a goal not yet
+    /// acknowledged has `accept_within_ms`; user tasks, ground stations and the scripted
+    /// connector have none).
+    pub(super) fn arm_watchdog(&self, task: TaskKey) {
+        let Some(f) = self.flights.get(&task).filter(|f| !f.user) else {
+            return;
+        };
+        let (connector, command) = (f.connector, &f.command);
         let cfg = &self.connectors.config.connectors[connector];
         if cfg.kind == Kind::Script || cfg.answers {
             return;
