@@ -25,6 +25,7 @@ mod python;
 mod realworld;
 mod resources;
 mod ros2;
+mod ros2_europa;
 mod run;
 mod studio;
 mod tidy;

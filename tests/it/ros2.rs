@@ -44,10 +44,32 @@ const PACKAGES: [&str; 4] = [
 #[test]
 fn every_field_of_the_ros_definitions_has_the_type_rclpy_gives_it() {
     let venv = venv();
-    let out = Command::new(venv.join("bin/python"))
+    let mut python = Command::new(venv.join("bin/python"));
+    let (messages, actions) = agree_with_rclpy(&mut python, &venv, &PACKAGES);
+    // Every definition of the four packages was compared.
+    assert!(
+        messages >= 15 && actions >= 2,
+        "{messages} messages, {actions} actions"
+    );
+    let found = Definitions::new(&[venv]).actions();
+    assert!(
+        found.contains(&"test_msgs/action/Fibonacci".to_owned()),
+        "{found:?}"
+    );
+}
+
+/// Checks that every message and action of `packages` under `prefix` has, as TRACE reads it,
+/// the field types `rclpy` (run as `python`) gives it; the numbers of messages and actions
+/// compared.
+pub(crate) fn agree_with_rclpy(
+    python: &mut Command,
+    prefix: &Path,
+    packages: &[&str],
+) -> (usize, usize) {
+    let out = python
         .arg(repo().join("tests/python/ros2/types.py"))
-        .arg(venv.join("share"))
-        .args(PACKAGES)
+        .arg(prefix.join("share"))
+        .args(packages)
         .output()
         .expect("python runs");
     assert!(
@@ -57,7 +79,7 @@ fn every_field_of_the_ros_definitions_has_the_type_rclpy_gives_it() {
     );
     let official: serde_json::Map<String, serde_json::Value> =
         serde_json::from_slice(&out.stdout).expect("rclpy's types as JSON");
-    let defs = Definitions::new(&[venv]);
+    let defs = Definitions::new(&[prefix.to_owned()]);
     let as_map = |fields: Vec<(String, String)>| -> serde_json::Value {
         fields
             .into_iter()
@@ -82,16 +104,7 @@ fn every_field_of_the_ros_definitions_has_the_type_rclpy_gives_it() {
         };
         assert_eq!(&ours, want, "{key}");
     }
-    // Every definition of the four packages was compared.
-    assert!(
-        messages >= 15 && actions >= 2,
-        "{messages} messages, {actions} actions"
-    );
-    let found = defs.actions();
-    assert!(
-        found.contains(&"test_msgs/action/Fibonacci".to_owned()),
-        "{found:?}"
-    );
+    (messages, actions)
 }
 
 #[test]

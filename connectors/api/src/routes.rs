@@ -113,7 +113,8 @@ pub struct Ros2Settings {
     /// `ROS_AUTOMATIC_DISCOVERY_RANGE`: `localhost`, `subnet`, `off` or `system_default`
     /// (default: the environment's).
     pub discovery: Option<String>,
-    /// Directories of `.action` and `.msg` definitions besides `AMENT_PREFIX_PATH`'s.
+    /// Directories of `.action` and `.msg` definitions besides `AMENT_PREFIX_PATH`'s (relative
+    /// to the connectors file).
     #[serde(default)]
     pub definitions: Vec<std::path::PathBuf>,
     /// The Python that has `rclpy` and the actions' packages (default: `python3`).
@@ -122,6 +123,21 @@ pub struct Ros2Settings {
 
 fn default_grace() -> u64 {
     3000
+}
+
+impl ConnectorsConfig {
+    /// The configuration read from a file in `dir`: relative paths in it (a ROS 2 connector's
+    /// `definitions`) are relative to the file, not to where a command runs.
+    pub fn beside(mut self, dir: &std::path::Path) -> ConnectorsConfig {
+        for c in &mut self.connectors {
+            for d in &mut c.ros2.definitions {
+                if d.is_relative() {
+                    *d = dir.join(&*d);
+                }
+            }
+        }
+        self
+    }
 }
 
 impl ConnectorConfig {

@@ -1,7 +1,10 @@
-"""TRACE's bridge to ROS 2 actions (connectors/ros2): one rclpy node whose action clients the
-connector drives over this process's stdin and stdout, one JSON object per line.
+"""TRACE's bridge to ROS 2 actions (connectors/ros2): one rclpy node, driven over this process's
+stdin and stdout, one JSON object per line.
 
-Commands (stdin):
+    bridge.py client NODE NAMESPACE    the connector's action clients (connector.rs)
+    bridge.py server NODE NAMESPACE    action servers of a Rust system (server.rs)
+
+Client commands (stdin):
   {"op": "goal", "goal_id": ID, "uuid": HEX32, "action": "/fibonacci",
    "type": "test_msgs/action/Fibonacci", "fields": {...}}
   {"op": "resume", ...the same}: a goal sent before a restart: its result by its UUID
@@ -16,6 +19,17 @@ Events (stdout):
   {"ev": "server", "action": NAME, "up": true | false}
   {"ev": "error", "goal_id": ID, "reason": ...}: the goal could not be sent
 
+Server commands (stdin):
+  {"op": "serve", "resource": R, "action": "arm/stow", "type": "europa_msgs/action/Stow"}
+  {"op": "feedback", "uuid": HEX32, "fields": {...}}
+  {"op": "succeed" | "abort" | "canceled", "uuid": HEX32, "fields": {...}}: the goal's result
+Server events (stdout):
+  {"ev": "ready"}
+  {"ev": "serving", "resource": R} | {"ev": "unserved", "resource": R, "reason": ...}
+  {"ev": "goal", "uuid": HEX32, "resource": R, "fields": {...}}: a goal accepted, to execute
+  {"ev": "cancel", "uuid": HEX32}: its client asks to cancel it
+  {"ev": "error", "uuid": HEX32 | null, "reason": ...}
+
 The goal's UUID is the connector's (derived from TRACE's goal id), so a goal sent again after a
 restart is the same goal to the server, which refuses a UUID it already holds.
 """
@@ -29,8 +43,9 @@ import uuid as uuidlib
 
 import rclpy
 from action_msgs.msg import GoalStatus
-from rclpy.action import ActionClient
+from rclpy.action import ActionClient, ActionServer, CancelResponse
 from rclpy.action.client import ClientGoalHandle
+from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.executors import MultiThreadedExecutor
 from unique_identifier_msgs.msg import UUID
 
@@ -77,11 +92,28 @@ def to_ros(msg, fields, path=""):
                 items.append(m)
             setattr(msg, key, items)
         else:
+            value = widen(slots[key], value)
             try:
                 setattr(msg, key, value)
             except (AssertionError, TypeError, ValueError) as e:
                 raise ValueError(f"`{where}`: {e}") from e
     return msg
+
+
+FLOATS = ("float", "double", "long double")
+
+
+def widen(slot, value):
+    """A whole number for a floating-point field (or sequence of them) is that number: JSON,
+    FEEL and CEL do not tell `10` from `10.0`, and rclpy's setters refuse an int there."""
+    inner = getattr(slot, "value_type", slot)
+    if getattr(inner, "typename", None) not in FLOATS:
+        return value
+    if isinstance(value, int) and not isinstance(value, bool):
+        return float(value)
+    if isinstance(value, list):
+        return [float(v) if isinstance(v, int) and not isinstance(v, bool) else v for v in value]
+    return value
 
 
 def to_json(value):
@@ -185,26 +217,126 @@ class Bridge:
         self.node.create_timer(0.2, check)
 
 
+class Server:
+    """Action servers whose goals a Rust system executes: each goal waits in its own executor
+    thread for the system's end of it."""
+
+    def __init__(self, node):
+        self.node = node
+        self.servers = []
+        self.goals = {}
+        self.lock = threading.Lock()
+        self.group = ReentrantCallbackGroup()
+
+    def serve(self, cmd):
+        resource = cmd["resource"]
+        try:
+            self.open(resource, cmd["action"], action_type(cmd["type"]))
+        except Exception as e:  # a type that does not import, a name that is not a name
+            say({"ev": "unserved", "resource": resource, "reason": str(e)})
+            return
+        say({"ev": "serving", "resource": resource})
+
+    def open(self, resource, action, cls):
+
+        def execute(handle):
+            uid = bytes(handle.goal_id.uuid).hex()
+            goal = {"handle": handle, "cls": cls, "ended": threading.Event(), "end": None}
+            with self.lock:
+                self.goals[uid] = goal
+            say({"ev": "goal", "uuid": uid, "resource": resource, "fields": to_json(handle.request)})
+            goal["ended"].wait()
+            with self.lock:
+                self.goals.pop(uid, None)
+            end = goal["end"]
+            result = cls.Result()
+            try:
+                to_ros(result, end.get("fields", {}))
+            except Exception as e:  # the system's result does not fit the definition
+                say({"ev": "error", "uuid": uid, "reason": f"result: {e}"})
+            if end["op"] == "succeed":
+                handle.succeed()
+            elif end["op"] == "canceled" and handle.is_cancel_requested:
+                handle.canceled()
+            else:
+                handle.abort()
+            return result
+
+        def cancel(handle):
+            say({"ev": "cancel", "uuid": bytes(handle.goal_id.uuid).hex()})
+            return CancelResponse.ACCEPT
+
+        self.servers.append(
+            ActionServer(
+                self.node,
+                cls,
+                action,
+                execute_callback=execute,
+                cancel_callback=cancel,
+                callback_group=self.group,
+            )
+        )
+
+    def feedback(self, cmd):
+        with self.lock:
+            goal = self.goals.get(cmd["uuid"])
+        if goal is None:
+            return
+        try:
+            msg = to_ros(goal["cls"].Feedback(), cmd.get("fields", {}))
+        except Exception as e:
+            say({"ev": "error", "uuid": cmd["uuid"], "reason": f"feedback: {e}"})
+            return
+        goal["handle"].publish_feedback(msg)
+
+    def end(self, cmd):
+        with self.lock:
+            goal = self.goals.get(cmd["uuid"])
+        if goal is not None:
+            goal["end"] = cmd
+            goal["ended"].set()
+
+
 def main():
+    role = sys.argv[1] if len(sys.argv) > 1 else "client"
     rclpy.init()
-    node = rclpy.create_node(sys.argv[1] if len(sys.argv) > 1 else "trace_executive")
-    bridge = Bridge(node)
-    executor = MultiThreadedExecutor()
+    node = rclpy.create_node(
+        sys.argv[2] if len(sys.argv) > 2 else "trace_executive",
+        namespace=sys.argv[3] if len(sys.argv) > 3 and sys.argv[3] else None,
+    )
+    # Each goal a server runs holds a thread while its system executes it.
+    executor = MultiThreadedExecutor(num_threads=64 if role == "server" else None)
     executor.add_node(node)
     threading.Thread(target=executor.spin, daemon=True).start()
+    bridge = Bridge(node) if role == "client" else None
+    server = Server(node) if role == "server" else None
     say({"ev": "ready"})
     for line in sys.stdin:
         try:
             cmd = json.loads(line)
             op = cmd["op"]
-            if op in ("goal", "resume"):
+            if bridge and op in ("goal", "resume"):
                 bridge.goal(cmd, op == "resume")
-            elif op == "cancel":
+            elif bridge and op == "cancel":
                 bridge.cancel(cmd["goal_id"])
-            elif op == "watch":
+            elif bridge and op == "watch":
                 bridge.watch(cmd["action"], cmd["type"])
+            elif server and op == "serve":
+                server.serve(cmd)
+            elif server and op == "feedback":
+                server.feedback(cmd)
+            elif server and op in ("succeed", "abort", "canceled"):
+                server.end(cmd)
+            else:
+                raise ValueError(f"no command `{op}` for a {role}")
         except Exception as e:
-            say({"ev": "error", "goal_id": None, "reason": f"unreadable command: {e}"})
+            say({"ev": "error", "goal_id": None, "uuid": None, "reason": f"unreadable command: {e}"})
+    if server:  # the system is gone: its goals end
+        with server.lock:
+            goals = list(server.goals.values())
+        for goal in goals:
+            goal["end"] = {"op": "abort"}
+            goal["ended"].set()
     executor.shutdown()
     rclpy.shutdown()
 

@@ -25,7 +25,9 @@ use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use connector_api::contract::{BoxFuture, ConnectorError};
-use connector_api::{ActionRoute, Catalogue, Command, Connector, ConnectorConfig, Report, Reports};
+use connector_api::{
+    ActionRoute, Catalogue, Command, Connector, ConnectorConfig, Report, Reports, Ros2Settings,
+};
 use serde_json::{Value, json};
 
 /// The `rclpy` node the connector drives.
@@ -196,21 +198,7 @@ impl Worker {
 
     /// Starts the bridge and asks it to watch every action's server.
     fn start(&mut self) {
-        let s = &self.config.ros2;
-        let mut p = Process::new(s.python.as_deref().unwrap_or("python3"));
-        p.arg("-c")
-            .arg(BRIDGE)
-            .arg(format!("trace_{}", sanitize(&self.config.name)))
-            .arg(s.namespace.as_deref().unwrap_or(""))
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped());
-        if let Some(d) = s.domain_id {
-            p.env("ROS_DOMAIN_ID", d.to_string());
-        }
-        if let Some(r) = &s.discovery {
-            p.env("ROS_AUTOMATIC_DISCOVERY_RANGE", r.to_uppercase());
-        }
+        let mut p = bridge(&self.config.ros2, "client", &self.config.name);
         let mut child = match p.spawn() {
             Ok(c) => c,
             Err(e) => {
@@ -496,6 +484,27 @@ impl Worker {
             ),
         }
     }
+}
+
+/// The bridge's process in `role` (`client` or `server`), its node named for `name`, joining
+/// the ROS graph as `settings` say.
+pub(crate) fn bridge(settings: &Ros2Settings, role: &str, name: &str) -> Process {
+    let mut p = Process::new(settings.python.as_deref().unwrap_or("python3"));
+    p.arg("-c")
+        .arg(BRIDGE)
+        .arg(role)
+        .arg(format!("trace_{}", sanitize(name)))
+        .arg(settings.namespace.as_deref().unwrap_or(""))
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    if let Some(d) = settings.domain_id {
+        p.env("ROS_DOMAIN_ID", d.to_string());
+    }
+    if let Some(r) = &settings.discovery {
+        p.env("ROS_AUTOMATIC_DISCOVERY_RANGE", r.to_uppercase());
+    }
+    p
 }
 
 fn sanitize(name: &str) -> String {

@@ -89,10 +89,13 @@ pub fn read_connectors(path: &std::path::Path) -> Result<ConnectorsConfig, Catal
         path: path.to_owned(),
         source,
     })?;
-    crate::connectors::parse_config(&text).map_err(|reason| CatalogueError::Connectors {
-        path: path.to_owned(),
-        reason,
-    })
+    let dir = path.parent().unwrap_or(std::path::Path::new(""));
+    crate::connectors::parse_config(&text)
+        .map(|c| c.beside(dir))
+        .map_err(|reason| CatalogueError::Connectors {
+            path: path.to_owned(),
+            reason,
+        })
 }
 
 /// The catalogues the connectors make themselves (ROS 2's, from the actions' definitions), for

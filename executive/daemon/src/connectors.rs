@@ -80,7 +80,8 @@ fn read_config(path: &Path) -> Result<ConnectorsConfig, SetupError> {
         reason,
     };
     let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
-    parse_config(&text).map_err(bad)
+    let dir = path.parent().unwrap_or(Path::new(""));
+    parse_config(&text).map(|c| c.beside(dir)).map_err(bad)
 }
 
 /// Reads a connectors file's text (`connectors.toml`) and checks it: the reason when it is

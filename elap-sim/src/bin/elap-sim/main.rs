@@ -4,6 +4,12 @@
 //! mission clock runs on through the downtime (the lander does not stop ageing while its
 //! software restarts), activities under way continue with the plan they had, and an activity's
 //! effects are saved with the fact that it ended, keyed by its goal, so they apply once.
+//!
+//! With `--ros2 CONNECTORS`, the activities that file's ROS 2 connectors route are served as
+//! ROS 2 actions instead (`connector_ros2::Ros2Server`), from the same world. Their goals are
+//! not kept across a restart: ROS 2's action servers hold goals in memory only.
+
+mod goal;
 
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
@@ -12,9 +18,10 @@ use std::time::{Duration, Instant};
 use clap::Parser;
 use connector_api::Status;
 use connector_api::wire::Telemetry;
-use connector_zenoh::{ActionServer, GoalHandle, Request, Role, ServerOptions, ZenohArgs};
+use connector_zenoh::{ActionServer, Request, Role, ServerOptions, ZenohArgs};
 use elap_sim::catalogue;
 use elap_sim::{Ended, Profile, Script, Sim, Vehicle, World};
+use goal::Goal;
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 use tokio::sync::watch;
@@ -59,6 +66,12 @@ struct Cli {
     /// heard), the first goal starts the clock.
     #[arg(long, value_name = "SERVER")]
     clock_of: Option<String>,
+    /// Serve as ROS 2 actions, not over Zenoh, the activities this connectors file routes to
+    /// ROS 2 (its `kind = "ros2"` connectors: each resource's action name and type, and how to
+    /// join the ROS graph). `[connector.ros2] python` must have rclpy and the actions' package
+    /// (`deploy/ros2`).
+    #[arg(long, value_name = "CONNECTORS")]
+    ros2: Option<PathBuf>,
     #[command(flatten)]
     zenoh: ZenohArgs,
 }
@@ -249,6 +262,19 @@ async fn main() -> anyhow::Result<()> {
         tracing::warn!(saved = %vehicle, given = %cli.vehicle, "the store holds another vehicle; simulating the saved one");
     }
     let served = vehicle.server();
+    let ros2 = cli.ros2.as_deref().map(goal::ros2_routes).transpose()?;
+    let mut zenoh_catalogue = catalogue::of(vehicle);
+    if let Some(routes) = &ros2 {
+        for resource in routes.iter().flat_map(|(_, _, a)| a.keys()) {
+            anyhow::ensure!(
+                zenoh_catalogue.actions.iter().any(|a| &a.name == resource),
+                "`{resource}` is routed to ROS 2, but the {vehicle} has no such activity"
+            );
+        }
+        zenoh_catalogue
+            .actions
+            .retain(|a| !routes.iter().any(|(_, _, r)| r.contains_key(&a.name)));
+    }
     let base_ms = match anchor {
         Some(a) => {
             let downtime = (wall_now_ms() - a.wall_ms).max(0) as f64 * a.speed;
@@ -305,7 +331,7 @@ async fn main() -> anyhow::Result<()> {
         &session,
         ServerOptions {
             keys,
-            catalogue: catalogue::of(vehicle),
+            catalogue: zenoh_catalogue,
             store: goals,
             accept: None,
             instance: None,
@@ -314,14 +340,43 @@ async fn main() -> anyhow::Result<()> {
     .await?;
     let cancels: Arc<Mutex<std::collections::HashMap<String, watch::Sender<bool>>>> =
         Arc::default();
-    let start = |h: GoalHandle| {
+    let start = |h: Goal| {
         let (tx, rx) = watch::channel(false);
         cancels
             .lock()
             .unwrap_or_else(|p| p.into_inner())
-            .insert(h.goal_id.clone(), tx);
+            .insert(h.id(), tx);
         tokio::spawn(activity(h, Arc::clone(&shared), rx));
     };
+    let cancel = |id: &str| {
+        if let Some(tx) = cancels.lock().unwrap_or_else(|p| p.into_inner()).remove(id) {
+            let _ = tx.send(true);
+        }
+    };
+    // The ROS 2 nodes, one per connector, their requests merged into one stream.
+    let (ros2_tx, mut ros2_requests) = tokio::sync::mpsc::unbounded_channel();
+    let mut _nodes = Vec::new();
+    for (name, settings, actions) in ros2.iter().flatten() {
+        let (node, mut rx) = tokio::task::block_in_place(|| {
+            connector_ros2::Ros2Server::start(&format!("{served}_{name}"), settings, actions)
+        })?;
+        _nodes.push(node);
+        let tx = ros2_tx.clone();
+        tokio::spawn(async move {
+            while let Some(r) = rx.recv().await {
+                if tx.send(r).is_err() {
+                    return;
+                }
+            }
+        });
+        println!(
+            "serving {} over ROS 2 ({name})",
+            actions.keys().cloned().collect::<Vec<_>>().join(", ")
+        );
+    }
+    drop(ros2_tx);
+    let mut asked: std::collections::HashMap<String, Arc<std::sync::atomic::AtomicBool>> =
+        std::collections::HashMap::new();
     // Outcomes kept for goals whose results were recorded before the restart are dropped;
     // goals under way when the simulator stopped carry on (or, ended but unrecorded, report).
     {
@@ -337,7 +392,7 @@ async fn main() -> anyhow::Result<()> {
         }
     }
     for h in server.unfinished() {
-        start(h);
+        start(Goal::Zenoh(h));
     }
     // Watched from before `ready` on, so a Ctrl-C between two requests is never missed.
     let mut interrupt = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::interrupt())?;
@@ -346,13 +401,24 @@ async fn main() -> anyhow::Result<()> {
     loop {
         tokio::select! {
             r = requests.recv() => match r {
-                Some(Request::Goal(h)) => start(h),
-                Some(Request::Cancel(h, _)) => {
-                    if let Some(tx) = cancels.lock().unwrap_or_else(|p| p.into_inner()).remove(&h.goal_id) {
-                        let _ = tx.send(true);
-                    }
-                }
+                Some(Request::Goal(h)) => start(Goal::Zenoh(h)),
+                Some(Request::Cancel(h, _)) => cancel(&h.goal_id),
                 None => break,
+            },
+            Some(r) = ros2_requests.recv() => match r {
+                connector_ros2::Request::Goal(g) => {
+                    let flag = Arc::new(std::sync::atomic::AtomicBool::new(false));
+                    asked.retain(|_, f| Arc::strong_count(f) > 1);
+                    asked.insert(goal::ros2_id(&g.uuid), Arc::clone(&flag));
+                    start(Goal::Ros2(g, flag));
+                }
+                connector_ros2::Request::Cancel(uuid) => {
+                    let id = goal::ros2_id(&uuid);
+                    if let Some(f) = asked.get(&id) {
+                        f.store(true, std::sync::atomic::Ordering::SeqCst);
+                    }
+                    cancel(&id);
+                }
             },
             _ = interrupt.recv() => break,
         }
@@ -367,15 +433,16 @@ async fn main() -> anyhow::Result<()> {
 /// feedback on the way and cancel honoured, then ended (its effects saved with its outcome)
 /// and reported. After a restart the same goal carries on where it was, and one that had ended
 /// only reports its outcome again.
-async fn activity(h: GoalHandle, shared: Arc<Shared>, mut cancel: watch::Receiver<bool>) {
+async fn activity(h: Goal, shared: Arc<Shared>, mut cancel: watch::Receiver<bool>) {
     shared.run_clock();
+    let id = h.id();
     let begun = {
         let mut sim = shared.sim();
         sim.world.advance(shared.clock.now());
-        match sim.ended.get(&h.goal_id) {
+        match sim.ended.get(&id) {
             Some(e) => Ok(Err(e.clone())),
             None => sim
-                .begin(&h.goal_id, &h.action, &h.fields, shared.clock.now())
+                .begin(&id, h.action(), h.fields(), shared.clock.now())
                 .map(Ok),
         }
     };
@@ -390,7 +457,7 @@ async fn activity(h: GoalHandle, shared: Arc<Shared>, mut cancel: watch::Receive
     shared.save();
     h.executing().await;
     // A cancel accepted before a restart still holds.
-    let mut cancelled = h.status() == Status::Canceling;
+    let mut cancelled = h.cancel_asked();
     let steps = 4;
     let resumed_at = shared.clock.now();
     for k in 1..=steps {
@@ -408,13 +475,12 @@ async fn activity(h: GoalHandle, shared: Arc<Shared>, mut cancel: watch::Receive
             r = cancel.wait_for(|c| *c) => { cancelled = r.is_ok(); }
         }
         if !cancelled && k < steps {
-            h.feedback(Some(100.0 * k as f64 / steps as f64), Default::default())
-                .await;
+            h.feedback(100.0 * k as f64 / steps as f64).await;
         }
     }
     let ended = {
         let mut sim = shared.sim();
-        sim.end(&h.goal_id, cancelled, shared.clock.now())
+        sim.end(&id, cancelled, shared.clock.now())
     };
     let Some(ended) = ended else {
         h.abort("REJECTED", "the activity's plan was lost").await;
@@ -427,23 +493,17 @@ async fn activity(h: GoalHandle, shared: Arc<Shared>, mut cancel: watch::Receive
 
 /// Publishes how an activity ended (the goal's result, recorded in the goal table), then
 /// forgets the outcome kept for it.
-async fn report(h: &GoalHandle, shared: &Shared, ended: Ended) {
+async fn report(h: &Goal, shared: &Shared, ended: Ended) {
     match (ended.cancelled, ended.outcome) {
-        (true, Ok(partial)) => {
-            h.canceled(partial).await;
-        }
-        (true, Err(_)) => {
-            h.canceled(Default::default()).await;
-        }
-        (false, Ok(outputs)) => {
-            h.succeed(outputs).await;
-        }
+        (true, Ok(partial)) => h.canceled(partial).await,
+        (true, Err(_)) => h.canceled(Default::default()).await,
+        (false, Ok(outputs)) => h.succeed(outputs).await,
         (false, Err((code, message))) => {
-            tracing::info!(action = h.action, code, message, "activity failed");
+            tracing::info!(action = h.action(), code, message, "activity failed");
             h.abort(&code, &message).await;
         }
     }
-    shared.sim().forget(&h.goal_id);
+    shared.sim().forget(&h.id());
 }
 
 /// Publishes the clock, power, thermal and comm telemetry every 100 ms of wall time.
