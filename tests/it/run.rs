@@ -159,9 +159,19 @@ fn text(out: &Output) -> String {
 }
 
 #[test]
-fn an_undefined_variable_ends_the_run_with_exit_3_naming_the_element() {
+fn an_unwritten_variable_is_refused_before_flight_and_a_wrong_one_ends_the_run_with_exit_3() {
     let dir = workdir("undefined");
-    let out = run(&dir, UNDEFINED, "store", &[]);
+    // Nothing writes `level`: the run is refused before its first step, naming the name.
+    let out = run(&dir, UNDEFINED, "refused", &[]);
+    let all = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{all}");
+    assert!(
+        String::from_utf8_lossy(&out.stderr)
+            .contains("from `Decide` reads `level`, which nothing writes before it"),
+        "{all}"
+    );
+    // Given as a text, it cannot be compared: the gateway's incident leaves the run stuck.
+    let out = run(&dir, UNDEFINED, "store", &["--var", "level=\"high\""]);
     let all = text(&out);
     assert_eq!(out.status.code(), Some(STUCK), "{all}");
     let stdout = String::from_utf8_lossy(&out.stdout);

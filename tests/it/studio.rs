@@ -216,7 +216,7 @@ pub(crate) async fn click(c: &Client, css: &str) {
 }
 
 /// Opens panel group `id` unless it is open (the panel keeps a group open across elements).
-async fn open_group(c: &Client, id: &str) {
+pub(crate) async fn open_group(c: &Client, id: &str) {
     let open = js(
         c,
         &format!(r#"return !!document.querySelector('[data-group-id="group-{id}"] .bio-properties-panel-group-entries.open')"#),
@@ -233,7 +233,7 @@ async fn open_group(c: &Client, id: &str) {
 }
 
 /// Replaces the text of input `css` with `text`.
-async fn type_into(c: &Client, css: &str, text: &str) {
+pub(crate) async fn type_into(c: &Client, css: &str, text: &str) {
     let field = c
         .wait()
         .at_most(WAIT)

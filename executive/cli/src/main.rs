@@ -37,6 +37,15 @@ enum Command {
         /// errors.
         #[arg(long)]
         strict: bool,
+        /// The connectors the mission runs with: tasks are checked against their catalogues
+        /// as `trace run` checks them, and system data names count as written. Default:
+        /// ../connectors.toml beside each model, if it exists.
+        #[arg(long, value_name = "FILE")]
+        connectors: Option<PathBuf>,
+        /// Catalogue files or directories (default: ../catalogues and ../ground/forms.json
+        /// beside each model, those that exist).
+        #[arg(long = "catalogue", value_name = "PATH")]
+        catalogues: Vec<PathBuf>,
     },
     /// Run a mission (or resume the one its store holds) until every instance ends.
     ///
@@ -276,9 +285,15 @@ fn main() -> anyhow::Result<ExitCode> {
             files,
             json,
             strict,
+            connectors,
+            catalogues,
         } => {
             let stdout = std::io::stdout();
-            match executive::validate::run(&files, json, strict, &mut stdout.lock()) {
+            let systems = executive::validate::Systems {
+                connectors,
+                catalogues,
+            };
+            match executive::validate::run(&files, json, strict, &systems, &mut stdout.lock()) {
                 Ok(verdict) => Ok(ExitCode::from(verdict.exit_code() as u8)),
                 // The reader stopped reading (`trace validate … | head`): nothing left to say.
                 Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(ExitCode::SUCCESS),

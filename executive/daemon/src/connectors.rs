@@ -37,6 +37,9 @@ pub enum SetupError {
     /// The mission does not match the systems.
     #[error("the mission does not match the systems it drives ({} problems):\n{}", .0.len(), .0.iter().map(|m| format!("  {m}")).collect::<Vec<_>>().join("\n"))]
     Mismatches(Vec<Mismatch>),
+    /// An expression reads a name that nothing writes before it, or a literal can never fit.
+    #[error("the mission reads data nothing gives it ({} problems):\n{}", .0.len(), .0.iter().map(|m| format!("  {m}")).collect::<Vec<_>>().join("\n"))]
+    Data(Vec<String>),
 }
 
 /// The loaded connectors.
@@ -190,10 +193,16 @@ impl Connectors {
     /// Checks the mission against every connector's catalogue; all problems at once. The
     /// tasks of `remote` processes (other pools of a fleet, run by other executives) are not
     /// this run's.
+    ///
+    /// The data checks ([`crate::dataflow`]) run too: with the start variables when they are
+    /// known (`start`, a first start), an expression that reads a name nothing writes before
+    /// it refuses the start.
     pub async fn check(
         &mut self,
         g: &ProcessGraph,
+        text: &str,
         remote: &std::collections::BTreeMap<executive_model::ProcessId, String>,
+        start: Option<&std::collections::BTreeSet<String>>,
     ) -> Result<(), SetupError> {
         let mut catalogues: Vec<Option<Catalogue>> = Vec::new();
         for c in &mut self.list {
@@ -215,11 +224,39 @@ impl Connectors {
             tracing::warn!(task = w.task, "{}", w.problem);
             eprintln!("warning: {w}");
         }
+        let mut data = Vec::new();
+        let known = crate::dataflow::Known {
+            config: Some(&self.config),
+            catalogues: &catalogues,
+            start,
+        };
+        for d in crate::dataflow::diagnostics(g, text, &known) {
+            let local = d
+                .element
+                .as_deref()
+                .and_then(|e| element_process(g, e))
+                .is_none_or(|p| !remote.contains_key(&p));
+            if !local {
+                continue;
+            }
+            let element = d.element.clone().unwrap_or_default();
+            if d.severity == executive_model::Severity::Error {
+                data.push(format!("line {}: {} [{}]", d.line, d.message, d.code));
+            } else {
+                tracing::warn!(element, "{}", d.message);
+                eprintln!("warning: `{element}` (line {}): {}", d.line, d.message);
+            }
+        }
         self.catalogues = catalogues;
-        if mismatches.is_empty() {
-            Ok(())
-        } else {
+        if !mismatches.is_empty() {
+            for d in data {
+                tracing::error!("{d}");
+            }
             Err(SetupError::Mismatches(mismatches))
+        } else if !data.is_empty() {
+            Err(SetupError::Data(data))
+        } else {
+            Ok(())
         }
     }
 
@@ -337,4 +374,15 @@ pub fn task_uses(g: &ProcessGraph) -> Vec<TaskUse> {
         });
     }
     out
+}
+
+/// The process of a node or sequence flow, by BPMN id.
+fn element_process(g: &ProcessGraph, id: &str) -> Option<executive_model::ProcessId> {
+    if let Some(n) = g.node_by_id(id) {
+        return Some(g.process_of(n));
+    }
+    g.flows
+        .iter()
+        .find(|f| f.id == id)
+        .map(|f| g.process_of(f.source))
 }

@@ -550,7 +550,10 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
         reports_tx,
     )
     .await?;
-    if let Err(e) = connectors.check(&graph, &remote).await {
+    // The start variables are known at a first start; a resumed run's are in its state.
+    let start: std::collections::BTreeSet<String> = extras.vars.keys().cloned().collect();
+    let start = (!resumed).then_some(&start);
+    if let Err(e) = connectors.check(&graph, &loaded.text, &remote, start).await {
         connectors.close().await;
         return Err(e.into());
     }

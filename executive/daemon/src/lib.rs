@@ -18,6 +18,7 @@ pub mod catalogues;
 pub mod config;
 pub mod conformance;
 pub mod connectors;
+pub mod dataflow;
 pub mod driver;
 pub mod fly;
 pub mod monitor;

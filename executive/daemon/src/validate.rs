@@ -144,12 +144,107 @@ pub fn render(out: &mut dyn Write, path: &Path, loaded: &Loaded) -> std::io::Res
     Ok(())
 }
 
+/// A connectors configuration and the catalogue each of its connectors serves.
+pub type Resolved = (
+    connector_api::ConnectorsConfig,
+    Vec<Option<connector_api::Catalogue>>,
+);
+
+/// What the mission is checked against besides BPMN: the systems it will run with.
+#[derive(Debug, Default, Clone)]
+pub struct Systems {
+    /// The connectors file; default: `../connectors.toml` beside each model, if it exists.
+    pub connectors: Option<PathBuf>,
+    /// Catalogue files or directories; default: `../catalogues` and `../ground/forms.json`
+    /// beside each model, those that exist.
+    pub catalogues: Vec<PathBuf>,
+}
+
+impl Systems {
+    /// The connectors and their served catalogues for the model at `path` (none when no
+    /// connectors file is given or beside it).
+    pub fn resolve(&self, path: &Path) -> Result<Option<Resolved>, String> {
+        let up = path.parent().unwrap_or(Path::new("")).join("..");
+        // A fleet's pools each run with connectors of their own (`trace run --participant`):
+        // one file beside the model is not theirs.
+        let fleet = || {
+            std::fs::read_to_string(path).is_ok_and(|t| {
+                t.matches("<bpmn:participant ").count() + t.matches("<participant ").count() > 1
+            })
+        };
+        let config = match self
+            .connectors
+            .clone()
+            .or_else(|| Some(up.join("connectors.toml")).filter(|p| p.exists() && !fleet()))
+        {
+            Some(p) => crate::catalogues::read_connectors(&p).map_err(|e| e.to_string())?,
+            None => return Ok(None),
+        };
+        let paths: Vec<PathBuf> = if self.catalogues.is_empty() {
+            [up.join("catalogues"), up.join("ground/forms.json")]
+                .into_iter()
+                .filter(|p| p.exists())
+                .collect()
+        } else {
+            self.catalogues.clone()
+        };
+        let mut catalogues = crate::catalogues::read(&paths).map_err(|e| e.to_string())?;
+        catalogues.extend(crate::catalogues::generated(&config));
+        let served = crate::catalogues::served(&config, &catalogues);
+        Ok(Some((config, served)))
+    }
+}
+
+/// The data checks ([`crate::dataflow`]) and `trace run`'s catalogue check of a valid model,
+/// added to its diagnostics; an error among them makes it invalid.
+pub fn check_systems(path: &Path, loaded: &mut Loaded, systems: &Systems) -> Result<(), String> {
+    let Some(graph) = &loaded.graph else {
+        return Ok(());
+    };
+    let resolved = systems.resolve(path)?;
+    let (config, catalogues) = match &resolved {
+        Some((c, cats)) => (Some(c), cats.as_slice()),
+        None => (None, &[][..]),
+    };
+    let known = crate::dataflow::Known {
+        config,
+        catalogues,
+        start: None,
+    };
+    let mut found = crate::dataflow::diagnostics(graph, &loaded.text, &known);
+    if let Some(config) = config {
+        let uses = crate::connectors::task_uses(graph);
+        for m in connector_api::check(&uses, config, catalogues) {
+            let offset = graph
+                .node_by_id(&m.task)
+                .map_or(0, |n| graph.node(n).offset);
+            let mut d = crate::dataflow::located(
+                &loaded.text,
+                Severity::Error,
+                "catalogue-mismatch",
+                &m.task,
+                offset,
+                m.problem,
+            );
+            d.category = Category::Execution;
+            found.push(d);
+        }
+    }
+    loaded.diagnostics.extend(found);
+    loaded
+        .diagnostics
+        .sort_by_key(|d| (d.file.is_some(), d.offset, d.severity));
+    Ok(())
+}
+
 /// Runs `trace validate` over `files`, printing to `out`; returns the worst verdict. `strict`
-/// enforces every rule of the specification (warnings that name a rule become errors).
+/// enforces every rule of the specification (warnings that name a rule become errors); each
+/// valid model is also checked against `systems`.
 pub fn run(
     files: &[PathBuf],
     json: bool,
     strict: bool,
+    systems: &Systems,
     out: &mut dyn Write,
 ) -> std::io::Result<Verdict> {
     let mut worst = Verdict::Valid;
@@ -159,7 +254,15 @@ pub fn run(
         ..Options::default()
     };
     for path in files {
-        let (verdict, loaded) = check_file(path, &options);
+        let (mut verdict, mut loaded) = check_file(path, &options);
+        if verdict == Verdict::Valid {
+            if let Err(e) = check_systems(path, &mut loaded, systems) {
+                writeln!(out, "{}: {e}", path.display())?;
+                verdict = Verdict::Unreadable;
+            } else if loaded.errors().next().is_some() {
+                verdict = Verdict::Invalid;
+            }
+        }
         tracing::debug!(file = %path.display(), ?verdict, diagnostics = loaded.diagnostics.len(), "validated");
         worst = worst.max(verdict);
         if json {

@@ -127,9 +127,30 @@ impl Scoped<'_> {
     }
 }
 
+/// The variables an expression reads wherever it is evaluated: [`free_variables`] outside
+/// every filter's condition (inside one, a name may be a field of the item filtered).
+pub(crate) fn required_variables(root: &Node) -> Vec<String> {
+    let mut conditions: Vec<(usize, usize)> = Vec::new();
+    walk(root, &mut |n| {
+        if let Kind::Filter(_, f) = &n.kind {
+            conditions.push((f.span.start, f.span.end));
+        }
+    });
+    free_names(root, &|n: &Node| {
+        !conditions
+            .iter()
+            .any(|(s, e)| *s <= n.span.start && n.span.end <= *e)
+    })
+}
+
 /// The variables an expression reads: free names and the roots of paths, sorted. A name in
 /// call position is a function, not a variable, unless the expression binds it.
 pub(crate) fn free_variables(root: &Node) -> Vec<String> {
+    free_names(root, &|_| true)
+}
+
+/// The free names of `root` that `keep` keeps.
+fn free_names(root: &Node, keep: &dyn Fn(&Node) -> bool) -> Vec<String> {
     let mut out: Vec<String> = Vec::new();
     let mut callees: Vec<(usize, usize)> = Vec::new();
     // Spans of names used as callees, found first so the names walk can skip them.
@@ -147,6 +168,7 @@ pub(crate) fn free_variables(root: &Node) -> Vec<String> {
                 && !bound.contains(name)
                 && !callees.contains(&(n.span.start, n.span.end))
                 && !(host::overloads(name).next().is_some() && name.contains(' '))
+                && keep(n)
             {
                 out.push(name.clone());
             }

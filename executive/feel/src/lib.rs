@@ -74,6 +74,7 @@ pub struct Expression {
     source: String,
     root: std::sync::Arc<ast::Node>,
     variables: Vec<String>,
+    required: Vec<String>,
 }
 
 /// A syntax error or a load-time problem, at a byte offset of the expression text.
@@ -116,10 +117,12 @@ pub fn parse(text: &str) -> Result<Expression, Problem> {
         text: text.to_owned(),
     })?;
     let variables = check::free_variables(&root);
+    let required = check::required_variables(&root);
     Ok(Expression {
         source: text.to_owned(),
         root: std::sync::Arc::new(root),
         variables,
+        required,
     })
 }
 
@@ -132,6 +135,12 @@ impl Expression {
     /// The variables the expression reads (names and the roots of paths), sorted.
     pub fn variables(&self) -> &[String] {
         &self.variables
+    }
+
+    /// The variables it reads for certain: [`Expression::variables`] but the names inside a
+    /// filter's condition, which may be fields of the items filtered (`sites[score > 0.8]`).
+    pub fn required(&self) -> &[String] {
+        &self.required
     }
 
     /// What is wrong beyond syntax, found without running: unknown functions, wrong argument

@@ -29,6 +29,9 @@ pub struct Expression {
     pub text: String,
     /// Variables the expression reads, sorted: a conditional event re-evaluates when one changes.
     pub variables: Vec<String>,
+    /// Variables it reads for certain, sorted (the data-flow check's): `variables`, but names
+    /// that may be an item's fields or a comprehension's own (FEEL filters, CEL macros).
+    pub required: Vec<String>,
     program: Compiled,
 }
 
@@ -215,10 +218,18 @@ impl Expression {
             .collect();
         variables.sort();
         variables.dedup();
+        // A comprehension's variable (`sites.exists(s, s.ok)`) is its own, not the scope's.
+        let bound = cel_bound(&text);
+        let required = variables
+            .iter()
+            .filter(|v| !bound.contains(v))
+            .cloned()
+            .collect();
         Ok(Expression {
             source,
             text,
             variables,
+            required,
             program: Compiled::Cel(Arc::new(program)),
         })
     }
@@ -247,6 +258,27 @@ impl Expression {
     }
 }
 
+/// The names CEL's macros bind in `text` (`all`, `exists`, `exists_one`, `map`, `filter`: the
+/// first argument, `x` in `list.map(x, x * 2)`).
+fn cel_bound(text: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    for m in ["all(", "exists(", "exists_one(", "map(", "filter("] {
+        let mut rest = text;
+        while let Some(at) = rest.find(m) {
+            let preceded = rest[..at].ends_with('.');
+            let after = &rest[at + m.len()..];
+            if preceded && let Some(comma) = after.find(',') {
+                let name = after[..comma].trim();
+                if !name.is_empty() && name.chars().all(|c| c.is_alphanumeric() || c == '_') {
+                    out.push(name.to_owned());
+                }
+            }
+            rest = after;
+        }
+    }
+    out
+}
+
 /// Parses and checks FEEL text; syntax errors and problems found without running (unknown
 /// functions, argument counts, literal arguments a function refuses) name their position.
 fn compile_feel(source: String, body: &str) -> Result<Expression, Failure> {
@@ -267,6 +299,7 @@ fn compile_feel(source: String, body: &str) -> Result<Expression, Failure> {
         source,
         text: body.to_owned(),
         variables: parsed.variables().to_vec(),
+        required: parsed.required().to_vec(),
         program: Compiled::Feel(Arc::new(parsed)),
     })
 }

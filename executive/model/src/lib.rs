@@ -35,6 +35,7 @@ mod arena;
 pub mod binding;
 mod build;
 mod constraints;
+pub mod dataflow;
 mod diagnostic;
 mod expr;
 mod graph;
@@ -43,6 +44,8 @@ pub mod timer;
 mod validate;
 mod xml;
 
+#[cfg(test)]
+mod dataflow_tests;
 #[cfg(test)]
 mod tests;
 

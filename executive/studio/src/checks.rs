@@ -52,8 +52,32 @@ pub fn check(studio: &Studio, bytes: &[u8]) -> Report {
     };
     let mut diagnostics = loaded.diagnostics;
     let mut catalogue = Coverage::default();
+    // The data checks of `trace validate` (and of `trace run`, but for the start variables).
+    let served = studio
+        .connectors
+        .as_ref()
+        .map(|c| executive::catalogues::served(c, &studio.catalogues()))
+        .unwrap_or_default();
+    if let Some(graph) = &loaded.graph {
+        let known = executive::dataflow::Known {
+            config: studio.connectors.as_ref(),
+            catalogues: &served,
+            start: None,
+        };
+        diagnostics.extend(executive::dataflow::diagnostics(
+            graph,
+            &loaded.text,
+            &known,
+        ));
+    }
+    let verdict = if verdict == "valid" && diagnostics.iter().any(|d| d.severity == Severity::Error)
+    {
+        "invalid"
+    } else {
+        verdict
+    };
     if let (Some(graph), Some(config)) = (&loaded.graph, &studio.connectors) {
-        let catalogues = executive::catalogues::served(config, &studio.catalogues());
+        let catalogues = served;
         catalogue.checked = true;
         for (c, cat) in config.connectors.iter().zip(&catalogues) {
             let list = if cat.is_some() {

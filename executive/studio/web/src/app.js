@@ -13,6 +13,7 @@ import '@bpmn-io/properties-panel/dist/assets/properties-panel.css';
 import './style.css';
 import traceModdle from './trace-moddle.json';
 import TracePanelModule from './provider.jsx';
+import DrawingModule from './drawing.jsx';
 import { setupVerify } from './verify.js';
 import { setupSimulate } from './simulate.js';
 import { setupOps } from './ops.js';
@@ -36,6 +37,7 @@ const modeler = new BpmnModeler({
     BpmnPropertiesPanelModule,
     BpmnPropertiesProviderModule,
     TracePanelModule,
+    DrawingModule,
     { traceCatalogue: ['value', catalogue] },
   ],
   moddleExtensions: { trace: traceModdle, zeebe: zeebeModdle },
@@ -79,16 +81,48 @@ async function open(name) {
   await show(name, xml);
 }
 
-async function show(name, xml) {
-  const { warnings } = await modeler.importXML(xml);
-  current = name;
-  dirty = false;
-  $('missions').value = name;
+/** Lists the file's diagrams (one per process, or the collaboration) to switch between. */
+function listDiagrams() {
+  const diagrams = modeler.getDefinitions().diagrams || [];
+  const label = d => {
+    const e = d.plane && d.plane.bpmnElement;
+    return (e && (e.name || e.id)) || d.name || d.id;
+  };
+  const box = $('diagrams');
+  box.replaceChildren(...diagrams.map(d => new Option(label(d), d.id)));
+  box.hidden = diagrams.length < 2;
+  const shown = modeler.get('canvas').getRootElement().businessObject;
+  const now = diagrams.find(d => d.plane && d.plane.bpmnElement === shown);
+  if (now) {
+    box.value = now.id;
+    document.body.dataset.diagram = now.id;
+  }
+}
+
+/** Shows diagram `id` of the open file, fitted, and its problems. */
+async function openDiagram(id) {
+  await modeler.open(id);
+  fitView();
+  $('diagrams').value = id;
+  document.body.dataset.diagram = id;
+  await check();
+}
+
+function fitView() {
   const canvas = modeler.get('canvas');
   canvas.zoom('fit-viewport');
   // The palette covers the canvas's left edge: leave it room.
   const box = canvas.viewbox();
   canvas.viewbox({ x: box.x - 80, y: box.y, width: box.width + 80, height: box.height });
+}
+
+async function show(name, xml) {
+  const { warnings } = await modeler.importXML(xml);
+  current = name;
+  dirty = false;
+  $('missions').value = name;
+  listDiagrams();
+  fitView();
   say(warnings.length ? `${name}: opened with ${warnings.length} import warnings` : `${name}: opened`);
   simulation.stop();
   await verification.loadRequirements(name);
@@ -206,6 +240,17 @@ $('missions').addEventListener('change', e => {
   open(e.target.value).catch(err => say(err.message, 'bad'));
 });
 $('new').addEventListener('click', () => create().catch(err => say(err.message, 'bad')));
+$('diagrams').addEventListener('change', e => openDiagram(e.target.value).catch(err => say(err.message, 'bad')));
+// A call activity opens the process it calls, when the file draws it.
+modeler.on('element.dblclick', 1500, ({ element }) => {
+  const called = element.businessObject && element.businessObject.calledElement;
+  if (!called) return;
+  const d = (modeler.getDefinitions().diagrams || [])
+    .find(x => x.plane && x.plane.bpmnElement && x.plane.bpmnElement.id === called);
+  if (!d) return undefined;
+  openDiagram(d.id).catch(err => say(err.message, 'bad'));
+  return false; // not a label edit
+});
 $('save').addEventListener('click', () => save());
 window.addEventListener('keydown', e => {
   if ((e.ctrlKey || e.metaKey) && e.key === 's') {

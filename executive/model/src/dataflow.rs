@@ -1,0 +1,1121 @@
+//! Data flow before flight: is every variable an expression reads written before it?
+//!
+//! The rule (`docs/engine-semantics.md`, "Variables before flight"): a name an expression reads
+//! must hold a value when the expression is evaluated, on every path of tokens that reaches
+//! it. CEL fails on a name that has none ("undeclared reference"); FEEL reads it as null.
+//!
+//! Two analyses run over one graph of the model's control flow, to a fixed point:
+//! - **may**: the names some path may have written (union where paths meet). A name outside it
+//!   is read on no path ([`Finding::Unwritten`]). It over-approximates wherever the model
+//!   leaves the order open, so that it never calls a written name unwritten: an event
+//!   sub-process may run at any time in its scope, a boundary event may interrupt an activity
+//!   after anything inside it ran, a compensation handler runs after anything in its process,
+//!   and a write this analysis cannot name (a message's payload, a task's result of unknown
+//!   fields, a script in a foreign language) may write any name.
+//! - **must**: the names every path has written (intersection where paths meet; union at a
+//!   parallel join, which all its branches reach). A name in *may* but not in *must* is read
+//!   on some paths only ([`Finding::Sometimes`]).
+//!
+//! Written means: an output mapping's target, a script's assignment, a data output
+//! association, a multi-instance output collection, a caught error's code or message
+//! variable, a call activity's outputs, a message's payload (signals carry none), a dispatched task's result (every
+//! field, when the task maps none), a declared data object or property, the process's start
+//! variables, and the engine's own (`loopCounter`, `nrOfInstances`, … inside a loop, the
+//! multi-instance element variable). System data (the connectors' telemetry) is read by name
+//! too; the caller knows which names it has.
+
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
+
+use crate::graph::*;
+use crate::{Expression, Program};
+
+/// What the analysis is told from outside the model.
+pub struct Context<'a> {
+    /// Start variables given to every primary process (besides the declared ones).
+    pub start: &'a BTreeSet<String>,
+    /// A dispatched task's result fields (top-level names), when its catalogue is known;
+    /// `None` means any name.
+    pub results: &'a dyn Fn(NodeId) -> Option<Vec<String>>,
+}
+
+/// Where an expression is read.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Site {
+    /// A node's expression (input, condition of an event, script, loop, …).
+    Node(NodeId),
+    /// A sequence flow's condition.
+    Flow(FlowId),
+}
+
+/// A read that is not always preceded by a write.
+#[derive(Clone, Debug)]
+pub enum Finding {
+    /// No path writes the name before it is read.
+    Unwritten {
+        /// Where it is read.
+        site: Site,
+        /// The name.
+        var: String,
+        /// The expression that reads it.
+        expression: String,
+        /// The expression is FEEL (which reads a missing name as null instead of failing).
+        feel: bool,
+        /// The node nearest to the read that writes the name, but not before it.
+        writer: Option<NodeId>,
+    },
+    /// Some paths reach the read without writing the name.
+    Sometimes {
+        /// Where it is read.
+        site: Site,
+        /// The name.
+        var: String,
+        /// The expression that reads it.
+        expression: String,
+        /// The expression is FEEL.
+        feel: bool,
+        /// One path from the start that reaches the read without writing it.
+        path: Vec<NodeId>,
+    },
+}
+
+impl Finding {
+    /// The name read.
+    pub fn var(&self) -> &str {
+        match self {
+            Finding::Unwritten { var, .. } | Finding::Sometimes { var, .. } => var,
+        }
+    }
+}
+
+/// The names the engine itself defines inside a loop or multi-instance activity.
+pub const LOOP_VARIABLES: [&str; 4] = [
+    "loopCounter",
+    "nrOfInstances",
+    "nrOfActiveInstances",
+    "nrOfCompletedInstances",
+];
+
+/// A set of names, or every name.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+struct Names {
+    all: bool,
+    set: BTreeSet<String>,
+}
+
+impl Names {
+    fn has(&self, n: &str) -> bool {
+        self.all || self.set.contains(n)
+    }
+
+    fn add(&mut self, other: &Names) {
+        self.all |= other.all;
+        self.set.extend(other.set.iter().cloned());
+    }
+
+    fn insert(&mut self, n: &str) {
+        self.set.insert(first_segment(n).to_owned());
+    }
+}
+
+/// In a *must* set: every name (after a write this analysis cannot name).
+const EVERY: &str = "\u{0}every";
+
+fn sure_of(s: &BTreeSet<String>, var: &str) -> bool {
+    s.contains(EVERY) || s.contains(var)
+}
+
+/// Where paths meet: the names both have written.
+fn meet(a: BTreeSet<String>, b: &BTreeSet<String>) -> BTreeSet<String> {
+    match (a.contains(EVERY), b.contains(EVERY)) {
+        (true, _) => b.clone(),
+        (false, true) => a,
+        _ => a.intersection(b).cloned().collect(),
+    }
+}
+
+/// At a parallel join: the names either has written.
+fn join(a: BTreeSet<String>, b: &BTreeSet<String>) -> BTreeSet<String> {
+    if a.contains(EVERY) || b.contains(EVERY) {
+        return BTreeSet::from([EVERY.to_owned()]);
+    }
+    a.union(b).cloned().collect()
+}
+
+/// The variable a path such as `site.id` or `list[0]` writes.
+fn first_segment(path: &str) -> &str {
+    let end = path.find(['.', '[']).unwrap_or(path.len());
+    path[..end].trim()
+}
+
+/// The vertices of the control-flow graph: each node's entry and exit, each process's entry.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+enum V {
+    In(NodeId),
+    Out(NodeId),
+    Entry(ProcessId),
+}
+
+struct Cfg {
+    /// Predecessors of each vertex, with whether the edge passes only the call's inputs.
+    preds: BTreeMap<V, Vec<Pred>>,
+    succs: BTreeMap<V, Vec<V>>,
+}
+
+#[derive(Clone, Copy)]
+enum Pred {
+    /// The state flows unchanged.
+    Plain(V),
+    /// A call activity's entry into the called process: only what it passes in.
+    Call(NodeId),
+}
+
+/// Checks every read of the model; findings in the order of the graph's nodes and flows.
+pub fn check(g: &ProcessGraph, cx: &Context<'_>) -> Vec<Finding> {
+    let cfg = build(g);
+    let writes = Writes::of(g, cx);
+    let (may, must) = solve(g, &cfg, &writes, cx);
+    let concurrent = concurrent_writes(g, &cfg, &writes);
+    let mut out = Vec::new();
+    let mut report =
+        |site: Site, at: &Names, sure: &BTreeSet<String>, e: &Expression, here: NodeId| {
+            for var in reads(e) {
+                if at.has(&var) {
+                    if !sure_of(sure, &var) {
+                        out.push(Finding::Sometimes {
+                            site: site.clone(),
+                            var: var.clone(),
+                            expression: e.source.clone(),
+                            feel: matches!(e.program(), Program::Feel(_)),
+                            path: unwritten_path(g, &cfg, &writes, here, &var),
+                        });
+                    }
+                    continue;
+                }
+                out.push(Finding::Unwritten {
+                    site: site.clone(),
+                    var: var.clone(),
+                    expression: e.source.clone(),
+                    feel: matches!(e.program(), Program::Feel(_)),
+                    writer: nearest_writer(g, &writes, here, &var),
+                });
+            }
+        };
+    for (i, n) in g.nodes.iter().enumerate() {
+        let id = NodeId(i as u32);
+        let Some(at_in) = may.get(&V::In(id)) else {
+            continue; // never reached
+        };
+        // What branches running beside this node may have written.
+        let mut at_in = at_in.clone();
+        if let Some(c) = concurrent.get(&id) {
+            at_in.add(c);
+        }
+        let at_in = &at_in;
+        let sure_in = must.get(&V::In(id)).cloned().unwrap_or_default();
+        let (mut at, mut sure) = (at_in.clone(), sure_in);
+        // Inside a loop, the engine's own names and the element variable.
+        if let Some(l) = &n.looping {
+            for v in LOOP_VARIABLES {
+                at.insert(v);
+                sure.insert(v.to_owned());
+            }
+            if let Looping::MultiInstance(mi) = l {
+                if let Some(e) = &mi.input_element {
+                    at.insert(e);
+                    sure.insert(first_segment(e).to_owned());
+                }
+                let before = [&mi.cardinality, &mi.input_collection];
+                for e in before.into_iter().flatten() {
+                    report(Site::Node(id), at_in, &sure, e, id);
+                }
+            }
+        }
+        for e in entry_reads(n) {
+            report(Site::Node(id), &at, &sure, e, id);
+        }
+        // A condition waited for is evaluated again whenever data changes: anything its
+        // process writes may have been written by then.
+        let waited = conditions(n);
+        if !waited.is_empty() {
+            let mut seen = at.clone();
+            seen.add(&writes.inside_process[g.process_of(id).index()]);
+            for e in waited {
+                report(Site::Node(id), &seen, &sure, e, id);
+            }
+        }
+        // Scripts see their own earlier assignments.
+        if let NodeKind::Task(Task {
+            script:
+                Some(Script {
+                    assignments: Some(a),
+                    ..
+                }),
+            ..
+        }) = &n.kind
+        {
+            let (mut at, mut sure) = (at.clone(), sure.clone());
+            for (target, e) in a {
+                report(Site::Node(id), &at, &sure, e, id);
+                at.insert(target);
+                sure.insert(first_segment(target).to_owned());
+            }
+        }
+        // Output mappings see the result's fields and the targets before them.
+        if let Some(b) = binding(g, n) {
+            let results = match &n.kind {
+                NodeKind::Task(_) => (cx.results)(id),
+                _ => None,
+            };
+            if let Some(fields) = results {
+                let (mut at, mut sure) = (at.clone(), sure.clone());
+                for f in &fields {
+                    at.insert(f);
+                    sure.insert(f.clone());
+                }
+                for o in &b.outputs {
+                    report(Site::Node(id), &at, &sure, &o.source, id);
+                    at.insert(&o.target);
+                    sure.insert(first_segment(&o.target).to_owned());
+                }
+            }
+        }
+        // Loop conditions and completion conditions are read after a pass.
+        if let Some(out_may) = may.get(&V::Out(id)) {
+            let mut out_may = out_may.clone();
+            if let Some(c) = concurrent.get(&id) {
+                out_may.add(c);
+            }
+            let out_may = &out_may;
+            let mut after = out_may.clone();
+            let mut sure_after = must.get(&V::Out(id)).cloned().unwrap_or_default();
+            for v in LOOP_VARIABLES {
+                after.insert(v);
+                sure_after.insert(v.to_owned());
+            }
+            for e in exit_reads(n) {
+                report(Site::Node(id), &after, &sure_after, e, id);
+            }
+            for f in &n.outgoing {
+                if let Some(c) = &g.flow(*f).condition {
+                    let sure_out = must.get(&V::Out(id)).cloned().unwrap_or_default();
+                    report(Site::Flow(*f), out_may, &sure_out, c, id);
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The names an expression reads as variables.
+fn reads(e: &Expression) -> Vec<String> {
+    e.required.clone()
+}
+
+/// A task's or call activity's binding.
+fn binding<'g>(g: &'g ProcessGraph, n: &'g Node) -> Option<&'g crate::binding::TaskBinding> {
+    match &n.kind {
+        NodeKind::Task(t) => t.binding.as_ref(),
+        NodeKind::CallActivity(c) => match &c.called {
+            Some(Called::GlobalTask(id)) => g.global_tasks.get(id).and_then(|t| t.binding.as_ref()),
+            _ => c.binding.as_ref(),
+        },
+        _ => None,
+    }
+}
+
+/// Expressions a node reads when a token enters it.
+fn entry_reads(n: &Node) -> Vec<&Expression> {
+    let mut out = Vec::new();
+    match &n.kind {
+        NodeKind::Task(t) => {
+            if let Some(b) = &t.binding {
+                out.extend(b.inputs.iter().map(|i| &i.source));
+            }
+        }
+        NodeKind::CallActivity(c) => {
+            if let Some(b) = &c.binding {
+                out.extend(b.inputs.iter().map(|i| &i.source));
+            }
+        }
+        NodeKind::Gateway(gw) => out.extend(gw.activation.iter()),
+        _ => {}
+    }
+    if let Some(d) = &n.data {
+        for a in &d.input_associations {
+            out.extend(a.transformation.iter());
+            out.extend(a.assignments.iter().map(|(e, _)| e));
+        }
+    }
+    out
+}
+
+/// Conditions a node waits for (conditional events).
+fn conditions(n: &Node) -> Vec<&Expression> {
+    let triggers = match &n.kind {
+        NodeKind::Catch(c) => &c.triggers,
+        NodeKind::Boundary(b) => &b.triggers,
+        NodeKind::Start(s) => &s.triggers,
+        _ => return Vec::new(),
+    };
+    triggers.iter().filter_map(conditional).collect()
+}
+
+/// For each node that may run beside other branches, what those branches may write: at each
+/// place tokens split to run at once (a parallel, inclusive or complex gateway, several
+/// outgoing flows, a non-interrupting boundary, several nodes starting a scope, a parallel
+/// multi-instance body), everything reachable from it may write before anything else
+/// reachable from it reads. An over-approximation, so that no read a concurrent branch may
+/// satisfy is called unwritten.
+fn concurrent_writes(g: &ProcessGraph, cfg: &Cfg, w: &Writes) -> BTreeMap<NodeId, Names> {
+    let mut forks: Vec<Vec<V>> = Vec::new();
+    for (i, n) in g.nodes.iter().enumerate() {
+        let id = NodeId(i as u32);
+        let split = match &n.kind {
+            NodeKind::Gateway(gw) => match gw.kind {
+                GatewayKind::Exclusive => false,
+                GatewayKind::EventBased { parallel } => parallel,
+                _ => n.outgoing.len() > 1,
+            },
+            _ => n.outgoing.len() > 1,
+        };
+        let beside = n
+            .boundaries
+            .iter()
+            .any(|b| matches!(&g.node(*b).kind, NodeKind::Boundary(be) if !be.interrupting));
+        if split || beside {
+            forks.push(vec![V::Out(id), V::In(id)]);
+        }
+        let parallel_body =
+            matches!(&n.looping, Some(Looping::MultiInstance(mi)) if !mi.sequential);
+        if parallel_body && matches!(n.kind, NodeKind::SubProcess(_)) {
+            forks.push(vec![V::In(id)]);
+        }
+        if let NodeKind::SubProcess(s) = &n.kind
+            && cfg.succs.get(&V::In(id)).is_some_and(|v| v.len() > 1)
+            && !s.nodes.is_empty()
+        {
+            forks.push(vec![V::In(id)]);
+        }
+    }
+    for p in 0..g.processes.len() {
+        let e = V::Entry(ProcessId(p as u32));
+        if cfg.succs.get(&e).is_some_and(|v| v.len() > 1) {
+            forks.push(vec![e]);
+        }
+    }
+    let mut out: BTreeMap<NodeId, Names> = BTreeMap::new();
+    for from in forks {
+        let mut seen: BTreeSet<V> = from.iter().copied().collect();
+        let mut queue: VecDeque<V> = from.into_iter().collect();
+        let mut nodes = BTreeSet::new();
+        while let Some(v) = queue.pop_front() {
+            if let V::In(n) | V::Out(n) = v {
+                nodes.insert(n);
+            }
+            for s in cfg.succs.get(&v).into_iter().flatten() {
+                if !matches!(s, V::Entry(_)) && seen.insert(*s) {
+                    queue.push_back(*s);
+                }
+            }
+        }
+        let mut written = Names::default();
+        for n in &nodes {
+            written.add(&w.at[n.index()]);
+        }
+        for n in nodes {
+            out.entry(n).or_default().add(&written);
+        }
+    }
+    out
+}
+
+/// Expressions a node reads after a pass of its body.
+fn exit_reads(n: &Node) -> Vec<&Expression> {
+    let mut out = Vec::new();
+    match &n.looping {
+        Some(Looping::Standard {
+            condition: Some(c), ..
+        }) => out.push(c),
+        Some(Looping::MultiInstance(mi)) => {
+            out.extend(mi.completion.iter());
+            out.extend(mi.output_element.iter());
+            out.extend(mi.complex.iter());
+        }
+        _ => {}
+    }
+    if let NodeKind::SubProcess(SubProcess {
+        kind: SubProcessKind::AdHoc {
+            completion: Some(c),
+            ..
+        },
+        ..
+    }) = &n.kind
+    {
+        out.push(c);
+    }
+    out
+}
+
+fn conditional(d: &EventDefinition) -> Option<&Expression> {
+    match d {
+        EventDefinition::Conditional(e) => Some(e),
+        _ => None,
+    }
+}
+
+/// What each node writes when a token leaves it.
+struct Writes {
+    at: Vec<Names>,
+    /// Names written anywhere inside each sub-process or process (its event sub-processes,
+    /// boundaries and compensation handlers may see any of them).
+    inside_node: BTreeMap<NodeId, Names>,
+    inside_process: Vec<Names>,
+    /// Declared data objects and properties of each scope.
+    declared_node: BTreeMap<NodeId, Names>,
+    declared_process: Vec<Names>,
+}
+
+impl Writes {
+    fn of(g: &ProcessGraph, cx: &Context<'_>) -> Writes {
+        let mut at = vec![Names::default(); g.nodes.len()];
+        for (i, n) in g.nodes.iter().enumerate() {
+            at[i] = node_writes(g, NodeId(i as u32), n, cx);
+        }
+        let mut inside_node: BTreeMap<NodeId, Names> = BTreeMap::new();
+        let mut inside_process = vec![Names::default(); g.processes.len()];
+        for (i, n) in g.nodes.iter().enumerate() {
+            let w = &at[i];
+            let mut scope = n.scope;
+            loop {
+                match scope {
+                    Scope::Process(p) => {
+                        inside_process[p.index()].add(w);
+                        break;
+                    }
+                    Scope::SubProcess(s) => {
+                        inside_node.entry(s).or_default().add(w);
+                        scope = g.node(s).scope;
+                    }
+                }
+            }
+        }
+        let names = |items: &[DataItem]| {
+            let mut n = Names::default();
+            for d in items {
+                if let Some(name) = d.name.as_deref().filter(|s| !s.trim().is_empty()) {
+                    n.insert(name);
+                }
+            }
+            n
+        };
+        let declared_process = g
+            .processes
+            .iter()
+            .map(|p| {
+                let mut n = names(&p.properties);
+                n.add(&names(&p.data_objects));
+                n
+            })
+            .collect();
+        let declared_node = g
+            .nodes
+            .iter()
+            .enumerate()
+            .filter_map(|(i, n)| match &n.kind {
+                NodeKind::SubProcess(s) => Some((NodeId(i as u32), names(&s.data_objects))),
+                _ => None,
+            })
+            .collect();
+        Writes {
+            at,
+            inside_node,
+            inside_process,
+            declared_node,
+            declared_process,
+        }
+    }
+
+    /// Whether `n` writes `var`.
+    fn writes(&self, n: NodeId, var: &str) -> bool {
+        let w = &self.at[n.index()];
+        w.set.contains(var)
+    }
+}
+
+fn node_writes(g: &ProcessGraph, id: NodeId, n: &Node, cx: &Context<'_>) -> Names {
+    let mut w = Names::default();
+    let payload = |defs: &[EventDefinition]| {
+        defs.iter()
+            .any(|d| matches!(d, EventDefinition::Message(_)))
+    };
+    let caught = |defs: &[EventDefinition], w: &mut Names| {
+        for d in defs {
+            if let EventDefinition::Error {
+                code_variable,
+                message_variable,
+                ..
+            } = d
+            {
+                for v in [code_variable, message_variable].into_iter().flatten() {
+                    w.insert(v);
+                }
+            }
+        }
+    };
+    match &n.kind {
+        NodeKind::Start(s) => {
+            if payload(&s.triggers) {
+                w.all = true;
+            }
+            caught(&s.triggers, &mut w);
+        }
+        NodeKind::Catch(c) if payload(&c.triggers) => w.all = true,
+        NodeKind::Boundary(b) => {
+            if payload(&b.triggers) {
+                w.all = true;
+            }
+            caught(&b.triggers, &mut w);
+        }
+        NodeKind::Task(t) => {
+            let outputs = t.binding.as_ref().filter(|b| !b.outputs.is_empty());
+            for o in outputs.iter().flat_map(|b| &b.outputs) {
+                w.insert(&o.target);
+            }
+            let data_out = n
+                .data
+                .as_ref()
+                .is_some_and(|d| !d.outputs.is_empty() || !d.output_associations.is_empty());
+            let dispatched = t.binding.as_ref().is_some_and(|b| b.resource.is_some())
+                || matches!(
+                    t.kind,
+                    TaskKind::Service | TaskKind::User | TaskKind::BusinessRule | TaskKind::Send
+                );
+            match t.kind {
+                TaskKind::Receive => w.all = true,
+                TaskKind::Script => match &t.script {
+                    Some(Script {
+                        assignments: Some(a),
+                        ..
+                    }) => {
+                        for (target, _) in a {
+                            w.insert(target);
+                        }
+                    }
+                    // A script the engine does not read runs elsewhere and may set anything.
+                    _ => w.all = true,
+                },
+                _ if outputs.is_none() && dispatched && !data_out => match (cx.results)(id) {
+                    Some(fields) => {
+                        for f in &fields {
+                            w.insert(f);
+                        }
+                    }
+                    None => w.all = true,
+                },
+                _ => {}
+            }
+        }
+        NodeKind::CallActivity(c) => {
+            if let Some(b) = binding(g, n) {
+                for o in &b.outputs {
+                    w.insert(&o.target);
+                }
+            }
+            let all_out = c.binding.as_ref().is_some_and(|b| b.all_out);
+            if all_out || matches!(c.called, Some(Called::GlobalTask(_))) {
+                // What the called process (or global task) writes; computed from its nodes.
+                w.all |= match &c.called {
+                    Some(Called::Process(p)) => {
+                        let mut inner = Names::default();
+                        for (j, m) in g.nodes.iter().enumerate() {
+                            if g.process_of(NodeId(j as u32)) == *p && j != id.index() {
+                                // One level: a name the callee's own nodes write.
+                                inner.add(&shallow_writes(m));
+                            }
+                        }
+                        w.set.extend(inner.set);
+                        inner.all
+                    }
+                    _ => true,
+                };
+            }
+        }
+        _ => {}
+    }
+    if let Some(Looping::MultiInstance(mi)) = &n.looping
+        && let Some(o) = &mi.output_collection
+    {
+        w.insert(o);
+    }
+    if let Some(d) = &n.data {
+        for a in &d.output_associations {
+            if let Some(DataRef::Variable(v)) = &a.target {
+                w.insert(v);
+            }
+            for (_, to) in &a.assignments {
+                w.insert(to);
+            }
+        }
+    }
+    w
+}
+
+/// What a node of a called process writes, without asking for catalogues: used for a call
+/// activity that passes every variable out.
+fn shallow_writes(n: &Node) -> Names {
+    let mut w = Names::default();
+    match &n.kind {
+        NodeKind::Task(t) => match (&t.binding, &t.script) {
+            (Some(b), _) if !b.outputs.is_empty() => {
+                for o in &b.outputs {
+                    w.insert(&o.target);
+                }
+            }
+            (
+                _,
+                Some(Script {
+                    assignments: Some(a),
+                    ..
+                }),
+            ) => {
+                for (target, _) in a {
+                    w.insert(target);
+                }
+            }
+            _ if matches!(t.kind, TaskKind::Plain | TaskKind::Manual) => {}
+            _ => w.all = true,
+        },
+        NodeKind::CallActivity(_)
+        | NodeKind::Start(_)
+        | NodeKind::Catch(_)
+        | NodeKind::Boundary(_) => w.all = true,
+        _ => {}
+    }
+    if let Some(Looping::MultiInstance(mi)) = &n.looping
+        && let Some(o) = &mi.output_collection
+    {
+        w.insert(o);
+    }
+    w
+}
+
+/// The control-flow graph of the whole model.
+fn build(g: &ProcessGraph) -> Cfg {
+    let mut cfg = Cfg {
+        preds: BTreeMap::new(),
+        succs: BTreeMap::new(),
+    };
+    let edge = |cfg: &mut Cfg, from: Pred, to: V| {
+        let src = match from {
+            Pred::Plain(v) => v,
+            Pred::Call(c) => V::In(c),
+        };
+        cfg.preds.entry(to).or_default().push(from);
+        cfg.succs.entry(src).or_default().push(to);
+    };
+    // A scope's entry leads to the nodes that start in it.
+    let starts = |nodes: &[NodeId]| -> Vec<NodeId> {
+        nodes
+            .iter()
+            .copied()
+            .filter(|n| {
+                let node = g.node(*n);
+                node.incoming.is_empty()
+                    && !node.for_compensation
+                    && !matches!(node.kind, NodeKind::Boundary(_))
+                    && !matches!(&node.kind, NodeKind::SubProcess(s) if matches!(s.kind, SubProcessKind::Event))
+                    && !matches!(&node.kind, NodeKind::Catch(c)
+                        if c.triggers.iter().any(|d| matches!(d, EventDefinition::Link(_))))
+            })
+            .collect()
+    };
+    let event_subs = |nodes: &[NodeId]| -> Vec<NodeId> {
+        nodes
+            .iter()
+            .copied()
+            .filter(|n| matches!(&g.node(*n).kind, NodeKind::SubProcess(s) if matches!(s.kind, SubProcessKind::Event)))
+            .collect()
+    };
+    for (p, proc_) in g.processes.iter().enumerate() {
+        let entry = V::Entry(ProcessId(p as u32));
+        for s in starts(&proc_.nodes) {
+            edge(&mut cfg, Pred::Plain(entry), V::In(s));
+        }
+        for e in event_subs(&proc_.nodes) {
+            edge(&mut cfg, Pred::Plain(entry), V::In(e));
+        }
+    }
+    for (i, n) in g.nodes.iter().enumerate() {
+        let id = NodeId(i as u32);
+        match &n.kind {
+            NodeKind::SubProcess(s) if !s.nodes.is_empty() => {
+                for st in starts(&s.nodes) {
+                    edge(&mut cfg, Pred::Plain(V::In(id)), V::In(st));
+                }
+                for e in event_subs(&s.nodes) {
+                    edge(&mut cfg, Pred::Plain(V::In(id)), V::In(e));
+                }
+                // Its end: the inner nodes where tokens stop.
+                for m in &s.nodes {
+                    let inner = g.node(*m);
+                    let event_sub = matches!(&inner.kind, NodeKind::SubProcess(x) if matches!(x.kind, SubProcessKind::Event));
+                    if inner.outgoing.is_empty() && !event_sub && !inner.for_compensation {
+                        edge(&mut cfg, Pred::Plain(V::Out(*m)), V::Out(id));
+                    }
+                }
+            }
+            NodeKind::CallActivity(CallActivity {
+                called: Some(Called::Process(p)),
+                ..
+            }) => {
+                edge(&mut cfg, Pred::Call(id), V::Entry(*p));
+                edge(&mut cfg, Pred::Plain(V::In(id)), V::Out(id));
+            }
+            NodeKind::Boundary(b) => {
+                edge(&mut cfg, Pred::Plain(V::In(b.attached_to)), V::In(id));
+                edge(&mut cfg, Pred::Plain(V::In(id)), V::Out(id));
+            }
+            _ => edge(&mut cfg, Pred::Plain(V::In(id)), V::Out(id)),
+        }
+        for f in &n.outgoing {
+            edge(&mut cfg, Pred::Plain(V::Out(id)), V::In(g.flow(*f).target));
+        }
+        if let Some(h) = n.compensation_handler {
+            edge(&mut cfg, Pred::Plain(V::Out(id)), V::In(h));
+        }
+        // A link throw leads to the catches of its name in the same process.
+        if let NodeKind::Throw(defs) = &n.kind {
+            for d in defs {
+                if let EventDefinition::Link(name) = d {
+                    let p = g.process_of(id);
+                    for (j, m) in g.nodes.iter().enumerate() {
+                        let mid = NodeId(j as u32);
+                        if let NodeKind::Catch(c) = &m.kind
+                            && c.triggers
+                                .iter()
+                                .any(|t| matches!(t, EventDefinition::Link(l) if l == name))
+                            && g.process_of(mid) == p
+                        {
+                            edge(&mut cfg, Pred::Plain(V::Out(id)), V::In(mid));
+                        }
+                    }
+                }
+            }
+        }
+    }
+    cfg
+}
+
+/// The enclosing scopes of a node, innermost first.
+fn scopes(g: &ProcessGraph, n: NodeId) -> Vec<Scope> {
+    let mut out = Vec::new();
+    let mut s = g.node(n).scope;
+    loop {
+        out.push(s);
+        match s {
+            Scope::Process(_) => return out,
+            Scope::SubProcess(p) => s = g.node(p).scope,
+        }
+    }
+}
+
+/// The may and must states of every vertex reached.
+fn solve(
+    g: &ProcessGraph,
+    cfg: &Cfg,
+    w: &Writes,
+    cx: &Context<'_>,
+) -> (BTreeMap<V, Names>, BTreeMap<V, BTreeSet<String>>) {
+    let primary = g.primary_processes();
+    let mut may: BTreeMap<V, Names> = BTreeMap::new();
+    let mut must: BTreeMap<V, BTreeSet<String>> = BTreeMap::new();
+    let mut queue: VecDeque<V> = VecDeque::new();
+    // Every process entry starts the search: a primary one with the start variables, one
+    // started by an event (a message start's payload is a write of its own) likewise; one
+    // only called gets what its callers pass.
+    for p in 0..g.processes.len() {
+        queue.push_back(V::Entry(ProcessId(p as u32)));
+    }
+    let called: BTreeSet<ProcessId> = g
+        .nodes
+        .iter()
+        .filter_map(|n| match &n.kind {
+            NodeKind::CallActivity(CallActivity {
+                called: Some(Called::Process(p)),
+                ..
+            }) => Some(*p),
+            _ => None,
+        })
+        .collect();
+    let mut rounds = 0usize;
+    let limit = 64 * (g.nodes.len() + g.processes.len() + 1) * 2 + 1024;
+    while let Some(v) = queue.pop_front() {
+        rounds += 1;
+        if rounds > limit {
+            break; // a bound: never reached on a finite lattice, kept against surprises
+        }
+        let (new_may, new_must) = transfer(g, cfg, w, cx, v, &may, &must, &primary, &called);
+        let Some(new_may) = new_may else { continue };
+        let changed = may.get(&v) != Some(&new_may) || must.get(&v) != Some(&new_must);
+        if changed {
+            may.insert(v, new_may);
+            must.insert(v, new_must);
+            for s in cfg.succs.get(&v).into_iter().flatten() {
+                queue.push_back(*s);
+            }
+        }
+    }
+    (may, must)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn transfer(
+    g: &ProcessGraph,
+    cfg: &Cfg,
+    w: &Writes,
+    cx: &Context<'_>,
+    v: V,
+    may: &BTreeMap<V, Names>,
+    must: &BTreeMap<V, BTreeSet<String>>,
+    primary: &[ProcessId],
+    called: &BTreeSet<ProcessId>,
+) -> (Option<Names>, BTreeSet<String>) {
+    let mut m = Names::default();
+    let mut reached = false;
+    let mut sure: Option<BTreeSet<String>> = None;
+    let parallel_join = matches!(v, V::In(n) if matches!(&g.node(n).kind,
+        NodeKind::Gateway(gw) if gw.kind == GatewayKind::Parallel) && g.node(n).incoming.len() > 1);
+    if let V::Entry(p) = v
+        && (primary.contains(&p) || !called.contains(&p))
+    {
+        // Started with the start variables (a called process also by its callers, below).
+        reached = true;
+        let mut s = BTreeSet::new();
+        for x in cx.start {
+            m.insert(x);
+            s.insert(first_segment(x).to_owned());
+        }
+        sure = Some(s);
+    }
+    for pred in cfg.preds.get(&v).into_iter().flatten() {
+        let (pm, ps) = match *pred {
+            Pred::Plain(u) => {
+                let Some(pm) = may.get(&u) else { continue };
+                (pm.clone(), must.get(&u).cloned().unwrap_or_default())
+            }
+            Pred::Call(c) => {
+                let Some(pm) = may.get(&V::In(c)) else {
+                    continue;
+                };
+                let ps = must.get(&V::In(c)).cloned().unwrap_or_default();
+                let b = binding(g, g.node(c));
+                let data_in = g
+                    .node(c)
+                    .data
+                    .as_ref()
+                    .is_some_and(|d| !d.inputs.is_empty());
+                let all = b.is_some_and(|b| b.all_in)
+                    || (!data_in && b.is_none_or(|b| b.inputs.is_empty()));
+                let mut cm = if all { pm.clone() } else { Names::default() };
+                let mut cs = if all { ps } else { BTreeSet::new() };
+                for i in b.iter().flat_map(|b| &b.inputs) {
+                    cm.insert(&i.target);
+                    cs.insert(first_segment(&i.target).to_owned());
+                }
+                if let Some(d) = &g.node(c).data {
+                    for p in &d.inputs {
+                        cm.insert(&p.name);
+                        cs.insert(p.name.clone());
+                    }
+                }
+                (cm, cs)
+            }
+        };
+        reached = true;
+        m.add(&pm);
+        sure = Some(match sure {
+            None => ps,
+            Some(s) if parallel_join => join(s, &ps),
+            Some(s) => meet(s, &ps),
+        });
+    }
+    if !reached {
+        return (None, BTreeSet::new());
+    }
+    let mut sure = sure.unwrap_or_default();
+    match v {
+        V::Entry(p) => {
+            let declared = &w.declared_process[p.index()];
+            m.add(declared);
+            sure.extend(declared.set.iter().cloned());
+        }
+        V::Out(n) => {
+            let wn = &w.at[n.index()];
+            m.add(wn);
+            sure.extend(wn.set.iter().cloned());
+            if wn.all {
+                sure = BTreeSet::from([EVERY.to_owned()]);
+            }
+        }
+        V::In(n) => {
+            // Entering a scope declares its data objects; anything its event sub-processes,
+            // boundaries or handlers may see was possibly written inside.
+            if let Some(d) = w.declared_node.get(&n) {
+                m.add(d);
+                sure.extend(d.set.iter().cloned());
+            }
+            let node = g.node(n);
+            let sees_scope = matches!(&node.kind, NodeKind::SubProcess(s) if matches!(s.kind, SubProcessKind::Event))
+                || node.for_compensation;
+            if sees_scope {
+                match node.scope {
+                    Scope::Process(p) => m.add(&w.inside_process[p.index()]),
+                    Scope::SubProcess(s) => {
+                        if let Some(x) = w.inside_node.get(&s) {
+                            m.add(x);
+                        }
+                    }
+                }
+            }
+            if let NodeKind::Boundary(b) = &node.kind
+                && let Some(x) = w.inside_node.get(&b.attached_to)
+            {
+                m.add(x);
+            }
+            // Non-interrupting event sub-processes of every enclosing scope may have run.
+            for s in scopes(g, n) {
+                let nodes = g.scope_nodes(s);
+                for e in nodes {
+                    if *e != n
+                        && matches!(&g.node(*e).kind, NodeKind::SubProcess(sp) if matches!(sp.kind, SubProcessKind::Event))
+                        && let Some(x) = w.inside_node.get(e)
+                    {
+                        m.add(x);
+                    }
+                }
+            }
+        }
+    }
+    (Some(m), sure)
+}
+
+/// The writer of `var` nearest to `at` (fewest flows away, either direction).
+fn nearest_writer(g: &ProcessGraph, w: &Writes, at: NodeId, var: &str) -> Option<NodeId> {
+    let mut seen = BTreeSet::from([at]);
+    let mut queue = VecDeque::from([at]);
+    while let Some(n) = queue.pop_front() {
+        if n != at && w.writes(n, var) {
+            return Some(n);
+        }
+        let node = g.node(n);
+        let next = node
+            .incoming
+            .iter()
+            .map(|f| g.flow(*f).source)
+            .chain(node.outgoing.iter().map(|f| g.flow(*f).target))
+            .chain(node.boundaries.iter().copied())
+            .chain(match (&node.kind, node.scope) {
+                (NodeKind::Boundary(b), _) => Some(b.attached_to),
+                (_, Scope::SubProcess(p)) => Some(p),
+                _ => None,
+            })
+            .chain(match &node.kind {
+                NodeKind::SubProcess(s) => s.nodes.clone(),
+                _ => Vec::new(),
+            });
+        for m in next {
+            if seen.insert(m) {
+                queue.push_back(m);
+            }
+        }
+    }
+    // Not connected: any writer in the model.
+    (0..g.nodes.len())
+        .map(|i| NodeId(i as u32))
+        .find(|n| w.writes(*n, var))
+}
+
+/// One path of nodes from a start to `at` on which nothing writes `var`.
+fn unwritten_path(g: &ProcessGraph, cfg: &Cfg, w: &Writes, at: NodeId, var: &str) -> Vec<NodeId> {
+    // Backwards from the read, through vertices that do not write the name.
+    let mut back: BTreeMap<V, V> = BTreeMap::new();
+    let mut queue = VecDeque::from([V::In(at)]);
+    let mut seen = BTreeSet::from([V::In(at)]);
+    while let Some(v) = queue.pop_front() {
+        if let V::Entry(_) = v {
+            let mut path = Vec::new();
+            let mut cur = v;
+            while let Some(next) = back.get(&cur) {
+                if let V::In(n) = next
+                    && path.last() != Some(n)
+                {
+                    path.push(*n);
+                }
+                cur = *next;
+            }
+            return path;
+        }
+        for p in cfg.preds.get(&v).into_iter().flatten() {
+            let u = match *p {
+                Pred::Plain(u) => u,
+                Pred::Call(c) => V::In(c),
+            };
+            let writes = match u {
+                V::Out(n) => w.writes(n, var) || w.at[n.index()].all,
+                _ => false,
+            };
+            if !writes && seen.insert(u) {
+                back.insert(u, v);
+                queue.push_back(u);
+            }
+        }
+    }
+    let _ = g;
+    Vec::new()
+}
+
+/// Names close to `name` among `known` (at most two edits), nearest first.
+pub fn near<'a>(name: &str, known: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
+    known
+        .into_iter()
+        .filter(|k| *k != name)
+        .map(|k| (edits(name, k), k))
+        .filter(|(d, k)| *d <= 2.min(k.chars().count() / 2))
+        .min()
+        .map(|(_, k)| k)
+}
+
+fn edits(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut prev = row[0];
+        row[0] = i + 1;
+        for j in 0..b.len() {
+            let cur = row[j + 1];
+            row[j + 1] = (prev + usize::from(ca != b[j]))
+                .min(row[j] + 1)
+                .min(cur + 1);
+            prev = cur;
+        }
+    }
+    row[b.len()]
+}
+
+/// Every name the model writes or declares anywhere (for "did you mean").
+pub fn written_names(g: &ProcessGraph) -> BTreeSet<String> {
+    let cx = Context {
+        start: &BTreeSet::new(),
+        results: &|_| Some(Vec::new()),
+    };
+    let w = Writes::of(g, &cx);
+    let mut out = BTreeSet::new();
+    for n in
+        w.at.iter()
+            .chain(&w.declared_process)
+            .chain(w.declared_node.values())
+    {
+        out.extend(n.set.iter().cloned());
+    }
+    out
+}

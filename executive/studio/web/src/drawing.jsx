@@ -1,0 +1,104 @@
+// What a planner draws besides tasks, without XML: a sequence flow's condition, a call
+// activity's called process (the file's processes), a script task's CEL script. Each is
+// written where the executive reads it and checked by the same check as `trace validate` once
+// written (app.js marks the problems).
+import { is, getBusinessObject } from 'bpmn-js/lib/util/ModelUtil';
+import {
+  SelectEntry, TextAreaEntry, TextFieldEntry, isSelectEntryEdited, isTextFieldEntryEdited,
+  isTextAreaEntryEdited,
+} from '@bpmn-io/properties-panel';
+import { useService } from 'bpmn-js-properties-panel';
+
+/** Whether a flow's condition means something: out of a gateway that chooses, or an activity. */
+function conditional(element) {
+  if (!is(element, 'bpmn:SequenceFlow')) return false;
+  const source = element.businessObject.sourceRef;
+  return is(source, 'bpmn:ExclusiveGateway') || is(source, 'bpmn:InclusiveGateway')
+    || is(source, 'bpmn:ComplexGateway') || is(source, 'bpmn:Activity');
+}
+
+function ConditionEntry({ element, id }) {
+  const modeling = useService('modeling');
+  const bpmnFactory = useService('bpmnFactory');
+  const bo = getBusinessObject(element);
+  return TextFieldEntry({
+    element, id, label: 'Condition',
+    description: 'CEL (`site_approved`, `attempts < 4`), or FEEL after `=`; empty: none',
+    getValue: () => bo.get('conditionExpression')?.get('body') || '',
+    setValue: value => {
+      const text = (value || '').trim();
+      const expression = text
+        ? bpmnFactory.create('bpmn:FormalExpression', { body: text })
+        : undefined;
+      modeling.updateProperties(element, { conditionExpression: expression });
+    },
+    debounce: fn => fn,
+  });
+}
+
+function CalledEntry({ element, id }) {
+  const modeling = useService('modeling');
+  const canvas = useService('canvas');
+  const bo = getBusinessObject(element);
+  const processes = () => {
+    const definitions = canvas.getRootElement().businessObject.$parent;
+    const roots = (definitions && definitions.get('rootElements')) || [];
+    return roots.filter(r => is(r, 'bpmn:Process'));
+  };
+  return SelectEntry({
+    element, id, label: 'Called process',
+    description: 'A process of this file (double-click the activity to open it)',
+    getValue: () => bo.get('calledElement') || '',
+    setValue: value => modeling.updateProperties(element, { calledElement: value || undefined }),
+    getOptions: () => {
+      const current = bo.get('calledElement') || '';
+      const options = processes().map(p => ({ value: p.id, label: p.name ? `${p.name} (${p.id})` : p.id }));
+      if (current && !options.some(o => o.value === current)) {
+        options.unshift({ value: current, label: `${current} (not in this file)` });
+      }
+      return [{ value: '', label: '(none)' }, ...options];
+    },
+  });
+}
+
+function ScriptEntry({ element, id }) {
+  const modeling = useService('modeling');
+  const bo = getBusinessObject(element);
+  return TextAreaEntry({
+    element, id, label: 'Script (CEL)',
+    description: 'One assignment per line: `attempts = attempts + 1`',
+    getValue: () => bo.get('script') || '',
+    setValue: value => modeling.updateProperties(element, {
+      script: value || undefined, scriptFormat: bo.get('scriptFormat') || 'cel' }),
+    debounce: fn => fn,
+    rows: 4,
+  });
+}
+
+function DrawingProvider(propertiesPanel) {
+  this.getGroups = element => groups => {
+    if (conditional(element)) {
+      groups.splice(1, 0, { id: 'trace-condition', label: 'Condition', entries: [
+        { id: 'trace-condition-expr', element, component: ConditionEntry, isEdited: isTextFieldEntryEdited },
+      ] });
+    }
+    if (is(element, 'bpmn:CallActivity')) {
+      groups.splice(1, 0, { id: 'trace-called', label: 'Called process', entries: [
+        { id: 'trace-called-process', element, component: CalledEntry, isEdited: isSelectEntryEdited },
+      ] });
+    }
+    if (is(element, 'bpmn:ScriptTask')) {
+      groups.splice(1, 0, { id: 'trace-script', label: 'Script', entries: [
+        { id: 'trace-script-body', element, component: ScriptEntry, isEdited: isTextAreaEntryEdited },
+      ] });
+    }
+    return groups;
+  };
+  propertiesPanel.registerProvider(400, this);
+}
+DrawingProvider.$inject = ['propertiesPanel'];
+
+export default {
+  __init__: ['traceDrawingProvider'],
+  traceDrawingProvider: ['type', DrawingProvider],
+};

@@ -1,0 +1,199 @@
+//! TRACE Studio draws every part of a mission in headless Chromium: the second process of
+//! Europa's file (Excavate) opens from the diagram list and by double-clicking the activity that
+//! calls it; a flow's condition is edited in the panel and a misspelt variable in it is marked
+//! at once with a "did you mean"; a call activity's called process is chosen from the file's
+//! processes; the saved file validates.
+
+use std::process::Command;
+
+use fantoccini::{Client, Locator};
+use mission_tests::{bin, repo};
+use serde_json::json;
+
+use crate::protocol::tempdir;
+use crate::studio::{Page, click, js, open_group, type_into, until};
+
+#[test]
+fn the_studio_opens_every_process_and_edits_conditions_and_calls_without_xml() {
+    let dir = tempdir("studio-draw");
+    let missions = dir.join("missions");
+    std::fs::create_dir_all(&missions).expect("missions dir");
+    std::fs::copy(
+        repo().join("deploy/missions/europa-bsm1.bpmn"),
+        missions.join("europa-bsm1.bpmn"),
+    )
+    .expect("copy");
+    let mut studio = Command::new(bin("trace"));
+    studio
+        .arg("studio")
+        .arg(&missions)
+        .args(["--port", "0", "--catalogue"])
+        .arg(repo().join("deploy/catalogues"))
+        .arg("--catalogue")
+        .arg(repo().join("deploy/ground/forms.json"))
+        .arg("--connectors")
+        .arg(repo().join("deploy/connectors.toml"))
+        .arg("--offline");
+    let page = Page::start(studio);
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .expect("runtime");
+    rt.block_on(async move {
+        let c = page.browser().await;
+        let outcome = tokio::spawn(scenario(c.clone(), page.url.clone())).await;
+        let _ = c.close().await;
+        if let Err(e) = outcome {
+            std::panic::resume_unwind(e.into_panic());
+        }
+    });
+    let saved = std::fs::read_to_string(missions.join("europa-bsm1.bpmn")).expect("saved");
+    assert!(
+        saved.contains("fault_code == \"TOOL_STUCK\" &amp;&amp; attempts &lt; 5"),
+        "the edited condition is not in the saved file"
+    );
+    let out = Command::new(bin("trace"))
+        .arg("validate")
+        .arg(missions.join("europa-bsm1.bpmn"))
+        .arg("--connectors")
+        .arg(repo().join("deploy/connectors.toml"))
+        .output()
+        .expect("trace validate");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+}
+
+/// Selects diagram `id` from the page's list, as a planner picks it.
+async fn pick_diagram(c: &Client, id: &str) {
+    js(
+        c,
+        &format!(
+            "const s = document.getElementById('diagrams'); s.value = '{id}';
+             s.dispatchEvent(new Event('change', {{ bubbles: true }}));"
+        ),
+        vec![],
+    )
+    .await;
+    until(
+        c,
+        &format!("diagram {id}"),
+        &format!("return document.body.dataset.diagram === '{id}'"),
+    )
+    .await;
+}
+
+async fn scenario(c: Client, url: String) {
+    c.goto(&url).await.expect("the studio's page");
+    until(
+        &c,
+        "the mission loaded",
+        "return document.body.dataset.ready === 'true' && document.body.dataset.checks",
+    )
+    .await;
+    // Both processes of the file are offered.
+    let offered = js(
+        &c,
+        "return [...document.getElementById('diagrams').options].map(o => o.textContent)",
+        vec![],
+    )
+    .await;
+    assert_eq!(
+        offered,
+        json!(["Europa Lander Basic Surface Mission 1", "Excavate"])
+    );
+    // Double-clicking the call activity opens the process it calls.
+    let dblclick = "const r = studio.modeler.get('elementRegistry').get('ExcavateCall');
+        studio.modeler.get('eventBus').fire('element.dblclick', { element: r, originalEvent: new MouseEvent('dblclick') });";
+    js(&c, dblclick, vec![]).await;
+    until(
+        &c,
+        "the Excavate process",
+        "return document.body.dataset.diagram === 'Diagram_Excavate' && !!studio.modeler.get('elementRegistry').get('RemoveMaterial')",
+    )
+    .await;
+    // The condition of `tool stuck`, in the panel; a misspelt name is marked at once.
+    // A flow's drawn path has no box to click: selected as the canvas selects it.
+    js(
+        &c,
+        "const r = studio.modeler.get('elementRegistry'); studio.modeler.get('selection').select(r.get('e15'));",
+        vec![],
+    )
+    .await;
+    open_group(&c, "trace-condition").await;
+    let field = "#bio-properties-panel-trace-condition-expr";
+    let value = c
+        .find(Locator::Css(field))
+        .await
+        .expect("the condition field")
+        .prop("value")
+        .await
+        .expect("its value");
+    assert_eq!(
+        value.as_deref(),
+        Some("fault_code == \"TOOL_STUCK\" && attempts < 4")
+    );
+    type_into(&c, field, "fault_cod == \"TOOL_STUCK\" && attempts < 5").await;
+    let problem = until(
+        &c,
+        "the misspelt name marked",
+        r#"const p = [...document.querySelectorAll('#problems li')].find(l => l.dataset.code === 'unwritten-variable' && l.dataset.element === 'e15');
+           return p && p.textContent"#,
+    )
+    .await;
+    assert!(
+        problem
+            .as_str()
+            .is_some_and(|p| p.contains("did you mean `fault_code`?")),
+        "{problem}"
+    );
+    let marked = js(
+        &c,
+        "return studio.modeler.get('canvas').hasMarker('e15', 'trace-error')",
+        vec![],
+    )
+    .await;
+    assert_eq!(marked, json!(true));
+    type_into(&c, field, "fault_code == \"TOOL_STUCK\" && attempts < 5").await;
+    until(
+        &c,
+        "the condition checked clean",
+        "return document.body.dataset.verdict === 'valid' && !studio.modeler.get('canvas').hasMarker('e15', 'trace-error')",
+    )
+    .await;
+    // Back to the mission: the call activity's called process, chosen from the file's.
+    pick_diagram(&c, "Diagram_BSM1").await;
+    click(&c, r#"g.djs-element[data-element-id="ExcavateCall"]"#).await;
+    open_group(&c, "trace-called").await;
+    let options = js(
+        &c,
+        "return [...document.querySelectorAll('#bio-properties-panel-trace-called-process option')].map(o => o.value)",
+        vec![],
+    )
+    .await;
+    assert_eq!(options, json!(["", "BSM1", "Excavate"]));
+    let chosen = js(
+        &c,
+        "return document.querySelector('#bio-properties-panel-trace-called-process').value",
+        vec![],
+    )
+    .await;
+    assert_eq!(chosen, json!("Excavate"));
+    // Saved as the planner saves: Ctrl+S.
+    js(
+        &c,
+        "window.dispatchEvent(new KeyboardEvent('keydown', { key: 's', ctrlKey: true }))",
+        vec![],
+    )
+    .await;
+    until(
+        &c,
+        "the file saved",
+        "return document.body.dataset.saved === 'europa-bsm1.bpmn'",
+    )
+    .await;
+    let errors = js(&c, "return studio.errors", vec![]).await;
+    assert_eq!(errors, json!([]), "the page's errors");
+}
