@@ -95,50 +95,117 @@ pub const LOOP_VARIABLES: [&str; 4] = [
     "nrOfCompletedInstances",
 ];
 
-/// A set of names, or every name.
+thread_local! {
+    /// The names of the analysis under way, numbered: sets of names are bit sets over them
+    /// (a model of ten thousand tasks has as many names; sets of strings per vertex would not
+    /// fit in memory). Reset by each analysis.
+    static NAMES: std::cell::RefCell<(Vec<String>, std::collections::HashMap<String, usize>)> =
+        std::cell::RefCell::default();
+}
+
+fn intern(name: &str) -> usize {
+    NAMES.with(|n| {
+        let (list, index) = &mut *n.borrow_mut();
+        if let Some(i) = index.get(name) {
+            return *i;
+        }
+        list.push(name.to_owned());
+        index.insert(name.to_owned(), list.len() - 1);
+        list.len() - 1
+    })
+}
+
+fn known(name: &str) -> Option<usize> {
+    NAMES.with(|n| n.borrow().1.get(name).copied())
+}
+
+fn reset_names() {
+    NAMES.with(|n| *n.borrow_mut() = Default::default());
+}
+
+/// A set of names, or every name (`all`; in a *must* set: after a write this analysis cannot
+/// name, every name is taken as written).
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 struct Names {
     all: bool,
-    set: BTreeSet<String>,
+    bits: Vec<u64>,
 }
 
 impl Names {
+    fn every() -> Names {
+        Names {
+            all: true,
+            bits: Vec::new(),
+        }
+    }
+
+    /// Whether the set names `n` itself (not through `all`).
+    fn named(&self, n: &str) -> bool {
+        known(n).is_some_and(|i| {
+            self.bits
+                .get(i / 64)
+                .is_some_and(|w| w & (1 << (i % 64)) != 0)
+        })
+    }
+
     fn has(&self, n: &str) -> bool {
-        self.all || self.set.contains(n)
+        self.all || self.named(n)
     }
 
     fn add(&mut self, other: &Names) {
         self.all |= other.all;
-        self.set.extend(other.set.iter().cloned());
+        if self.bits.len() < other.bits.len() {
+            self.bits.resize(other.bits.len(), 0);
+        }
+        for (a, b) in self.bits.iter_mut().zip(&other.bits) {
+            *a |= b;
+        }
     }
 
     fn insert(&mut self, n: &str) {
-        self.set.insert(first_segment(n).to_owned());
+        let i = intern(first_segment(n));
+        if self.bits.len() <= i / 64 {
+            self.bits.resize(i / 64 + 1, 0);
+        }
+        self.bits[i / 64] |= 1 << (i % 64);
+    }
+
+    /// The names in the set (not `all`).
+    fn names(&self) -> Vec<String> {
+        NAMES.with(|n| {
+            let list = &n.borrow().0;
+            (0..self.bits.len() * 64)
+                .filter(|i| self.bits[i / 64] & (1 << (i % 64)) != 0)
+                .filter_map(|i| list.get(i).cloned())
+                .collect()
+        })
+    }
+
+    fn trimmed(mut self) -> Names {
+        while self.bits.last() == Some(&0) {
+            self.bits.pop();
+        }
+        self
     }
 }
 
-/// In a *must* set: every name (after a write this analysis cannot name).
-const EVERY: &str = "\u{0}every";
-
-fn sure_of(s: &BTreeSet<String>, var: &str) -> bool {
-    s.contains(EVERY) || s.contains(var)
-}
-
 /// Where paths meet: the names both have written.
-fn meet(a: BTreeSet<String>, b: &BTreeSet<String>) -> BTreeSet<String> {
-    match (a.contains(EVERY), b.contains(EVERY)) {
+fn meet(a: Names, b: &Names) -> Names {
+    match (a.all, b.all) {
         (true, _) => b.clone(),
         (false, true) => a,
-        _ => a.intersection(b).cloned().collect(),
+        _ => Names {
+            all: false,
+            bits: a.bits.iter().zip(&b.bits).map(|(x, y)| x & y).collect(),
+        }
+        .trimmed(),
     }
 }
 
 /// At a parallel join: the names either has written.
-fn join(a: BTreeSet<String>, b: &BTreeSet<String>) -> BTreeSet<String> {
-    if a.contains(EVERY) || b.contains(EVERY) {
-        return BTreeSet::from([EVERY.to_owned()]);
-    }
-    a.union(b).cloned().collect()
+fn join(mut a: Names, b: &Names) -> Names {
+    a.add(b);
+    a
 }
 
 /// The variable a path such as `site.id` or `list[0]` writes.
@@ -171,35 +238,35 @@ enum Pred {
 
 /// Checks every read of the model; findings in the order of the graph's nodes and flows.
 pub fn check(g: &ProcessGraph, cx: &Context<'_>) -> Vec<Finding> {
+    reset_names();
     let cfg = build(g);
     let writes = Writes::of(g, cx);
     let (may, must) = solve(g, &cfg, &writes, cx);
     let concurrent = concurrent_writes(g, &cfg, &writes);
     let mut out = Vec::new();
-    let mut report =
-        |site: Site, at: &Names, sure: &BTreeSet<String>, e: &Expression, here: NodeId| {
-            for var in reads(e) {
-                if at.has(&var) {
-                    if !sure_of(sure, &var) {
-                        out.push(Finding::Sometimes {
-                            site: site.clone(),
-                            var: var.clone(),
-                            expression: e.source.clone(),
-                            feel: matches!(e.program(), Program::Feel(_)),
-                            path: unwritten_path(g, &cfg, &writes, here, &var),
-                        });
-                    }
-                    continue;
+    let mut report = |site: Site, at: &Names, sure: &Names, e: &Expression, here: NodeId| {
+        for var in reads(e) {
+            if at.has(&var) {
+                if !sure.has(&var) {
+                    out.push(Finding::Sometimes {
+                        site: site.clone(),
+                        var: var.clone(),
+                        expression: e.source.clone(),
+                        feel: matches!(e.program(), Program::Feel(_)),
+                        path: unwritten_path(g, &cfg, &writes, here, &var),
+                    });
                 }
-                out.push(Finding::Unwritten {
-                    site: site.clone(),
-                    var: var.clone(),
-                    expression: e.source.clone(),
-                    feel: matches!(e.program(), Program::Feel(_)),
-                    writer: nearest_writer(g, &writes, here, &var),
-                });
+                continue;
             }
-        };
+            out.push(Finding::Unwritten {
+                site: site.clone(),
+                var: var.clone(),
+                expression: e.source.clone(),
+                feel: matches!(e.program(), Program::Feel(_)),
+                writer: nearest_writer(g, &writes, here, &var),
+            });
+        }
+    };
     for (i, n) in g.nodes.iter().enumerate() {
         let id = NodeId(i as u32);
         let Some(at_in) = may.get(&V::In(id)) else {
@@ -217,12 +284,12 @@ pub fn check(g: &ProcessGraph, cx: &Context<'_>) -> Vec<Finding> {
         if let Some(l) = &n.looping {
             for v in LOOP_VARIABLES {
                 at.insert(v);
-                sure.insert(v.to_owned());
+                sure.insert(v);
             }
             if let Looping::MultiInstance(mi) = l {
                 if let Some(e) = &mi.input_element {
                     at.insert(e);
-                    sure.insert(first_segment(e).to_owned());
+                    sure.insert(e);
                 }
                 let before = [&mi.cardinality, &mi.input_collection];
                 for e in before.into_iter().flatten() {
@@ -257,7 +324,7 @@ pub fn check(g: &ProcessGraph, cx: &Context<'_>) -> Vec<Finding> {
             for (target, e) in a {
                 report(Site::Node(id), &at, &sure, e, id);
                 at.insert(target);
-                sure.insert(first_segment(target).to_owned());
+                sure.insert(target);
             }
         }
         // Output mappings see the result's fields and the targets before them.
@@ -270,12 +337,12 @@ pub fn check(g: &ProcessGraph, cx: &Context<'_>) -> Vec<Finding> {
                 let (mut at, mut sure) = (at.clone(), sure.clone());
                 for f in &fields {
                     at.insert(f);
-                    sure.insert(f.clone());
+                    sure.insert(f);
                 }
                 for o in &b.outputs {
                     report(Site::Node(id), &at, &sure, &o.source, id);
                     at.insert(&o.target);
-                    sure.insert(first_segment(&o.target).to_owned());
+                    sure.insert(&o.target);
                 }
             }
         }
@@ -290,7 +357,7 @@ pub fn check(g: &ProcessGraph, cx: &Context<'_>) -> Vec<Finding> {
             let mut sure_after = must.get(&V::Out(id)).cloned().unwrap_or_default();
             for v in LOOP_VARIABLES {
                 after.insert(v);
-                sure_after.insert(v.to_owned());
+                sure_after.insert(v);
             }
             for e in exit_reads(n) {
                 report(Site::Node(id), &after, &sure_after, e, id);
@@ -360,12 +427,12 @@ fn conditions(n: &Node) -> Vec<&Expression> {
     triggers.iter().filter_map(conditional).collect()
 }
 
-/// For each node that may run beside other branches, what those branches may write: at each
-/// place tokens split to run at once (a parallel, inclusive or complex gateway, several
-/// outgoing flows, a non-interrupting boundary, several nodes starting a scope, a parallel
-/// multi-instance body), everything reachable from it may write before anything else
-/// reachable from it reads. An over-approximation, so that no read a concurrent branch may
-/// satisfy is called unwritten.
+/// For each node that may run beside other branches, what those branches may write. Tokens
+/// split to run at once at a parallel, inclusive or complex gateway, several outgoing flows, a
+/// non-interrupting boundary, several nodes starting a scope or a parallel multi-instance
+/// body; every node reachable from such a split may see anything written by any node of its
+/// process reachable from one. An over-approximation, linear in the model, so that no read a
+/// concurrent branch may satisfy is called unwritten.
 fn concurrent_writes(g: &ProcessGraph, cfg: &Cfg, w: &Writes) -> BTreeMap<NodeId, Names> {
     let mut forks: Vec<Vec<V>> = Vec::new();
     for (i, n) in g.nodes.iter().enumerate() {
@@ -403,30 +470,28 @@ fn concurrent_writes(g: &ProcessGraph, cfg: &Cfg, w: &Writes) -> BTreeMap<NodeId
             forks.push(vec![e]);
         }
     }
-    let mut out: BTreeMap<NodeId, Names> = BTreeMap::new();
-    for from in forks {
-        let mut seen: BTreeSet<V> = from.iter().copied().collect();
-        let mut queue: VecDeque<V> = from.into_iter().collect();
-        let mut nodes = BTreeSet::new();
-        while let Some(v) = queue.pop_front() {
-            if let V::In(n) | V::Out(n) = v {
-                nodes.insert(n);
-            }
-            for s in cfg.succs.get(&v).into_iter().flatten() {
-                if !matches!(s, V::Entry(_)) && seen.insert(*s) {
-                    queue.push_back(*s);
-                }
-            }
+    // Everything reachable from a split, per process: one search from all splits at once.
+    let mut seen: BTreeSet<V> = forks.iter().flatten().copied().collect();
+    let mut queue: VecDeque<V> = seen.iter().copied().collect();
+    let mut nodes = BTreeSet::new();
+    while let Some(v) = queue.pop_front() {
+        if let V::In(n) | V::Out(n) = v {
+            nodes.insert(n);
         }
-        let mut written = Names::default();
-        for n in &nodes {
-            written.add(&w.at[n.index()]);
-        }
-        for n in nodes {
-            out.entry(n).or_default().add(&written);
+        for s in cfg.succs.get(&v).into_iter().flatten() {
+            if !matches!(s, V::Entry(_)) && seen.insert(*s) {
+                queue.push_back(*s);
+            }
         }
     }
-    out
+    let mut written = vec![Names::default(); g.processes.len()];
+    for n in &nodes {
+        written[g.process_of(*n).index()].add(&w.at[n.index()]);
+    }
+    nodes
+        .into_iter()
+        .map(|n| (n, written[g.process_of(n).index()].clone()))
+        .collect()
 }
 
 /// Expressions a node reads after a pass of its body.
@@ -537,8 +602,7 @@ impl Writes {
 
     /// Whether `n` writes `var`.
     fn writes(&self, n: NodeId, var: &str) -> bool {
-        let w = &self.at[n.index()];
-        w.set.contains(var)
+        self.at[n.index()].named(var)
     }
 }
 
@@ -633,8 +697,10 @@ fn node_writes(g: &ProcessGraph, id: NodeId, n: &Node, cx: &Context<'_>) -> Name
                                 inner.add(&shallow_writes(m));
                             }
                         }
-                        w.set.extend(inner.set);
-                        inner.all
+                        let all = inner.all;
+                        inner.all = false;
+                        w.add(&inner);
+                        all
                     }
                     _ => true,
                 };
@@ -825,10 +891,11 @@ fn solve(
     cfg: &Cfg,
     w: &Writes,
     cx: &Context<'_>,
-) -> (BTreeMap<V, Names>, BTreeMap<V, BTreeSet<String>>) {
+) -> (BTreeMap<V, Names>, BTreeMap<V, Names>) {
     let primary = g.primary_processes();
     let mut may: BTreeMap<V, Names> = BTreeMap::new();
-    let mut must: BTreeMap<V, BTreeSet<String>> = BTreeMap::new();
+    let mut must: BTreeMap<V, Names> = BTreeMap::new();
+    let events = event_writes(g, w);
     let mut queue: VecDeque<V> = VecDeque::new();
     // Every process entry starts the search: a primary one with the start variables, one
     // started by an event (a message start's payload is a write of its own) likewise; one
@@ -854,7 +921,8 @@ fn solve(
         if rounds > limit {
             break; // a bound: never reached on a finite lattice, kept against surprises
         }
-        let (new_may, new_must) = transfer(g, cfg, w, cx, v, &may, &must, &primary, &called);
+        let (new_may, new_must) =
+            transfer(g, cfg, w, cx, v, (&may, &must), &primary, &called, &events);
         let Some(new_may) = new_may else { continue };
         let changed = may.get(&v) != Some(&new_may) || must.get(&v) != Some(&new_must);
         if changed {
@@ -875,14 +943,14 @@ fn transfer(
     w: &Writes,
     cx: &Context<'_>,
     v: V,
-    may: &BTreeMap<V, Names>,
-    must: &BTreeMap<V, BTreeSet<String>>,
+    (may, must): (&BTreeMap<V, Names>, &BTreeMap<V, Names>),
     primary: &[ProcessId],
     called: &BTreeSet<ProcessId>,
-) -> (Option<Names>, BTreeSet<String>) {
+    events: &BTreeMap<Scope, Names>,
+) -> (Option<Names>, Names) {
     let mut m = Names::default();
     let mut reached = false;
-    let mut sure: Option<BTreeSet<String>> = None;
+    let mut sure: Option<Names> = None;
     let parallel_join = matches!(v, V::In(n) if matches!(&g.node(n).kind,
         NodeKind::Gateway(gw) if gw.kind == GatewayKind::Parallel) && g.node(n).incoming.len() > 1);
     if let V::Entry(p) = v
@@ -890,10 +958,10 @@ fn transfer(
     {
         // Started with the start variables (a called process also by its callers, below).
         reached = true;
-        let mut s = BTreeSet::new();
+        let mut s = Names::default();
         for x in cx.start {
             m.insert(x);
-            s.insert(first_segment(x).to_owned());
+            s.insert(x);
         }
         sure = Some(s);
     }
@@ -917,15 +985,15 @@ fn transfer(
                 let all = b.is_some_and(|b| b.all_in)
                     || (!data_in && b.is_none_or(|b| b.inputs.is_empty()));
                 let mut cm = if all { pm.clone() } else { Names::default() };
-                let mut cs = if all { ps } else { BTreeSet::new() };
+                let mut cs = if all { ps } else { Names::default() };
                 for i in b.iter().flat_map(|b| &b.inputs) {
                     cm.insert(&i.target);
-                    cs.insert(first_segment(&i.target).to_owned());
+                    cs.insert(&i.target);
                 }
                 if let Some(d) = &g.node(c).data {
                     for p in &d.inputs {
                         cm.insert(&p.name);
-                        cs.insert(p.name.clone());
+                        cs.insert(&p.name);
                     }
                 }
                 (cm, cs)
@@ -940,21 +1008,21 @@ fn transfer(
         });
     }
     if !reached {
-        return (None, BTreeSet::new());
+        return (None, Names::default());
     }
     let mut sure = sure.unwrap_or_default();
     match v {
         V::Entry(p) => {
             let declared = &w.declared_process[p.index()];
             m.add(declared);
-            sure.extend(declared.set.iter().cloned());
+            sure.add(declared);
         }
         V::Out(n) => {
             let wn = &w.at[n.index()];
             m.add(wn);
-            sure.extend(wn.set.iter().cloned());
+            sure.add(wn);
             if wn.all {
-                sure = BTreeSet::from([EVERY.to_owned()]);
+                sure = Names::every();
             }
         }
         V::In(n) => {
@@ -962,7 +1030,7 @@ fn transfer(
             // boundaries or handlers may see was possibly written inside.
             if let Some(d) = w.declared_node.get(&n) {
                 m.add(d);
-                sure.extend(d.set.iter().cloned());
+                sure.add(d);
             }
             let node = g.node(n);
             let sees_scope = matches!(&node.kind, NodeKind::SubProcess(s) if matches!(s.kind, SubProcessKind::Event))
@@ -984,19 +1052,27 @@ fn transfer(
             }
             // Non-interrupting event sub-processes of every enclosing scope may have run.
             for s in scopes(g, n) {
-                let nodes = g.scope_nodes(s);
-                for e in nodes {
-                    if *e != n
-                        && matches!(&g.node(*e).kind, NodeKind::SubProcess(sp) if matches!(sp.kind, SubProcessKind::Event))
-                        && let Some(x) = w.inside_node.get(e)
-                    {
-                        m.add(x);
-                    }
+                if let Some(x) = events.get(&s) {
+                    m.add(x);
                 }
             }
         }
     }
-    (Some(m), sure)
+    (Some(m.trimmed()), sure.trimmed())
+}
+
+/// What the event sub-processes directly in each scope may write.
+fn event_writes(g: &ProcessGraph, w: &Writes) -> BTreeMap<Scope, Names> {
+    let mut out: BTreeMap<Scope, Names> = BTreeMap::new();
+    for (i, n) in g.nodes.iter().enumerate() {
+        let id = NodeId(i as u32);
+        if matches!(&n.kind, NodeKind::SubProcess(sp) if matches!(sp.kind, SubProcessKind::Event))
+            && let Some(x) = w.inside_node.get(&id)
+        {
+            out.entry(n.scope).or_default().add(x);
+        }
+    }
+    out
 }
 
 /// The writer of `var` nearest to `at` (fewest flows away, either direction).
@@ -1104,6 +1180,7 @@ fn edits(a: &str, b: &str) -> usize {
 
 /// Every name the model writes or declares anywhere (for "did you mean").
 pub fn written_names(g: &ProcessGraph) -> BTreeSet<String> {
+    reset_names();
     let cx = Context {
         start: &BTreeSet::new(),
         results: &|_| Some(Vec::new()),
@@ -1115,7 +1192,7 @@ pub fn written_names(g: &ProcessGraph) -> BTreeSet<String> {
             .chain(&w.declared_process)
             .chain(w.declared_node.values())
     {
-        out.extend(n.set.iter().cloned());
+        out.extend(n.names());
     }
     out
 }
