@@ -82,8 +82,12 @@ fn fallback(why: &str) -> String {
     )
 }
 
-/// `OUT_DIR/assets.rs`: `pub(crate) static FILES: &[(&str, &[u8])]`, every file of `dist`.
+/// `OUT_DIR/assets.rs`: `pub(crate) static FILES: &[(&str, &[u8], &[u8], &str)]`, every file
+/// of `dist` with its gzipped bytes (`OUT_DIR/gz/`) and an entity tag of its content.
 fn write_assets(dist: &Path, to: &Path) {
+    let gz = dist.with_file_name("gz");
+    let _ = std::fs::remove_dir_all(&gz);
+    std::fs::create_dir_all(&gz).expect("OUT_DIR/gz");
     let mut files: Vec<_> = std::fs::read_dir(dist)
         .expect("dist")
         .filter_map(Result::ok)
@@ -92,13 +96,24 @@ fn write_assets(dist: &Path, to: &Path) {
         .collect();
     files.sort();
     let mut text = String::from(
-        "/// Every file of the built page, by name.\npub(crate) static FILES: &[(&str, &[u8])] = &[\n",
+        "/// Every file of the built page, by name: its bytes, gzipped, and its entity tag.\n\
+         pub(crate) static FILES: &[(&str, &[u8], &[u8], &str)] = &[\n",
     );
     for f in files {
         let name = f.file_name().expect("name").to_string_lossy().into_owned();
+        let bytes = std::fs::read(&f).expect("a built file");
+        let zipped = gz.join(format!("{name}.gz"));
+        let mut enc = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::best());
+        std::io::Write::write_all(&mut enc, &bytes).expect("gzip");
+        std::fs::write(&zipped, enc.finish().expect("gzip")).expect("gzipped file");
+        // FNV-1a of the content: the same tag for the same page.
+        let tag = bytes.iter().fold(0xcbf2_9ce4_8422_2325_u64, |h, b| {
+            (h ^ u64::from(*b)).wrapping_mul(0x0100_0000_01b3)
+        });
         text.push_str(&format!(
-            "    ({name:?}, include_bytes!({:?})),\n",
-            f.display().to_string()
+            "    ({name:?}, include_bytes!({:?}), include_bytes!({:?}), \"\\\"{tag:016x}\\\"\"),\n",
+            f.display().to_string(),
+            zipped.display().to_string()
         ));
     }
     text.push_str("];\n");

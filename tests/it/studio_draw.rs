@@ -2,7 +2,8 @@
 //! Europa's file (Excavate) opens from the diagram list and by double-clicking the activity that
 //! calls it; a flow's condition is edited in the panel and a misspelt variable in it is marked
 //! at once with a "did you mean"; a call activity's called process is chosen from the file's
-//! processes; the saved file validates.
+//! processes; each problem is named by the element's name at its line of the saved file; New
+//! asks for a file name; the saved file validates.
 
 use std::process::Command;
 
@@ -143,12 +144,16 @@ async fn scenario(c: Client, url: String) {
            return p && p.textContent"#,
     )
     .await;
-    assert!(
-        problem
-            .as_str()
-            .is_some_and(|p| p.contains("did you mean `fault_code`?")),
-        "{problem}"
-    );
+    let problem = problem.as_str().unwrap_or_default().to_owned();
+    assert!(problem.contains("did you mean `fault_code`?"), "{problem}");
+    // Named as the planner named the flow, at its line in the file as it will be saved.
+    assert!(problem.contains("at `tool stuck` (line "), "{problem}");
+    let line: usize = problem
+        .split("(line ")
+        .nth(1)
+        .and_then(|r| r.split(')').next())
+        .and_then(|n| n.parse().ok())
+        .expect("a line");
     let marked = js(
         &c,
         "return studio.modeler.get('canvas').hasMarker('e15', 'trace-error')",
@@ -192,6 +197,35 @@ async fn scenario(c: Client, url: String) {
         &c,
         "the file saved",
         "return document.body.dataset.saved === 'europa-bsm1.bpmn'",
+    )
+    .await;
+    // The line the problem named is the flow's in the saved file.
+    let saved: String = js(
+        &c,
+        "return fetch('/api/missions/europa-bsm1.bpmn').then(r => r.text())",
+        vec![],
+    )
+    .await
+    .as_str()
+    .unwrap_or_default()
+    .to_owned();
+    let at = saved
+        .lines()
+        .position(|l| l.contains(r#"id="e15""#))
+        .expect("the flow in the saved file")
+        + 1;
+    assert_eq!(line, at, "the problem's line");
+    // New asks for the file's name and keeps nothing unsaved without asking.
+    js(
+        &c,
+        "window.prompt = () => 'survey'; window.confirm = () => true; document.getElementById('new').click();",
+        vec![],
+    )
+    .await;
+    until(
+        &c,
+        "the new mission",
+        "return document.getElementById('missions').value === 'survey.bpmn'",
     )
     .await;
     let errors = js(&c, "return studio.errors", vec![]).await;

@@ -2,9 +2,21 @@
 
 include!(concat!(env!("OUT_DIR"), "/assets.rs"));
 
-/// The file `name` of the page and its media type.
-pub(crate) fn get(name: &str) -> Option<(&'static [u8], &'static str)> {
-    let bytes = FILES.iter().find(|(n, _)| *n == name)?.1;
+/// A file of the page.
+pub(crate) struct Asset {
+    /// Its bytes.
+    pub(crate) bytes: &'static [u8],
+    /// The same, gzipped.
+    pub(crate) gzipped: &'static [u8],
+    /// Its entity tag (quoted).
+    pub(crate) tag: &'static str,
+    /// Its media type.
+    pub(crate) kind: &'static str,
+}
+
+/// The file `name` of the page.
+pub(crate) fn get(name: &str) -> Option<Asset> {
+    let &(_, bytes, gzipped, tag) = FILES.iter().find(|(n, ..)| *n == name)?;
     let kind = match name.rsplit('.').next() {
         Some("html") => "text/html; charset=utf-8",
         Some("js") => "text/javascript; charset=utf-8",
@@ -16,5 +28,10 @@ pub(crate) fn get(name: &str) -> Option<(&'static [u8], &'static str)> {
         Some("eot") => "application/vnd.ms-fontobject",
         _ => "application/octet-stream",
     };
-    Some((bytes, kind))
+    Some(Asset {
+        bytes,
+        gzipped,
+        tag,
+        kind,
+    })
 }

@@ -94,6 +94,51 @@ async fn the_page_and_the_missions_are_served() {
     assert_eq!(status, 404);
 }
 
+/// A GET with extra header lines; the raw response's head and body bytes.
+async fn get_with(addr: SocketAddr, path: &str, headers: &str) -> (String, Vec<u8>) {
+    let mut s = tokio::net::TcpStream::connect(addr).await.expect("connect");
+    let head = format!("GET {path} HTTP/1.1\r\nHost: studio\r\nConnection: close\r\n{headers}\r\n");
+    s.write_all(head.as_bytes()).await.expect("write");
+    let mut out = Vec::new();
+    s.read_to_end(&mut out).await.expect("read");
+    let at = out
+        .windows(4)
+        .position(|w| w == b"\r\n\r\n")
+        .expect("a head");
+    (
+        String::from_utf8_lossy(&out[..at]).to_lowercase(),
+        out[at + 4..].to_vec(),
+    )
+}
+
+#[tokio::test]
+async fn the_page_is_served_gzipped_and_revalidated_by_its_tag() {
+    let addr = serve(dir("gzip")).await;
+    let (plain_head, plain) = get_with(addr, "/", "").await;
+    assert!(!plain_head.contains("content-encoding"), "{plain_head}");
+    let (head, zipped) = get_with(addr, "/", "Accept-Encoding: br;q=1, gzip;q=0.8\r\n").await;
+    assert!(head.contains("content-encoding: gzip"), "{head}");
+    assert!(head.contains("cache-control: no-cache") && head.contains("vary: accept-encoding"));
+    // gzip's magic bytes, and smaller than the page.
+    assert_eq!(&zipped[..2], &[0x1f, 0x8b]);
+    assert!(
+        zipped.len() < plain.len(),
+        "{} ≥ {}",
+        zipped.len(),
+        plain.len()
+    );
+    let tag = head
+        .lines()
+        .find_map(|l| l.strip_prefix("etag: "))
+        .expect("an entity tag")
+        .to_owned();
+    let (head, body) = get_with(addr, "/", &format!("If-None-Match: {tag}\r\n")).await;
+    assert!(head.starts_with("http/1.1 304"), "{head}");
+    assert!(body.is_empty());
+    let (head, _) = get_with(addr, "/", "If-None-Match: \"other\"\r\n").await;
+    assert!(head.starts_with("http/1.1 200"), "{head}");
+}
+
 #[tokio::test]
 async fn validation_reports_what_trace_validate_reports() {
     let addr = serve(dir("validate")).await;

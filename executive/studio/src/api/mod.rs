@@ -9,7 +9,7 @@ use std::sync::Arc;
 
 use axum::Router;
 use axum::extract::{DefaultBodyLimit, Extension, Path, State};
-use axum::http::{StatusCode, header};
+use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{IntoResponse, Json, Response};
 use axum::routing::{get, post};
 use executive_model::Options;
@@ -30,7 +30,10 @@ pub fn router(studio: Studio) -> Router {
     // A model is read only up to the loader's own limit; a larger body is refused by axum.
     let limit = Options::default().limits.max_bytes + 1;
     Router::new()
-        .route("/", get(|| async { page("index.html") }))
+        .route(
+            "/",
+            get(|headers: HeaderMap| async move { page("index.html", &headers) }),
+        )
         // Browsers ask for it unprompted; there is none.
         .route("/favicon.ico", get(|| async { StatusCode::NO_CONTENT }))
         .route("/api/missions", get(missions::list))
@@ -58,7 +61,9 @@ pub fn router(studio: Studio) -> Router {
         .route("/api/simulate/{id}", post(games::act).delete(games::end))
         .route(
             "/{file}",
-            get(|Path(file): Path<String>| async move { page(&file) }),
+            get(
+                |Path(file): Path<String>, headers: HeaderMap| async move { page(&file, &headers) },
+            ),
         )
         .layer(DefaultBodyLimit::max(limit))
         .layer(Extension(Arc::new(games::Games::default())))
@@ -81,9 +86,43 @@ pub(super) fn file_error(e: FileError) -> Response {
     refuse(status, e)
 }
 
-fn page(file: &str) -> Response {
-    match assets::get(file) {
-        Some((bytes, kind)) => ([(header::CONTENT_TYPE, kind)], bytes).into_response(),
-        None => refuse(StatusCode::NOT_FOUND, format!("no page file `{file}`")),
+/// A file of the page: gzipped when the browser takes gzip, and revalidated by its entity tag
+/// (the files keep their names from build to build, so a browser asks each time and gets
+/// `304 Not Modified` while the page is the same).
+fn page(file: &str, headers: &HeaderMap) -> Response {
+    let Some(a) = assets::get(file) else {
+        return refuse(StatusCode::NOT_FOUND, format!("no page file `{file}`"));
+    };
+    let matches = headers
+        .get(header::IF_NONE_MATCH)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|v| v.split(',').any(|t| t.trim() == a.tag || t.trim() == "*"));
+    let cache = [
+        (header::ETAG, a.tag),
+        (header::CACHE_CONTROL, "no-cache"),
+        (header::VARY, "Accept-Encoding"),
+    ];
+    if matches {
+        return (StatusCode::NOT_MODIFIED, cache).into_response();
+    }
+    let gzip = headers
+        .get(header::ACCEPT_ENCODING)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|v| {
+            v.split(',')
+                .any(|e| e.split(';').next().is_some_and(|e| e.trim() == "gzip"))
+        });
+    if gzip {
+        (
+            cache,
+            [
+                (header::CONTENT_TYPE, a.kind),
+                (header::CONTENT_ENCODING, "gzip"),
+            ],
+            a.gzipped,
+        )
+            .into_response()
+    } else {
+        (cache, [(header::CONTENT_TYPE, a.kind)], a.bytes).into_response()
     }
 }

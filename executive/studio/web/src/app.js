@@ -141,11 +141,25 @@ const EMPTY = `<?xml version="1.0" encoding="UTF-8"?>
   </bpmndi:BPMNDiagram>
 </bpmn:definitions>`;
 
+/** A new mission: its file name asked for (a plain name, `.bpmn` added), unsaved edits kept
+ * unless the planner lets them go. */
 async function create() {
+  if (dirty && !confirm(`Leave ${current} without saving?`)) return;
   const taken = new Set([...$('missions').options].map(o => o.value));
   let n = 1;
   while (taken.has(`mission-${n}.bpmn`)) n += 1;
-  const name = `mission-${n}.bpmn`;
+  const asked = prompt('Name of the new mission file', `mission-${n}.bpmn`);
+  if (asked === null) return;
+  let name = asked.trim();
+  if (!name.endsWith('.bpmn')) name += '.bpmn';
+  if (!/^[A-Za-z0-9][A-Za-z0-9._-]*\.bpmn$/.test(name)) {
+    say(`${name}: a file name is letters, digits, '.', '_' and '-'`, 'bad');
+    return;
+  }
+  if (taken.has(name)) {
+    say(`${name} exists: open it from the list`, 'bad');
+    return;
+  }
   $('missions').append(new Option(name, name));
   await show(name, EMPTY);
   dirty = true;
@@ -176,7 +190,8 @@ function fit(c) {
 
 /** Validates the model as it is now and shows every diagnostic. */
 async function check() {
-  const { xml } = await modeler.saveXML();
+  // Formatted as saved, so that each problem's line is the saved file's.
+  const { xml } = await modeler.saveXML({ format: true });
   let report;
   try {
     report = JSON.parse(await api('/api/validate', {
@@ -195,10 +210,12 @@ async function check() {
     canvas.removeMarker(el, 'trace-warning');
   }
   const items = [];
+  const root = canvas.getRootElement();
   for (const d of report.diagnostics) {
     const el = d.element && registry.get(d.element);
     const kind = d.severity === 'error' ? 'error' : 'warning';
-    if (el) {
+    // A process-level problem is listed, not painted over the whole diagram.
+    if (el && el !== root) {
       canvas.addMarker(el, `trace-${kind}`);
       const badge = document.createElement('div');
       badge.className = `trace-badge trace-badge-${kind}`;
@@ -210,8 +227,10 @@ async function check() {
     li.className = `problem ${kind}`;
     li.dataset.element = d.element || '';
     li.dataset.code = d.code;
-    li.textContent = `${kind} ${d.code}${d.element ? ` at ${d.element}` : ''} (line ${d.line}): ${d.message}`;
-    if (el) li.addEventListener('click', () => {
+    const bo = el && el.businessObject;
+    const where = bo && bo.name ? `\`${bo.name}\`` : d.element;
+    li.textContent = `${kind} ${d.code}${where ? ` at ${where}` : ''} (line ${d.line}): ${d.message}`;
+    if (el && el !== root) li.addEventListener('click', () => {
       modeler.get('selection').select(el);
       canvas.scrollToElement(el);
     });
@@ -240,6 +259,9 @@ $('missions').addEventListener('change', e => {
   open(e.target.value).catch(err => say(err.message, 'bad'));
 });
 $('new').addEventListener('click', () => create().catch(err => say(err.message, 'bad')));
+$('zoom-in').addEventListener('click', () => modeler.get('zoomScroll').stepZoom(1));
+$('zoom-out').addEventListener('click', () => modeler.get('zoomScroll').stepZoom(-1));
+$('zoom-fit').addEventListener('click', () => fitView());
 $('diagrams').addEventListener('change', e => openDiagram(e.target.value).catch(err => say(err.message, 'bad')));
 // A call activity opens the process it calls, when the file draws it.
 modeler.on('element.dblclick', 1500, ({ element }) => {
