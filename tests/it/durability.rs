@@ -149,15 +149,17 @@ fn killed_fifty_times_the_mission_ends_as_if_never_interrupted() {
         "the completed activities differ from an uninterrupted run"
     );
 
-    // The execution record is valid JSON Lines, and shows every reboot.
+    // The execution record is valid JSON Lines, shows every reboot, and each line carries its
+    // own position across the fifty restarts (what joins the history and the live stream).
     let text = std::fs::read_to_string(&record).expect("record");
     let mut reboots = 0;
-    for l in text.lines() {
+    for (i, l) in text.lines().enumerate() {
         let v: serde_json::Value =
             serde_json::from_str(l).unwrap_or_else(|e| panic!("bad record line {l}: {e}"));
         if v["kind"] == "reboot" {
             reboots += 1;
         }
+        assert_eq!(v["line"], i + 1, "{l}");
     }
     assert_eq!(reboots, kills, "one reboot marker per kill");
 

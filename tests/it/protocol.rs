@@ -871,6 +871,71 @@ mod misbehaving {
     }
 
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn garbage_results_published_about_a_running_goal_never_end_it() {
+        let p = endpoint(port());
+        let sys = open(std::slice::from_ref(&p), &[]).await;
+        let exec = open(&[], &[p]).await;
+        let mut raw = RawServer::start(&sys, lander()).await;
+        let limits = Limits {
+            retry_first_ms: 20,
+            unreadable_max: 3,
+            ..Limits::default()
+        };
+        let (mut c, mut rx) = limited(&exec, limits, Duration::from_secs(5), false).await;
+        let mut drops = c.drops();
+        c.execute(dig("m.1.1.1"));
+        let q = raw.goals.recv().await.expect("goal");
+        reply(&q, json!({"goal_id": "m.1.1.1", "status": "ACCEPTED"})).await;
+        expect(
+            &mut rx,
+            |r| matches!(r, Report::Accepted { goal_id } if goal_id == "m.1.1.1"),
+        )
+        .await;
+        // Ten unusable results naming the goal, more than unreadable_max: half do not parse,
+        // half are not terminal.
+        let k = Keys::default();
+        for _ in 0..5 {
+            sys.put(
+                k.stream("lander", "dig", Channel::Result),
+                br#"{"goal_id":"m.1.1.1","status":"#.to_vec(),
+            )
+            .await
+            .expect("put");
+            raw.publish(
+                Channel::Result,
+                json!({"goal_id": "m.1.1.1", "status": "EXECUTING"}),
+            )
+            .await;
+        }
+        dropped(&mut drops, "garbage", 5).await;
+        dropped(&mut drops, "invalid_status", 5).await;
+        // The server is asked instead, and says the goal runs.
+        let q = tokio::time::timeout(Duration::from_secs(20), raw.states.recv())
+            .await
+            .expect("a state query within 20 s")
+            .expect("a state query");
+        reply(
+            &q,
+            json!({"goal_id": "m.1.1.1", "status": "EXECUTING", "seq": 2}),
+        )
+        .await;
+        // Then the server's own result ends it.
+        raw.publish(
+            Channel::Result,
+            json!({"goal_id": "m.1.1.1", "status": "SUCCEEDED", "outputs": {"depth_cm": 4.0}}),
+        )
+        .await;
+        let r = tokio::time::timeout(Duration::from_secs(20), outcome(&mut rx))
+            .await
+            .expect("the goal ends within 20 s");
+        assert!(
+            matches!(&r, Report::Done { goal_id, .. } if goal_id == "m.1.1.1"),
+            "{r:?}"
+        );
+        drop(c);
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
     async fn a_terminal_status_without_its_result_ends_with_protocol_error() {
         let p = endpoint(port());
         let sys = open(std::slice::from_ref(&p), &[]).await;

@@ -2,7 +2,7 @@
 //! Europa's file (Excavate) opens from the diagram list and by double-clicking the activity that
 //! calls it; a flow's condition is edited in the panel and a misspelt variable in it is marked
 //! at once with a "did you mean"; a call activity's called process is chosen from the file's
-//! processes; each problem is named by the element's name at its line of the saved file; New
+//! processes; a multi-instance activity's items are set in the panel; each problem is named by the element's name at its line of the saved file; New
 //! asks for a file name; the saved file validates.
 
 use std::process::Command;
@@ -52,6 +52,12 @@ fn the_studio_opens_every_process_and_edits_conditions_and_calls_without_xml() {
     assert!(
         saved.contains("fault_code == \"TOOL_STUCK\" &amp;&amp; attempts &lt; 5"),
         "the edited condition is not in the saved file"
+    );
+    assert!(
+        saved.contains(
+            r#"<zeebe:loopCharacteristics inputCollection="= tried_sites" inputElement="site" />"#
+        ),
+        "the multi-instance items are not in the saved file"
     );
     let out = Command::new(bin("trace"))
         .arg("validate")
@@ -215,6 +221,44 @@ async fn scenario(c: Client, url: String) {
         .expect("the flow in the saved file")
         + 1;
     assert_eq!(line, at, "the problem's line");
+    // A task made multi-instance (as the wrench menu makes it) gets its items in the panel.
+    js(
+        &c,
+        "const m = studio.modeler; const el = m.get('elementRegistry').get('SelectNextSite');
+         m.get('modeling').updateProperties(el, { loopCharacteristics:
+           m.get('bpmnFactory').create('bpmn:MultiInstanceLoopCharacteristics', { isSequential: true }) });",
+        vec![],
+    )
+    .await;
+    click(&c, r#"g.djs-element[data-element-id="SelectNextSite"]"#).await;
+    open_group(&c, "trace-loop").await;
+    type_into(
+        &c,
+        "#bio-properties-panel-trace-loop-collection",
+        "tried_sites",
+    )
+    .await;
+    type_into(&c, "#bio-properties-panel-trace-loop-element", "site").await;
+    until(
+        &c,
+        "the items in the model",
+        "const l = studio.modeler.get('elementRegistry').get('SelectNextSite').businessObject.loopCharacteristics;
+         const z = l.extensionElements && l.extensionElements.values[0];
+         return z && z.inputCollection === '= tried_sites' && z.inputElement === 'site'",
+    )
+    .await;
+    js(
+        &c,
+        "document.body.dataset.saved = ''; window.dispatchEvent(new KeyboardEvent('keydown', { key: 's', ctrlKey: true }))",
+        vec![],
+    )
+    .await;
+    until(
+        &c,
+        "the file saved again",
+        "return document.body.dataset.saved === 'europa-bsm1.bpmn'",
+    )
+    .await;
     // New asks for the file's name and keeps nothing unsaved without asking.
     js(
         &c,

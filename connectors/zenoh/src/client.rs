@@ -466,7 +466,14 @@ impl Shared {
                 );
                 self.drops
                     .drop(Reason::InvalidStatus, key, "result", &r.goal_id, &why);
-                self.not_understood(&r.goal_id, why);
+                match source {
+                    // Anyone may publish on a stream: what it says does not count against
+                    // the server; the server is asked instead.
+                    Source::Stream(_) => self.recheck(&r.goal_id),
+                    Source::Reply(_) => {
+                        self.not_understood(&r.goal_id, why);
+                    }
+                }
                 return false;
             }
         };
@@ -528,6 +535,15 @@ impl Shared {
             self.start_sending(goal_id);
         }
         false
+    }
+
+    /// Something on a stream about a goal could not be used: the server is asked for the goal's
+    /// `state` (once acknowledged), without counting it against `unreadable_max` — what any
+    /// process can publish must not end a goal (§4.4).
+    fn recheck(self: &Arc<Self>, goal_id: &str) {
+        if self.state().flights.get(goal_id).is_some_and(|f| f.acked) {
+            self.start_asking(goal_id);
+        }
     }
 
     /// An answer about the goal was understood: the count of those that were not restarts.
@@ -1336,10 +1352,9 @@ impl Shared {
                 let goal_id = goal_id_in(&bytes);
                 self.drops
                     .drop(Reason::Garbage, key, "result", &goal_id, &e.to_string());
-                // A result of one of our goals that we cannot read: ask for it.
-                if self.state().flights.get(&goal_id).is_some_and(|f| f.acked) {
-                    self.not_understood(&goal_id, e.to_string());
-                }
+                // A result naming one of our goals that we cannot read: the server is asked
+                // (anyone may publish on the stream, so it counts for nothing by itself).
+                self.recheck(&goal_id);
             }
         }
     }

@@ -21,16 +21,21 @@ pub struct RecordWriter {
     file: File,
     graph: Arc<ProcessGraph>,
     mirror: Option<Mirror>,
+    /// The position the next line takes in the file (`"line"`, from 1).
+    next: u64,
 }
 
 impl RecordWriter {
     /// Opens `path` for appending (created if missing).
+    /// Lines already in the file are counted: every line's `line` is its position in the file.
     pub fn open(path: &Path, graph: Arc<ProcessGraph>) -> std::io::Result<RecordWriter> {
         let file = OpenOptions::new().create(true).append(true).open(path)?;
+        let written = std::fs::read(path)?.iter().filter(|b| **b == b'\n').count() as u64;
         Ok(RecordWriter {
             file,
             graph,
             mirror: None,
+            next: written + 1,
         })
     }
 
@@ -114,11 +119,14 @@ impl RecordWriter {
     }
 
     fn line(&mut self, v: &Value) -> std::io::Result<()> {
-        let mut text = serde_json::to_string(v).map_err(std::io::Error::other)?;
+        let mut v = v.clone();
+        v["line"] = json!(self.next);
+        let mut text = serde_json::to_string(&v).map_err(std::io::Error::other)?;
         text.push('\n');
         // One write per line, then flush: a kill leaves whole lines only.
         self.file.write_all(text.as_bytes())?;
         self.file.flush()?;
+        self.next += 1;
         if let Some(m) = &self.mirror {
             m(text.trim_end());
         }

@@ -229,6 +229,20 @@ pub fn check_systems(path: &Path, loaded: &mut Loaded, systems: &Systems) -> Res
             d.category = Category::Execution;
             found.push(d);
         }
+        // A task nothing but the watchdog's default ends if its system goes silent.
+        for m in connector_api::check::unbounded(&uses, config, catalogues) {
+            let offset = graph
+                .node_by_id(&m.task)
+                .map_or(0, |n| graph.node(n).offset);
+            found.push(crate::dataflow::located(
+                &loaded.text,
+                Severity::Warning,
+                "unbounded-task",
+                &m.task,
+                offset,
+                m.problem,
+            ));
+        }
     }
     loaded.diagnostics.extend(found);
     loaded

@@ -1,5 +1,6 @@
 // What a planner draws besides tasks, without XML: a sequence flow's condition, a call
-// activity's called process (the file's processes), a script task's CEL script. Each is
+// activity's called process (the file's processes), a script task's CEL script, a
+// multi-instance activity's items (Camunda 8's `zeebe:loopCharacteristics`). Each is
 // written where the executive reads it and checked by the same check as `trace validate` once
 // written (app.js marks the problems).
 import { is, getBusinessObject } from 'bpmn-js/lib/util/ModelUtil';
@@ -75,6 +76,68 @@ function ScriptEntry({ element, id }) {
   });
 }
 
+/** The multi-instance characteristics of an activity, or undefined. */
+function multiInstance(element) {
+  const l = getBusinessObject(element).get('loopCharacteristics');
+  return l && is(l, 'bpmn:MultiInstanceLoopCharacteristics') ? l : undefined;
+}
+
+/** Its `zeebe:loopCharacteristics` (Camunda 8's items, which the executive reads). */
+function zeebeLoop(loop) {
+  const ext = loop.get('extensionElements');
+  return ext && ext.get('values').find(v => is(v, 'zeebe:LoopCharacteristics'));
+}
+
+/** Sets `attribute` of the activity's `zeebe:loopCharacteristics`, creating it if needed. */
+function setLoop(element, bpmnFactory, commandStack, attribute, value) {
+  const loop = multiInstance(element);
+  const cmds = [];
+  let ext = loop.get('extensionElements');
+  if (!ext) {
+    ext = bpmnFactory.create('bpmn:ExtensionElements', { values: [] });
+    ext.$parent = loop;
+    cmds.push({ cmd: 'element.updateModdleProperties',
+      context: { element, moddleElement: loop, properties: { extensionElements: ext } } });
+  }
+  let z = ext.get('values').find(v => is(v, 'zeebe:LoopCharacteristics'));
+  if (!z) {
+    z = bpmnFactory.create('zeebe:LoopCharacteristics', {});
+    z.$parent = ext;
+    cmds.push({ cmd: 'element.updateModdleProperties',
+      context: { element, moddleElement: ext, properties: { values: [...ext.get('values'), z] } } });
+  }
+  cmds.push({ cmd: 'element.updateModdleProperties',
+    context: { element, moddleElement: z, properties: { [attribute]: value || undefined } } });
+  commandStack.execute('properties-panel.multi-command-executor', cmds);
+}
+
+function loopEntry(attribute, label, description, feel) {
+  return function LoopEntry({ element, id }) {
+    const bpmnFactory = useService('bpmnFactory');
+    const commandStack = useService('commandStack');
+    return TextFieldEntry({
+      element, id, label, description,
+      getValue: () => {
+        const v = zeebeLoop(multiInstance(element))?.get(attribute) || '';
+        return feel ? v.replace(/^=\s*/, '') : v;
+      },
+      setValue: value => {
+        const text = (value || '').trim();
+        setLoop(element, bpmnFactory, commandStack, attribute,
+          text && feel ? `= ${text}` : text);
+      },
+      debounce: fn => fn,
+    });
+  };
+}
+
+const CollectionEntry = loopEntry('inputCollection', 'Collection',
+  'The list of items, one instance each (FEEL: `sites`)', true);
+const ElementEntry = loopEntry('inputElement', 'Element variable',
+  'The name each instance reads its item as (`site`)', false);
+const OutputEntry = loopEntry('outputCollection', 'Output collection',
+  'The variable that collects each instance\'s output, in order', false);
+
 function DrawingProvider(propertiesPanel) {
   this.getGroups = element => groups => {
     if (conditional(element)) {
@@ -90,6 +153,13 @@ function DrawingProvider(propertiesPanel) {
     if (is(element, 'bpmn:ScriptTask')) {
       groups.splice(1, 0, { id: 'trace-script', label: 'Script', entries: [
         { id: 'trace-script-body', element, component: ScriptEntry, isEdited: isTextAreaEntryEdited },
+      ] });
+    }
+    if (multiInstance(element)) {
+      groups.splice(1, 0, { id: 'trace-loop', label: 'Multi-instance items', entries: [
+        { id: 'trace-loop-collection', element, component: CollectionEntry, isEdited: isTextFieldEntryEdited },
+        { id: 'trace-loop-element', element, component: ElementEntry, isEdited: isTextFieldEntryEdited },
+        { id: 'trace-loop-output', element, component: OutputEntry, isEdited: isTextFieldEntryEdited },
       ] });
     }
     return groups;
