@@ -246,7 +246,7 @@ fn scenario(name: &str) -> Vec<serde_json::Value> {
 }
 
 /// (resource, kind, code or output) of every task outcome, in order.
-fn outcomes(lines: &[serde_json::Value]) -> Vec<(String, String, serde_json::Value)> {
+pub(crate) fn outcomes(lines: &[serde_json::Value]) -> Vec<(String, String, serde_json::Value)> {
     outcomes_from(lines, 0)
 }
 

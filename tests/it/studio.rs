@@ -134,19 +134,7 @@ fn the_studio_opens_checks_edits_and_saves_a_mission_in_headless_chromium() {
         missions.join("europa-flawed.req.toml"),
     )
     .expect("requirements");
-    let mut studio = Command::new(bin("trace"));
-    studio
-        .arg("studio")
-        .arg(&missions)
-        .args(["--port", "0", "--catalogue"])
-        .arg(repo().join("deploy/catalogues"))
-        .arg("--catalogue")
-        .arg(repo().join("deploy/ground/forms.json"))
-        .arg("--connectors")
-        .arg(repo().join("deploy/connectors.toml"))
-        // The files only: another test's systems on this host stay out of it.
-        .arg("--offline");
-    let page = Page::start(studio);
+    let page = Page::start(europa_studio(&missions));
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
@@ -178,6 +166,23 @@ fn the_studio_opens_checks_edits_and_saves_a_mission_in_headless_chromium() {
         "the saved file does not validate:\n{}",
         String::from_utf8_lossy(&out.stdout)
     );
+}
+
+/// `trace studio` on `missions` with Europa's catalogues, ground forms and connectors, offline
+/// (the files only: another test's systems on this host stay out of it).
+pub(crate) fn europa_studio(missions: &std::path::Path) -> Command {
+    let mut studio = Command::new(bin("trace"));
+    studio
+        .arg("studio")
+        .arg(missions)
+        .args(["--port", "0", "--catalogue"])
+        .arg(repo().join("deploy/catalogues"))
+        .arg("--catalogue")
+        .arg(repo().join("deploy/ground/forms.json"))
+        .arg("--connectors")
+        .arg(repo().join("deploy/connectors.toml"))
+        .arg("--offline");
+    studio
 }
 
 /// Runs `script` in the page (its `arguments` are `args`) and returns its value.

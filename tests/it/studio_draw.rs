@@ -12,7 +12,7 @@ use mission_tests::{bin, repo};
 use serde_json::json;
 
 use crate::protocol::tempdir;
-use crate::studio::{Page, click, js, open_group, type_into, until};
+use crate::studio::{Page, click, europa_studio, js, open_group, type_into, until};
 
 #[test]
 fn the_studio_opens_every_process_and_edits_conditions_and_calls_without_xml() {
@@ -24,18 +24,7 @@ fn the_studio_opens_every_process_and_edits_conditions_and_calls_without_xml() {
         missions.join("europa-bsm1.bpmn"),
     )
     .expect("copy");
-    let mut studio = Command::new(bin("trace"));
-    studio
-        .arg("studio")
-        .arg(&missions)
-        .args(["--port", "0", "--catalogue"])
-        .arg(repo().join("deploy/catalogues"))
-        .arg("--catalogue")
-        .arg(repo().join("deploy/ground/forms.json"))
-        .arg("--connectors")
-        .arg(repo().join("deploy/connectors.toml"))
-        .arg("--offline");
-    let page = Page::start(studio);
+    let page = Page::start(europa_studio(&missions));
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use executive_model::{Category, Diagnostic, Loaded, Options, Severity, load_bundle};
+use executive_model::{Diagnostic, Loaded, Options, Severity, load_bundle};
 use serde::Serialize;
 
 use crate::Studio;
@@ -109,24 +109,7 @@ fn at_element(text: &str, id: &str, message: String) -> Diagnostic {
         .filter_map(|needle| text.find(needle.as_str()))
         .min()
         .map_or(0, |at| text[..at].rfind('<').unwrap_or(at));
-    let before = &text[..offset];
-    let line = before.matches('\n').count() + 1;
-    let column = before[before.rfind('\n').map_or(0, |n| n + 1)..]
-        .chars()
-        .count()
-        + 1;
-    Diagnostic {
-        severity: Severity::Error,
-        code: CATALOGUE_CODE,
-        category: Category::Execution,
-        constraint: None,
-        message,
-        file: None,
-        element: Some(id.to_owned()),
-        offset,
-        line,
-        column,
-    }
+    executive::dataflow::located(text, Severity::Error, CATALOGUE_CODE, id, offset, message)
 }
 
 /// Loads a model as `trace validate` does (with `options`), imports read from `dir` (plain

@@ -143,12 +143,13 @@ const EMPTY = `<?xml version="1.0" encoding="UTF-8"?>
 
 /** A new mission: its file name asked for (a plain name, `.bpmn` added), unsaved edits kept
  * unless the planner lets them go. */
-async function create() {
+async function create(ask = true) {
   if (dirty && !confirm(`Leave ${current} without saving?`)) return;
   const taken = new Set([...$('missions').options].map(o => o.value));
   let n = 1;
   while (taken.has(`mission-${n}.bpmn`)) n += 1;
-  const asked = prompt('Name of the new mission file', `mission-${n}.bpmn`);
+  // An empty directory opens on a new mission at once: nothing to ask yet.
+  const asked = ask ? prompt('Name of the new mission file', `mission-${n}.bpmn`) : `mission-${n}.bpmn`;
   if (asked === null) return;
   let name = asked.trim();
   if (!name.endsWith('.bpmn')) name += '.bpmn';
@@ -308,7 +309,7 @@ setInterval(() => catalogues().catch(e => say(`catalogues: ${e.message}`, 'bad')
     const wanted = new URLSearchParams(location.search).get('file');
     const files = await listMissions();
     const first = wanted || (files[0] && files[0].name);
-    if (first) await open(first); else await create();
+    if (first) await open(first); else await create(false);
   } catch (e) {
     say(e.message, 'bad');
   }
