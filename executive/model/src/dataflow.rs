@@ -18,9 +18,9 @@
 //!
 //! Written means: an output mapping's target, a script's assignment, a data output
 //! association, a multi-instance output collection, a caught error's code or message
-//! variable, a call activity's outputs, a message's payload (signals carry none), a dispatched task's result (every
-//! field, when the task maps none), a declared data object or property, the process's start
-//! variables, and the engine's own (`loopCounter`, `nrOfInstances`, … inside a loop, the
+//! variable, a call activity's outputs, a message's payload (signals carry none), a dispatched
+//! task's result (every field, when the task maps none), a declared data object or property,
+//! the process's start variables, and the engine's own (`loopCounter`, `nrOfInstances`, … inside a loop, the
 //! multi-instance element variable). System data (the connectors' telemetry) is read by name
 //! too; the caller knows which names it has.
 
@@ -751,10 +751,26 @@ fn shallow_writes(n: &Node) -> Names {
             _ if matches!(t.kind, TaskKind::Plain | TaskKind::Manual) => {}
             _ => w.all = true,
         },
-        NodeKind::CallActivity(_)
-        | NodeKind::Start(_)
-        | NodeKind::Catch(_)
-        | NodeKind::Boundary(_) => w.all = true,
+        NodeKind::CallActivity(_) => w.all = true,
+        NodeKind::Start(StartEvent { triggers, .. })
+        | NodeKind::Catch(CatchEvent { triggers, .. })
+        | NodeKind::Boundary(BoundaryEvent { triggers, .. }) => {
+            for d in triggers {
+                match d {
+                    EventDefinition::Message(_) => w.all = true,
+                    EventDefinition::Error {
+                        code_variable,
+                        message_variable,
+                        ..
+                    } => {
+                        for v in [code_variable, message_variable].into_iter().flatten() {
+                            w.insert(v);
+                        }
+                    }
+                    _ => {}
+                }
+            }
+        }
         _ => {}
     }
     if let Some(Looping::MultiInstance(mi)) = &n.looping
