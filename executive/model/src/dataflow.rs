@@ -919,17 +919,7 @@ fn solve(
     for p in 0..g.processes.len() {
         queue.push_back(V::Entry(ProcessId(p as u32)));
     }
-    let called: BTreeSet<ProcessId> = g
-        .nodes
-        .iter()
-        .filter_map(|n| match &n.kind {
-            NodeKind::CallActivity(CallActivity {
-                called: Some(Called::Process(p)),
-                ..
-            }) => Some(*p),
-            _ => None,
-        })
-        .collect();
+    let called = g.called_processes();
     let mut rounds = 0usize;
     let limit = 64 * (g.nodes.len() + g.processes.len() + 1) * 2 + 1024;
     while let Some(v) = queue.pop_front() {

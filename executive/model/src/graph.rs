@@ -161,12 +161,9 @@ impl ProcessGraph {
         }
     }
 
-    /// Processes that start when the mission starts: the executable ones of the model file
-    /// that no call activity calls. Processes marked `isExecutable="false"` are descriptive
-    /// and never run; imported and called ones run only when called.
-    pub fn primary_processes(&self) -> Vec<ProcessId> {
-        let called: Vec<ProcessId> = self
-            .nodes
+    /// The processes some call activity calls.
+    pub fn called_processes(&self) -> std::collections::BTreeSet<ProcessId> {
+        self.nodes
             .iter()
             .filter_map(|n| match &n.kind {
                 NodeKind::CallActivity(CallActivity {
@@ -175,7 +172,14 @@ impl ProcessGraph {
                 }) => Some(*p),
                 _ => None,
             })
-            .collect();
+            .collect()
+    }
+
+    /// Processes that start when the mission starts: the executable ones of the model file
+    /// that no call activity calls. Processes marked `isExecutable="false"` are descriptive
+    /// and never run; imported and called ones run only when called.
+    pub fn primary_processes(&self) -> Vec<ProcessId> {
+        let called = self.called_processes();
         (0..self.processes.len() as u32)
             .map(ProcessId)
             .filter(|p| {
