@@ -89,6 +89,26 @@ impl Page {
         }
     }
 
+    /// Plays `scenario` (given a browser session and the studio's address) to its end; the
+    /// session is closed even when the scenario fails, or Chromium would outlive the test.
+    pub(crate) fn play<F>(self, scenario: impl FnOnce(Client, String) -> F)
+    where
+        F: std::future::Future<Output = ()> + Send + 'static,
+    {
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .expect("runtime");
+        rt.block_on(async move {
+            let c = self.browser().await;
+            let outcome = tokio::spawn(scenario(c.clone(), self.url.clone())).await;
+            let _ = c.close().await;
+            if let Err(e) = outcome {
+                std::panic::resume_unwind(e.into_panic());
+            }
+        });
+    }
+
     /// A WebDriver session of headless Debian chromium.
     pub(crate) async fn browser(&self) -> Client {
         let mut caps = serde_json::Map::new();
@@ -134,23 +154,10 @@ fn the_studio_opens_checks_edits_and_saves_a_mission_in_headless_chromium() {
         missions.join("europa-flawed.req.toml"),
     )
     .expect("requirements");
-    let page = Page::start(europa_studio(&missions));
-    let rt = tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .expect("runtime");
-    // The scratch directory stays with the test (it is removed when dropped): the block gets
-    // its path.
+    // The scratch directory stays with the test (it is removed when dropped): the scenario
+    // gets its path.
     let path = dir.to_path_buf();
-    rt.block_on(async move {
-        let c = page.browser().await;
-        // A failing scenario still ends the session, or Chromium outlives the test.
-        let outcome = tokio::spawn(scenario(c.clone(), page.url.clone(), path)).await;
-        let _ = c.close().await;
-        if let Err(e) = outcome {
-            std::panic::resume_unwind(e.into_panic());
-        }
-    });
+    Page::start(europa_studio(&missions)).play(|c, url| scenario(c, url, path));
     let saved = std::fs::read_to_string(missions.join("europa-bsm1.bpmn")).expect("saved");
     assert!(
         saved.contains(r#"target="exposure_ms" source="80""#),

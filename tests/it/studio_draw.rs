@@ -24,19 +24,7 @@ fn the_studio_opens_every_process_and_edits_conditions_and_calls_without_xml() {
         missions.join("europa-bsm1.bpmn"),
     )
     .expect("copy");
-    let page = Page::start(europa_studio(&missions));
-    let rt = tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .expect("runtime");
-    rt.block_on(async move {
-        let c = page.browser().await;
-        let outcome = tokio::spawn(scenario(c.clone(), page.url.clone())).await;
-        let _ = c.close().await;
-        if let Err(e) = outcome {
-            std::panic::resume_unwind(e.into_panic());
-        }
-    });
+    Page::start(europa_studio(&missions)).play(scenario);
     let saved = std::fs::read_to_string(missions.join("europa-bsm1.bpmn")).expect("saved");
     assert!(
         saved.contains("fault_code == \"TOOL_STUCK\" &amp;&amp; attempts &lt; 5"),

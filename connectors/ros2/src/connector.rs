@@ -30,6 +30,9 @@ use connector_api::{
 };
 use serde_json::{Value, json};
 
+/// How long a closing connector waits for the answers to the cancels it sent.
+const CANCELS_WITHIN: Duration = Duration::from_secs(2);
+
 /// The `rclpy` node the connector drives.
 pub const BRIDGE: &str = include_str!("bridge.py");
 
@@ -50,7 +53,9 @@ pub fn goal_uuid(goal_id: &str) -> String {
 enum Ask {
     Goal(Command, bool),
     Cancel(String),
-    Close,
+    /// Stop, once the cancels sent have been answered (at most [`CANCELS_WITHIN`]); `done`
+    /// hears when the bridge is gone.
+    Close(Option<tokio::sync::oneshot::Sender<()>>),
 }
 
 /// What reaches the worker.
@@ -138,14 +143,17 @@ impl Connector for Ros2Connector {
     }
 
     fn close(&mut self) -> BoxFuture<'_, ()> {
-        self.ask(Ask::Close);
-        Box::pin(async {})
+        let (done, gone) = tokio::sync::oneshot::channel();
+        self.ask(Ask::Close(Some(done)));
+        Box::pin(async move {
+            let _ = tokio::time::timeout(CANCELS_WITHIN + Duration::from_secs(1), gone).await;
+        })
     }
 }
 
 impl Drop for Ros2Connector {
     fn drop(&mut self) {
-        let _ = self.to_worker.send(Msg::Ask(Ask::Close));
+        let _ = self.to_worker.send(Msg::Ask(Ask::Close(None)));
     }
 }
 
@@ -178,9 +186,13 @@ struct Worker {
 impl Worker {
     fn run(mut self, rx: mpsc::Receiver<Msg>) {
         self.start();
+        // Closing: since when, and who waits for the end.
+        let mut closing: Option<(Instant, Option<tokio::sync::oneshot::Sender<()>>)> = None;
         loop {
             match rx.recv_timeout(Duration::from_millis(100)) {
-                Ok(Msg::Ask(Ask::Close)) => break,
+                Ok(Msg::Ask(Ask::Close(done))) => {
+                    closing.get_or_insert((Instant::now(), done));
+                }
                 Ok(Msg::Ask(Ask::Goal(c, resume))) => self.goal(c, resume),
                 Ok(Msg::Ask(Ask::Cancel(id))) => self.cancel(&id),
                 Ok(Msg::Line(l)) => self.line(&l),
@@ -189,10 +201,19 @@ impl Worker {
                 Err(mpsc::RecvTimeoutError::Disconnected) => break,
             }
             self.tick();
+            // A cancel sent reaches its server before the bridge goes: its answer is awaited.
+            if let Some((at, _)) = &closing
+                && (!self.goals.values().any(|g| g.cancelled) || at.elapsed() > CANCELS_WITHIN)
+            {
+                break;
+            }
         }
         if let Some(mut b) = self.bridge.take() {
             let _ = b.child.kill();
             let _ = b.child.wait();
+        }
+        if let Some((_, Some(done))) = closing {
+            let _ = done.send(());
         }
     }
 

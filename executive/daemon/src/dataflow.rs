@@ -57,7 +57,9 @@ pub fn diagnostics(g: &ProcessGraph, text: &str, known: &Known<'_>) -> Vec<Diagn
         start: &start,
         results: &results,
     };
-    let written = dataflow::written_names(g);
+    // Every name the model writes, for "did you mean": only once a name is found unwritten.
+    let written = std::cell::OnceCell::new();
+    let missions = trace_missions(g);
     let mut out = Vec::new();
     for f in dataflow::check(g, &cx) {
         let var = f.var();
@@ -99,7 +101,7 @@ pub fn diagnostics(g: &ProcessGraph, text: &str, known: &Known<'_>) -> Vec<Diagn
             } => {
                 let goal_input = goal_input(g, &site, &expression);
                 let sure = data.is_some()
-                    && (known.start.is_some() || trace_mission(g, g.process_of(node)))
+                    && (known.start.is_some() || missions.contains(&g.process_of(node)))
                     && (!feel || goal_input);
                 let mut message = format!(
                     "{label} reads `{var}`, which nothing writes before it (in `{expression}`)"
@@ -110,7 +112,11 @@ pub fn diagnostics(g: &ProcessGraph, text: &str, known: &Known<'_>) -> Vec<Diagn
                         g.node(w).label()
                     ));
                 }
-                let mut names: BTreeSet<&str> = written.iter().map(String::as_str).collect();
+                let mut names: BTreeSet<&str> = written
+                    .get_or_init(|| dataflow::written_names(g))
+                    .iter()
+                    .map(String::as_str)
+                    .collect();
                 names.extend(data.iter().flatten().map(String::as_str));
                 if let Some(m) = dataflow::near(&var, names) {
                     message.push_str(&format!("; did you mean `{m}`?"));
@@ -191,12 +197,17 @@ fn goal_input(g: &ProcessGraph, site: &Site, expression: &str) -> bool {
     b.is_some_and(|b| b.inputs.iter().any(|i| i.source.source == expression))
 }
 
-/// Whether the process is a TRACE mission: a task of it is bound in TRACE's own vocabulary.
-fn trace_mission(g: &ProcessGraph, p: ProcessId) -> bool {
-    g.nodes.iter().enumerate().any(|(i, n)| {
-        matches!(&n.kind, NodeKind::Task(t) if t.binding.as_ref().is_some_and(|b| b.dialect == Dialect::Trace))
-            && g.process_of(NodeId(i as u32)) == p
-    })
+/// The processes that are TRACE missions: a task of them is bound in TRACE's own vocabulary.
+fn trace_missions(g: &ProcessGraph) -> BTreeSet<ProcessId> {
+    g.nodes
+        .iter()
+        .enumerate()
+        .filter(|(_, n)| {
+            matches!(&n.kind, NodeKind::Task(t)
+                if t.binding.as_ref().is_some_and(|b| b.dialect == Dialect::Trace))
+        })
+        .map(|(i, _)| g.process_of(NodeId(i as u32)))
+        .collect()
 }
 
 /// The result fields of a dispatched task, from its catalogue.

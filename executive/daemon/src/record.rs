@@ -51,7 +51,7 @@ impl RecordWriter {
     ) -> std::io::Result<()> {
         let mut line = to_json(&self.graph, seq, wall_ms, record);
         line["idx"] = serde_json::json!(index);
-        self.line(&line)
+        self.line(line)
     }
 
     /// Writes a line the executive itself produces (reboot markers).
@@ -70,7 +70,7 @@ impl RecordWriter {
             "reboots": reboots,
             "recommanded": pending,
         });
-        self.line(&line)
+        self.line(line)
     }
 
     /// Writes a line about a goal that is not an engine step (`accepted`, `feedback`): the
@@ -110,7 +110,7 @@ impl RecordWriter {
         if let (Some(o), Value::Object(b)) = (line.as_object_mut(), body) {
             o.extend(b);
         }
-        self.line(&line)
+        self.line(line)
     }
 
     /// Every line written from now on is also handed to `mirror` (live monitoring).
@@ -118,8 +118,7 @@ impl RecordWriter {
         self.mirror = Some(mirror);
     }
 
-    fn line(&mut self, v: &Value) -> std::io::Result<()> {
-        let mut v = v.clone();
+    fn line(&mut self, mut v: Value) -> std::io::Result<()> {
         v["line"] = json!(self.next);
         let mut text = serde_json::to_string(&v).map_err(std::io::Error::other)?;
         text.push('\n');

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use codespan_reporting::diagnostic::{Diagnostic as Report, Label};
 use codespan_reporting::files::SimpleFile;
 use codespan_reporting::term::{self, Config};
-use executive_model::{Category, Diagnostic, Loaded, Options, Severity, load_bundle};
+use executive_model::{Category, Diagnostic, Loaded, Options, ProcessGraph, Severity, load_bundle};
 use serde::Serialize;
 
 /// The verdict on one file.
@@ -161,17 +161,13 @@ pub struct Systems {
 }
 
 impl Systems {
-    /// The connectors and their served catalogues for the model at `path` (none when no
+    /// The connectors and their served catalogues for `graph`, read from `path` (none when no
     /// connectors file is given or beside it).
-    pub fn resolve(&self, path: &Path) -> Result<Option<Resolved>, String> {
+    pub fn resolve(&self, path: &Path, graph: &ProcessGraph) -> Result<Option<Resolved>, String> {
         let up = path.parent().unwrap_or(Path::new("")).join("..");
         // A fleet's pools each run with connectors of their own (`trace run --participant`):
         // one file beside the model is not theirs.
-        let fleet = || {
-            std::fs::read_to_string(path).is_ok_and(|t| {
-                t.matches("<bpmn:participant ").count() + t.matches("<participant ").count() > 1
-            })
-        };
+        let fleet = || graph.participants().filter(|p| p.process.is_some()).count() > 1;
         let config = match self
             .connectors
             .clone()
@@ -195,52 +191,69 @@ impl Systems {
     }
 }
 
-/// The data checks ([`crate::dataflow`]) and `trace run`'s catalogue check of a valid model,
-/// added to its diagnostics; an error among them makes it invalid.
-pub fn check_systems(path: &Path, loaded: &mut Loaded, systems: &Systems) -> Result<(), String> {
-    let Some(graph) = &loaded.graph else {
-        return Ok(());
-    };
-    let resolved = systems.resolve(path)?;
-    let (config, catalogues) = match &resolved {
-        Some((c, cats)) => (Some(c), cats.as_slice()),
-        None => (None, &[][..]),
-    };
+/// The code of a task that does not fit its system's catalogue.
+pub const CATALOGUE_CODE: &str = "catalogue-mismatch";
+
+/// What a valid model's systems add to its diagnostics, as `trace run` checks it before
+/// flight: the data checks ([`crate::dataflow`]), then, with connectors, each task that does not
+/// fit its catalogue (an error, [`CATALOGUE_CODE`]).
+pub fn system_diagnostics(
+    graph: &ProcessGraph,
+    text: &str,
+    config: Option<&connector_api::ConnectorsConfig>,
+    catalogues: &[Option<connector_api::Catalogue>],
+) -> Vec<Diagnostic> {
     let known = crate::dataflow::Known {
         config,
         catalogues,
         start: None,
     };
-    let mut found = crate::dataflow::diagnostics(graph, &loaded.text, &known);
+    let mut found = crate::dataflow::diagnostics(graph, text, &known);
     if let Some(config) = config {
         let uses = crate::connectors::task_uses(graph);
         for m in connector_api::check(&uses, config, catalogues) {
-            let offset = graph
-                .node_by_id(&m.task)
-                .map_or(0, |n| graph.node(n).offset);
-            let mut d = crate::dataflow::located(
-                &loaded.text,
-                Severity::Error,
-                "catalogue-mismatch",
-                &m.task,
-                offset,
-                m.problem,
-            );
-            d.category = Category::Execution;
-            found.push(d);
+            found.push(at_task(graph, text, Severity::Error, CATALOGUE_CODE, m));
         }
+    }
+    found
+}
+
+fn at_task(
+    graph: &ProcessGraph,
+    text: &str,
+    severity: Severity,
+    code: &'static str,
+    m: connector_api::Mismatch,
+) -> Diagnostic {
+    let offset = graph
+        .node_by_id(&m.task)
+        .map_or(0, |n| graph.node(n).offset);
+    crate::dataflow::located(text, severity, code, &m.task, offset, m.problem)
+}
+
+/// [`system_diagnostics`] of a valid model with the systems of `path`, and a warning for each
+/// task only the watchdog would end, added to its diagnostics; an error among them makes it
+/// invalid.
+pub fn check_systems(path: &Path, loaded: &mut Loaded, systems: &Systems) -> Result<(), String> {
+    let Some(graph) = &loaded.graph else {
+        return Ok(());
+    };
+    let resolved = systems.resolve(path, graph)?;
+    let (config, catalogues) = match &resolved {
+        Some((c, cats)) => (Some(c), cats.as_slice()),
+        None => (None, &[][..]),
+    };
+    let mut found = system_diagnostics(graph, &loaded.text, config, catalogues);
+    if let Some(config) = config {
         // A task nothing but the watchdog's default ends if its system goes silent.
+        let uses = crate::connectors::task_uses(graph);
         for m in connector_api::check::unbounded(&uses, config, catalogues) {
-            let offset = graph
-                .node_by_id(&m.task)
-                .map_or(0, |n| graph.node(n).offset);
-            found.push(crate::dataflow::located(
+            found.push(at_task(
+                graph,
                 &loaded.text,
                 Severity::Warning,
                 "unbounded-task",
-                &m.task,
-                offset,
-                m.problem,
+                m,
             ));
         }
     }

@@ -74,7 +74,6 @@ pub struct Expression {
     source: String,
     root: std::sync::Arc<ast::Node>,
     variables: Vec<String>,
-    required: Vec<String>,
 }
 
 /// A syntax error or a load-time problem, at a byte offset of the expression text.
@@ -117,12 +116,10 @@ pub fn parse(text: &str) -> Result<Expression, Problem> {
         text: text.to_owned(),
     })?;
     let variables = check::free_variables(&root);
-    let required = check::required_variables(&root);
     Ok(Expression {
         source: text.to_owned(),
         root: std::sync::Arc::new(root),
         variables,
-        required,
     })
 }
 
@@ -139,8 +136,9 @@ impl Expression {
 
     /// The variables it reads for certain: [`Expression::variables`] but the names inside a
     /// filter's condition, which may be fields of the items filtered (`sites[score > 0.8]`).
-    pub fn required(&self) -> &[String] {
-        &self.required
+    /// Worked out when asked (the check before flight asks; loading does not).
+    pub fn required(&self) -> Vec<String> {
+        check::required_variables(&self.root)
     }
 
     /// What is wrong beyond syntax, found without running: unknown functions, wrong argument

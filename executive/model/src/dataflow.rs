@@ -375,7 +375,7 @@ pub fn check(g: &ProcessGraph, cx: &Context<'_>) -> Vec<Finding> {
 
 /// The names an expression reads as variables.
 fn reads(e: &Expression) -> Vec<String> {
-    e.required.clone()
+    e.required()
 }
 
 /// A task's or call activity's binding.
@@ -434,7 +434,7 @@ fn conditions(n: &Node) -> Vec<&Expression> {
 /// process reachable from one. An over-approximation, linear in the model, so that no read a
 /// concurrent branch may satisfy is called unwritten.
 fn concurrent_writes(g: &ProcessGraph, cfg: &Cfg, w: &Writes) -> BTreeMap<NodeId, Names> {
-    let mut forks: Vec<Vec<V>> = Vec::new();
+    let mut forks: Vec<V> = Vec::new();
     for (i, n) in g.nodes.iter().enumerate() {
         let id = NodeId(i as u32);
         let split = match &n.kind {
@@ -450,28 +450,28 @@ fn concurrent_writes(g: &ProcessGraph, cfg: &Cfg, w: &Writes) -> BTreeMap<NodeId
             .iter()
             .any(|b| matches!(&g.node(*b).kind, NodeKind::Boundary(be) if !be.interrupting));
         if split || beside {
-            forks.push(vec![V::Out(id), V::In(id)]);
+            forks.extend([V::Out(id), V::In(id)]);
         }
         let parallel_body =
             matches!(&n.looping, Some(Looping::MultiInstance(mi)) if !mi.sequential);
         if parallel_body && matches!(n.kind, NodeKind::SubProcess(_)) {
-            forks.push(vec![V::In(id)]);
+            forks.push(V::In(id));
         }
         if let NodeKind::SubProcess(s) = &n.kind
             && cfg.succs.get(&V::In(id)).is_some_and(|v| v.len() > 1)
             && !s.nodes.is_empty()
         {
-            forks.push(vec![V::In(id)]);
+            forks.push(V::In(id));
         }
     }
     for p in 0..g.processes.len() {
         let e = V::Entry(ProcessId(p as u32));
         if cfg.succs.get(&e).is_some_and(|v| v.len() > 1) {
-            forks.push(vec![e]);
+            forks.push(e);
         }
     }
     // Everything reachable from a split, per process: one search from all splits at once.
-    let mut seen: BTreeSet<V> = forks.iter().flatten().copied().collect();
+    let mut seen: BTreeSet<V> = forks.into_iter().collect();
     let mut queue: VecDeque<V> = seen.iter().copied().collect();
     let mut nodes = BTreeSet::new();
     while let Some(v) = queue.pop_front() {

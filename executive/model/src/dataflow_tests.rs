@@ -86,6 +86,21 @@ fn a_name_read_before_anything_writes_it_is_unwritten_and_the_late_writer_is_nam
 }
 
 #[test]
+fn a_cel_macro_s_own_variable_is_not_read_from_the_scope() {
+    let g = chain(&[
+        ("w", script("w", "sites = [1, 2]")),
+        (
+            "r",
+            script(
+                "r",
+                "ok = sites.exists(s, s &gt; 1) &amp;&amp; sites.map(x, x * 2).size() &gt; 0",
+            ),
+        ),
+    ]);
+    assert!(judged(&g).is_empty(), "{:?}", judged(&g));
+}
+
+#[test]
 fn a_script_s_assignments_see_the_ones_before_them() {
     let g = chain(&[("w", script("w", "x = 1\ny = x + 1"))]);
     assert!(judged(&g).is_empty());

@@ -29,9 +29,6 @@ pub struct Expression {
     pub text: String,
     /// Variables the expression reads, sorted: a conditional event re-evaluates when one changes.
     pub variables: Vec<String>,
-    /// Variables it reads for certain, sorted (the data-flow check's): `variables`, but names
-    /// that may be an item's fields or a comprehension's own (FEEL filters, CEL macros).
-    pub required: Vec<String>,
     program: Compiled,
 }
 
@@ -218,18 +215,10 @@ impl Expression {
             .collect();
         variables.sort();
         variables.dedup();
-        // A comprehension's variable (`sites.exists(s, s.ok)`) is its own, not the scope's.
-        let bound = cel_bound(&text);
-        let required = variables
-            .iter()
-            .filter(|v| !bound.contains(v))
-            .cloned()
-            .collect();
         Ok(Expression {
             source,
             text,
             variables,
-            required,
             program: Compiled::Cel(Arc::new(program)),
         })
     }
@@ -238,6 +227,26 @@ impl Expression {
     /// (its problem is reported), so that no check mistakes it for a missing condition.
     pub(crate) fn never() -> Expression {
         Expression::parse("false").expect("`false` is CEL")
+    }
+
+    /// The variables it reads for certain, sorted (what the check before flight asks):
+    /// [`Expression::variables`], but names that may be an item's fields or a comprehension's
+    /// own (FEEL filters, CEL macros). Worked out when asked, not when the model loads.
+    pub fn required(&self) -> Vec<String> {
+        let mut out = match &self.program {
+            Compiled::Feel(p) => p.required(),
+            Compiled::Cel(_) => match cel::parser::Parser::new().parse(&self.text) {
+                Ok(ast) => {
+                    let mut out = Vec::new();
+                    cel_free(&ast, &mut Vec::new(), &mut out);
+                    out
+                }
+                Err(_) => self.variables.clone(),
+            },
+        };
+        out.sort();
+        out.dedup();
+        out
     }
 
     /// The compiled program.
@@ -258,25 +267,59 @@ impl Expression {
     }
 }
 
-/// The names CEL's macros bind in `text` (`all`, `exists`, `exists_one`, `map`, `filter`: the
-/// first argument, `x` in `list.map(x, x * 2)`).
-fn cel_bound(text: &str) -> Vec<String> {
-    let mut out = Vec::new();
-    for m in ["all(", "exists(", "exists_one(", "map(", "filter("] {
-        let mut rest = text;
-        while let Some(at) = rest.find(m) {
-            let preceded = rest[..at].ends_with('.');
-            let after = &rest[at + m.len()..];
-            if preceded && let Some(comma) = after.find(',') {
-                let name = after[..comma].trim();
-                if !name.is_empty() && name.chars().all(|c| c.is_alphanumeric() || c == '_') {
-                    out.push(name.to_owned());
+/// The free names of a CEL expression: identifiers, but a comprehension's own variables
+/// within it (`x` in `list.map(x, x * 2)`, which `cel`'s references list as variables).
+fn cel_free(e: &cel::IdedExpr, bound: &mut Vec<String>, out: &mut Vec<String>) {
+    use cel::common::ast::{EntryExpr, Expr};
+    match &e.expr {
+        Expr::Ident(name) => {
+            if !name.starts_with('@') && !bound.contains(name) {
+                out.push(name.clone());
+            }
+        }
+        Expr::Call(c) => {
+            for t in c.target.iter().map(|t| &**t).chain(&c.args) {
+                cel_free(t, bound, out);
+            }
+        }
+        Expr::Select(s) => cel_free(&s.operand, bound, out),
+        Expr::List(l) => {
+            for x in &l.elements {
+                cel_free(x, bound, out);
+            }
+        }
+        Expr::Map(m) => {
+            for x in &m.entries {
+                if let EntryExpr::MapEntry(m) = &x.expr {
+                    cel_free(&m.key, bound, out);
+                    cel_free(&m.value, bound, out);
                 }
             }
-            rest = after;
         }
+        Expr::Struct(s) => {
+            for x in &s.entries {
+                if let EntryExpr::StructField(f) = &x.expr {
+                    cel_free(&f.value, bound, out);
+                }
+            }
+        }
+        Expr::Comprehension(c) => {
+            cel_free(&c.iter_range, bound, out);
+            cel_free(&c.accu_init, bound, out);
+            let mark = bound.len();
+            bound.extend(
+                [Some(&c.iter_var), c.iter_var2.as_ref(), Some(&c.accu_var)]
+                    .into_iter()
+                    .flatten()
+                    .cloned(),
+            );
+            for x in [&c.loop_cond, &c.loop_step, &c.result] {
+                cel_free(x, bound, out);
+            }
+            bound.truncate(mark);
+        }
+        Expr::Literal(_) | Expr::Unspecified => {}
     }
-    out
 }
 
 /// Parses and checks FEEL text; syntax errors and problems found without running (unknown
@@ -299,7 +342,6 @@ fn compile_feel(source: String, body: &str) -> Result<Expression, Failure> {
         source,
         text: body.to_owned(),
         variables: parsed.variables().to_vec(),
-        required: parsed.required().to_vec(),
         program: Compiled::Feel(Arc::new(parsed)),
     })
 }

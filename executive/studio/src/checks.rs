@@ -10,7 +10,7 @@ use serde::Serialize;
 use crate::Studio;
 
 /// The code of a diagnostic from the catalogue check.
-pub const CATALOGUE_CODE: &str = "catalogue-mismatch";
+pub use executive::validate::CATALOGUE_CODE;
 
 /// What `POST /api/validate` answers.
 #[derive(Debug, Serialize)]
@@ -52,34 +52,35 @@ pub fn check(studio: &Studio, bytes: &[u8]) -> Report {
     };
     let mut diagnostics = loaded.diagnostics;
     let mut catalogue = Coverage::default();
-    // The data checks of `trace validate` (and of `trace run`, but for the start variables).
+    // The checks of `trace validate` with the studio's systems (and of `trace run`, but for
+    // the start variables); a catalogue mismatch is counted, not a verdict on the model.
     let served = studio
         .connectors
         .as_ref()
         .map(|c| executive::catalogues::served(c, &studio.catalogues()))
         .unwrap_or_default();
     if let Some(graph) = &loaded.graph {
-        let known = executive::dataflow::Known {
-            config: studio.connectors.as_ref(),
-            catalogues: &served,
-            start: None,
-        };
-        diagnostics.extend(executive::dataflow::diagnostics(
+        diagnostics.extend(executive::validate::system_diagnostics(
             graph,
             &loaded.text,
-            &known,
+            studio.connectors.as_ref(),
+            &served,
         ));
     }
-    let verdict = if verdict == "valid" && diagnostics.iter().any(|d| d.severity == Severity::Error)
+    let verdict = if verdict == "valid"
+        && diagnostics
+            .iter()
+            .any(|d| d.severity == Severity::Error && d.code != CATALOGUE_CODE)
     {
         "invalid"
     } else {
         verdict
     };
-    if let (Some(graph), Some(config)) = (&loaded.graph, &studio.connectors) {
-        let catalogues = served;
+    if let Some(config) = &studio.connectors
+        && loaded.graph.is_some()
+    {
         catalogue.checked = true;
-        for (c, cat) in config.connectors.iter().zip(&catalogues) {
+        for (c, cat) in config.connectors.iter().zip(&served) {
             let list = if cat.is_some() {
                 &mut catalogue.servers
             } else {
@@ -89,27 +90,16 @@ pub fn check(studio: &Studio, bytes: &[u8]) -> Report {
                 list.push(c.server().to_owned());
             }
         }
-        let uses = executive::connectors::task_uses(graph);
-        for m in connector_api::check(&uses, config, &catalogues) {
-            diagnostics.push(at_element(&loaded.text, &m.task, m.problem));
-            catalogue.mismatches += 1;
-        }
+        catalogue.mismatches = diagnostics
+            .iter()
+            .filter(|d| d.code == CATALOGUE_CODE)
+            .count();
     }
     Report {
         verdict,
         diagnostics,
         catalogue,
     }
-}
-
-/// An error on element `id`, placed where `id="…"` is written in `text`.
-fn at_element(text: &str, id: &str, message: String) -> Diagnostic {
-    let offset = [format!("id=\"{id}\""), format!("id='{id}'")]
-        .iter()
-        .filter_map(|needle| text.find(needle.as_str()))
-        .min()
-        .map_or(0, |at| text[..at].rfind('<').unwrap_or(at));
-    executive::dataflow::located(text, Severity::Error, CATALOGUE_CODE, id, offset, message)
 }
 
 /// Loads a model as `trace validate` does (with `options`), imports read from `dir` (plain

@@ -9,6 +9,7 @@ import {
   isTextAreaEntryEdited,
 } from '@bpmn-io/properties-panel';
 import { useService } from 'bpmn-js-properties-panel';
+import { withExtension } from './provider.jsx';
 
 /** Whether a flow's condition means something: out of a gateway that chooses, or an activity. */
 function conditional(element) {
@@ -90,22 +91,8 @@ function zeebeLoop(loop) {
 
 /** Sets `attribute` of the activity's `zeebe:loopCharacteristics`, creating it if needed. */
 function setLoop(element, bpmnFactory, commandStack, attribute, value) {
-  const loop = multiInstance(element);
-  const cmds = [];
-  let ext = loop.get('extensionElements');
-  if (!ext) {
-    ext = bpmnFactory.create('bpmn:ExtensionElements', { values: [] });
-    ext.$parent = loop;
-    cmds.push({ cmd: 'element.updateModdleProperties',
-      context: { element, moddleElement: loop, properties: { extensionElements: ext } } });
-  }
-  let z = ext.get('values').find(v => is(v, 'zeebe:LoopCharacteristics'));
-  if (!z) {
-    z = bpmnFactory.create('zeebe:LoopCharacteristics', {});
-    z.$parent = ext;
-    cmds.push({ cmd: 'element.updateModdleProperties',
-      context: { element, moddleElement: ext, properties: { values: [...ext.get('values'), z] } } });
-  }
+  const { value: z, cmds } = withExtension(element, multiInstance(element),
+    'zeebe:LoopCharacteristics', bpmnFactory);
   cmds.push({ cmd: 'element.updateModdleProperties',
     context: { element, moddleElement: z, properties: { [attribute]: value || undefined } } });
   commandStack.execute('properties-panel.multi-command-executor', cmds);

@@ -44,25 +44,34 @@ export function leaves(fields, prefix = '') {
 
 const shown = t => (typeof t === 'string' ? t : 'message');
 
-/** Commands that give `element` a `trace:task` (one undo step with the change that needs it). */
-function withTask(element, bpmnFactory) {
-  const bo = getBusinessObject(element);
+/**
+ * Commands that give moddle element `owner` (of diagram element `element`) an extension of
+ * `type` (created with `props`), and that extension: one undo step with the change that needs it.
+ */
+export function withExtension(element, owner, type, bpmnFactory, props = {}) {
   const cmds = [];
-  let ext = bo.get('extensionElements');
+  let ext = owner.get('extensionElements');
   if (!ext) {
     ext = bpmnFactory.create('bpmn:ExtensionElements', { values: [] });
-    ext.$parent = bo;
+    ext.$parent = owner;
     cmds.push({ cmd: 'element.updateModdleProperties',
-      context: { element, moddleElement: bo, properties: { extensionElements: ext } } });
+      context: { element, moddleElement: owner, properties: { extensionElements: ext } } });
   }
-  let task = ext.get('values').find(v => is(v, 'trace:Task'));
-  if (!task) {
-    task = bpmnFactory.create('trace:Task', { inputs: [], outputs: [] });
-    task.$parent = ext;
+  let value = ext.get('values').find(v => is(v, type));
+  if (!value) {
+    value = bpmnFactory.create(type, props);
+    value.$parent = ext;
     cmds.push({ cmd: 'element.updateModdleProperties',
-      context: { element, moddleElement: ext, properties: { values: [...ext.get('values'), task] } } });
+      context: { element, moddleElement: ext, properties: { values: [...ext.get('values'), value] } } });
   }
-  return { task, cmds };
+  return { value, cmds };
+}
+
+/** Commands that give `element` a `trace:task`, and the task. */
+function withTask(element, bpmnFactory) {
+  const { value, cmds } = withExtension(element, getBusinessObject(element), 'trace:Task',
+    bpmnFactory, { inputs: [], outputs: [] });
+  return { task: value, cmds };
 }
 
 function run(commandStack, cmds) {
