@@ -1,7 +1,8 @@
 //! The open user tasks as an operator sees them: numbered in arrival order, with the task's
-//! element, name, context and deadline, until they are answered or withdrawn.
+//! element, name, context and deadline, until they are answered or withdrawn; then, for a
+//! while, the tasks closed and who or what closed them.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, HashMap, VecDeque};
 
 use connector_zenoh::GoalHandle;
 use serde_json::Value;
@@ -65,12 +66,31 @@ impl OpenTask {
     }
 }
 
-/// The open tasks, and the number every task seen has (a repeated goal keeps its number).
+/// How many closed tasks [`Desk::closed`] keeps.
+const CLOSED_KEPT: usize = 20;
+
+/// A task no longer open, and who or what closed it.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct ClosedTask {
+    /// Its number while it was open.
+    pub number: u32,
+    /// Its element id in the mission model.
+    pub task: String,
+    /// Its name in the mission model.
+    pub name: String,
+    /// Who or what closed it: `answered by ana@web`, or the mission's reason for withdrawing
+    /// it (`docs/protocol.md` §8a).
+    pub why: String,
+}
+
+/// The open tasks, the number every task seen has (a repeated goal keeps its number), and the
+/// last tasks closed.
 #[derive(Debug, Default)]
 pub struct Desk {
     next: u32,
     open: BTreeMap<u32, OpenTask>,
     numbers: HashMap<String, u32>,
+    closed: VecDeque<ClosedTask>,
 }
 
 impl Desk {
@@ -90,10 +110,26 @@ impl Desk {
         }))
     }
 
-    /// Closes the task with this goal id; the task, if it was open.
-    pub fn close(&mut self, goal_id: &str) -> Option<OpenTask> {
+    /// Closes the task with this goal id, saying who or what closed it; the task, if it was
+    /// open.
+    pub fn close(&mut self, goal_id: &str, why: &str) -> Option<OpenTask> {
         let n = self.numbers.get(goal_id)?;
-        self.open.remove(n)
+        let t = self.open.remove(n)?;
+        if self.closed.len() == CLOSED_KEPT {
+            self.closed.pop_front();
+        }
+        self.closed.push_back(ClosedTask {
+            number: t.number,
+            task: t.task().to_owned(),
+            name: t.name().to_owned(),
+            why: why.to_owned(),
+        });
+        Some(t)
+    }
+
+    /// The last tasks closed (at most 20), oldest first.
+    pub fn closed(&self) -> impl Iterator<Item = &ClosedTask> {
+        self.closed.iter()
     }
 
     /// An open task by number.

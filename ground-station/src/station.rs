@@ -166,7 +166,7 @@ impl Station {
                                 self.withdrawals.notify_waiters();
                                 None
                             }
-                            Some(_) => desk.close(&h.goal_id),
+                            Some(_) => desk.close(&h.goal_id, &why),
                             None => None,
                         }
                     };
@@ -242,7 +242,8 @@ impl Station {
         let sent = self.judged(number, &action, &answer).await;
         match sent {
             Ok(r) if r.applied => {
-                self.desk().close(&goal_id);
+                self.desk()
+                    .close(&goal_id, &format!("answered by {operator}@{}", self.id));
                 handle.succeed(fields).await;
                 self.tell(format!(
                     "task {number} answered: applied ({operator}@{})",
@@ -339,8 +340,8 @@ impl Station {
                 t.answering = false;
                 t.withdrawn.take()
             });
-            if why.is_some() {
-                desk.close(&handle.goal_id);
+            if let Some(why) = &why {
+                desk.close(&handle.goal_id, why);
             }
             why
         };

@@ -209,7 +209,13 @@ pub(crate) async fn until(c: &Client, what: &str, script: &str) -> Value {
         }
         if start.elapsed() > WAIT {
             let errors = js(c, "return studio.errors", vec![]).await;
-            panic!("the page never showed {what}; its errors: {errors}");
+            let problems = js(
+                c,
+                "return [...document.querySelectorAll('#problems li')].map(l => l.textContent)",
+                vec![],
+            )
+            .await;
+            panic!("the page never showed {what}; its errors: {errors}; its problems: {problems}");
         }
         // What is waited for is the page's state; this pause only spares the CPU.
         tokio::time::sleep(Duration::from_millis(50)).await;

@@ -2,8 +2,10 @@
 //! Europa's file (Excavate) opens from the diagram list and by double-clicking the activity that
 //! calls it; a flow's condition is edited in the panel and a misspelt variable in it is marked
 //! at once with a "did you mean"; a call activity's called process is chosen from the file's
-//! processes; a multi-instance activity's items are set in the panel; each problem is named by the element's name at its line of the saved file; New
-//! asks for a file name; the saved file validates.
+//! processes and those of the files it imports; the token game, played from the mission's
+//! diagram, runs Excavate and is shown and played on Excavate's own diagram; a multi-instance
+//! activity's items are set in the panel; each problem is named by the element's name at its
+//! line of the saved file; New asks for a file name; the saved file validates.
 
 use std::process::Command;
 
@@ -24,6 +26,8 @@ fn the_studio_opens_every_process_and_edits_conditions_and_calls_without_xml() {
         missions.join("europa-bsm1.bpmn"),
     )
     .expect("copy");
+    std::fs::write(missions.join("with-import.bpmn"), CALLER).expect("caller");
+    std::fs::write(missions.join("lib.bpmn"), LIB).expect("lib");
     Page::start(europa_studio(&missions)).play(scenario);
     let saved = std::fs::read_to_string(missions.join("europa-bsm1.bpmn")).expect("saved");
     assert!(
@@ -49,6 +53,37 @@ fn the_studio_opens_every_process_and_edits_conditions_and_calls_without_xml() {
         String::from_utf8_lossy(&out.stdout)
     );
 }
+
+/// A mission whose call activity calls a process of the file it imports.
+const CALLER: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
+<bpmn:definitions xmlns:bpmn="http://www.omg.org/spec/BPMN/20100524/MODEL" xmlns:bpmndi="http://www.omg.org/spec/BPMN/20100524/DI" xmlns:dc="http://www.omg.org/spec/DD/20100524/DC" xmlns:di="http://www.omg.org/spec/DD/20100524/DI" id="caller" targetNamespace="urn:caller">
+  <bpmn:import importType="http://www.omg.org/spec/BPMN/20100524/MODEL" location="lib.bpmn" namespace="urn:lib"/>
+  <bpmn:process id="Main" isExecutable="true">
+    <bpmn:startEvent id="S"/>
+    <bpmn:callActivity id="CallLib" name="Calibrate" calledElement="Calibrate"/>
+    <bpmn:endEvent id="E"/>
+    <bpmn:sequenceFlow id="f1" sourceRef="S" targetRef="CallLib"/>
+    <bpmn:sequenceFlow id="f2" sourceRef="CallLib" targetRef="E"/>
+  </bpmn:process>
+  <bpmndi:BPMNDiagram id="D"><bpmndi:BPMNPlane id="P" bpmnElement="Main">
+    <bpmndi:BPMNShape id="S_di" bpmnElement="S"><dc:Bounds x="100" y="100" width="36" height="36"/></bpmndi:BPMNShape>
+    <bpmndi:BPMNShape id="CallLib_di" bpmnElement="CallLib"><dc:Bounds x="200" y="78" width="100" height="80"/></bpmndi:BPMNShape>
+    <bpmndi:BPMNShape id="E_di" bpmnElement="E"><dc:Bounds x="360" y="100" width="36" height="36"/></bpmndi:BPMNShape>
+    <bpmndi:BPMNEdge id="f1_di" bpmnElement="f1"><di:waypoint x="136" y="118"/><di:waypoint x="200" y="118"/></bpmndi:BPMNEdge>
+    <bpmndi:BPMNEdge id="f2_di" bpmnElement="f2"><di:waypoint x="300" y="118"/><di:waypoint x="360" y="118"/></bpmndi:BPMNEdge>
+  </bpmndi:BPMNPlane></bpmndi:BPMNDiagram>
+</bpmn:definitions>"#;
+
+/// The file it imports: two processes.
+const LIB: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
+<bpmn:definitions xmlns:bpmn="http://www.omg.org/spec/BPMN/20100524/MODEL" id="lib" targetNamespace="urn:lib">
+  <bpmn:process id="Calibrate" name="Calibrate the arm" isExecutable="true">
+    <bpmn:startEvent id="cs"/><bpmn:endEvent id="ce"/><bpmn:sequenceFlow id="c1" sourceRef="cs" targetRef="ce"/>
+  </bpmn:process>
+  <bpmn:process id="Park" name="Park the arm" isExecutable="true">
+    <bpmn:startEvent id="ps"/><bpmn:endEvent id="pe"/><bpmn:sequenceFlow id="p1" sourceRef="ps" targetRef="pe"/>
+  </bpmn:process>
+</bpmn:definitions>"#;
 
 /// Selects diagram `id` from the page's list, as a planner picks it.
 async fn pick_diagram(c: &Client, id: &str) {
@@ -198,6 +233,71 @@ async fn scenario(c: Client, url: String) {
         .expect("the flow in the saved file")
         + 1;
     assert_eq!(line, at, "the problem's line");
+    // The token game reaches Excavate: played from the mission's diagram (at each decision the
+    // planned flow — the site approved, the battery fine —, otherwise the first waiting task
+    // completed, else the first wait fired) until the call activity's process runs, then shown
+    // and played on Excavate's own diagram.
+    click(&c, "#simulate").await;
+    until(
+        &c,
+        "the game started",
+        "return document.body.dataset.simulation === 'playing'",
+    )
+    .await;
+    let heat = r#"#simulate-acts button[data-act="complete"][data-element="HeatArm"]"#;
+    let mut acts = 0;
+    loop {
+        let next = js(
+            &c,
+            &format!(
+                "if (document.querySelector('{heat}')) return {{ there: true }};
+                 const all = [...document.querySelectorAll('#simulate-acts button')];
+                 const choose = all.filter(b => b.dataset.act === 'choose');
+                 const plan = {{ SiteApproved: 'f_s5', Slumped: 'e12', EnoughSamples: 'f_s13', BatteryLow: 'f_b6', EnergyLeft: 'f_d7' }};
+                 const b = choose.find(b => plan[b.dataset.element] === b.dataset.flow)
+                   || (!choose.length && (all.find(b => b.dataset.act === 'complete') || all.find(b => b.dataset.act === 'fire')));
+                 if (!b) return {{ stuck: all.map(b => b.textContent) }};
+                 const before = Number(document.body.dataset.simulationViews);
+                 b.click();
+                 return {{ clicked: b.textContent, before }};"
+            ),
+            vec![],
+        )
+        .await;
+        if next.get("there").is_some() {
+            break;
+        }
+        assert!(next.get("stuck").is_none(), "nothing to do: {next}");
+        acts += 1;
+        assert!(acts < 60, "Excavate not reached in 60 acts: {next}");
+        until(
+            &c,
+            "the view after the act",
+            &format!(
+                "return Number(document.body.dataset.simulationViews) > {}",
+                next["before"]
+            ),
+        )
+        .await;
+    }
+    pick_diagram(&c, "Diagram_Excavate").await;
+    until(
+        &c,
+        "Excavate's waiting task marked on its own diagram",
+        "return document.body.dataset.diagram === 'Diagram_Excavate'
+           && studio.modeler.get('canvas').hasMarker('HeatArm', 'trace-live')
+           && !!document.querySelector('.djs-overlay-trace-sim .trace-token')",
+    )
+    .await;
+    click(&c, heat).await;
+    until(
+        &c,
+        "the token moved on in Excavate",
+        "const c = studio.modeler.get('canvas');
+         return c.hasMarker('UnstowArm', 'trace-live') && !c.hasMarker('HeatArm', 'trace-live')",
+    )
+    .await;
+    pick_diagram(&c, "Diagram_BSM1").await;
     // A task made multi-instance (as the wrench menu makes it) gets its items in the panel.
     js(
         &c,
@@ -236,6 +336,37 @@ async fn scenario(c: Client, url: String) {
         "return document.body.dataset.saved === 'europa-bsm1.bpmn'",
     )
     .await;
+    // A call activity of a file that imports another is offered that file's processes too.
+    js(
+        &c,
+        "const s = document.getElementById('missions'); s.value = 'with-import.bpmn';
+         s.dispatchEvent(new Event('change', { bubbles: true }));",
+        vec![],
+    )
+    .await;
+    until(
+        &c,
+        "the importing mission",
+        "return !!studio.modeler.get('elementRegistry').get('CallLib') && document.body.dataset.verdict === 'valid'",
+    )
+    .await;
+    click(&c, r#"g.djs-element[data-element-id="CallLib"]"#).await;
+    open_group(&c, "trace-called").await;
+    let options = js(
+        &c,
+        "return [...document.querySelectorAll('#bio-properties-panel-trace-called-process option')].map(o => o.textContent)",
+        vec![],
+    )
+    .await;
+    assert_eq!(
+        options,
+        json!([
+            "(none)",
+            "Main",
+            "Calibrate the arm (Calibrate, from lib.bpmn)",
+            "Park the arm (Park, from lib.bpmn)"
+        ])
+    );
     // New asks for the file's name and keeps nothing unsaved without asking.
     js(
         &c,

@@ -74,6 +74,7 @@ pub fn unbounded(
             };
             out.push(Mismatch {
                 task: t.task.clone(),
+                field: Some("resource".to_owned()),
                 problem: format!(
                     "`{}` declares no upper bound on its duration and the task has no timer boundary: if its system goes silent, {ends}",
                     spec.name
@@ -89,6 +90,9 @@ pub fn unbounded(
 pub struct Mismatch {
     /// The task element id.
     pub task: String,
+    /// Where in the task's binding: `input:<goal field>`, `output:<result field>`, `resource`;
+    /// `None` for the task as a whole.
+    pub field: Option<String>,
     /// What is wrong.
     pub problem: String,
 }
@@ -108,14 +112,21 @@ pub fn check(
 ) -> Vec<Mismatch> {
     let mut out = Vec::new();
     for t in tasks {
-        let mut problem = |problem: String| {
+        let mut problem = |field: Option<String>, problem: String| {
             out.push(Mismatch {
                 task: t.task.clone(),
+                field,
                 problem,
             })
         };
+        let input = |p: &str| Some(format!("input:{p}"));
+        let output = |p: &str| Some(format!("output:{p}"));
+        let resource = || Some("resource".to_owned());
         let Some(route) = config.route(&t.resource) else {
-            problem(format!("no connector serves resource `{}`", t.resource));
+            problem(
+                resource(),
+                format!("no connector serves resource `{}`", t.resource),
+            );
             continue;
         };
         let connector = &config.connectors[route.connector];
@@ -123,29 +134,35 @@ pub fn check(
             continue;
         };
         let Some(spec) = cat.action(&route.action) else {
-            problem(format!(
-                "action `{}` (resource `{}`) is not served by `{}` (connector `{}`)",
-                route.action,
-                t.resource,
-                connector.server(),
-                connector.name
-            ));
+            problem(
+                resource(),
+                format!(
+                    "action `{}` (resource `{}`) is not served by `{}` (connector `{}`)",
+                    route.action,
+                    t.resource,
+                    connector.server(),
+                    connector.name
+                ),
+            );
             continue;
         };
         for (path, declared) in &t.inputs {
             match field_at(&spec.goal, path) {
-                None => problem(format!(
-                    "input `{path}` is not a goal field of `{}`",
-                    spec.name
-                )),
+                None => problem(
+                    input(path),
+                    format!("input `{path}` is not a goal field of `{}`", spec.name),
+                ),
                 Some(want) => {
                     if let Some(d) = declared
                         && !want.accepts(d)
                     {
-                        problem(format!(
-                            "input `{path}` is declared {d} but `{}` expects {want}",
-                            spec.name
-                        ));
+                        problem(
+                            input(path),
+                            format!(
+                                "input `{path}` is declared {d} but `{}` expects {want}",
+                                spec.name
+                            ),
+                        );
                     }
                 }
             }
@@ -154,7 +171,10 @@ pub fn check(
             if let Some(want) = field_at(&spec.goal, path)
                 && let Err(e) = want.check(path, value)
             {
-                problem(format!("input {e} (`{}` expects {want})", spec.name));
+                problem(
+                    input(path),
+                    format!("input {e} (`{}` expects {want})", spec.name),
+                );
             }
         }
         // Required goal fields (nested ones too) the task does not write.
@@ -168,42 +188,54 @@ pub fn check(
                         || p.starts_with(&format!("{name}."))
                 });
                 if !written {
-                    problem(format!(
-                        "required goal field `{name}` of `{}` is not written by any input",
-                        spec.name
-                    ));
+                    problem(
+                        None,
+                        format!(
+                            "required goal field `{name}` of `{}` is not written by any input",
+                            spec.name
+                        ),
+                    );
                 }
             }
         }
         for (path, declared) in &t.outputs {
             match field_at(&spec.result, path) {
-                None => problem(format!(
-                    "output reads `{path}`, which is not a result field of `{}`",
-                    spec.name
-                )),
+                None => problem(
+                    output(path),
+                    format!(
+                        "output reads `{path}`, which is not a result field of `{}`",
+                        spec.name
+                    ),
+                ),
                 Some(have) => {
                     if let Some(d) = declared
                         && !d.accepts(have)
                     {
-                        problem(format!(
-                            "output `{path}` is declared {d} but `{}` returns {have}",
-                            spec.name
-                        ));
+                        problem(
+                            output(path),
+                            format!(
+                                "output `{path}` is declared {d} but `{}` returns {have}",
+                                spec.name
+                            ),
+                        );
                     }
                 }
             }
         }
         for code in &t.caught {
             if !spec.errors.contains_key(code) && !codes::ALL.contains(&code.as_str()) {
-                problem(format!(
-                    "an error boundary catches `{code}`, which `{}` does not declare (declared: {})",
-                    spec.name,
-                    if spec.errors.is_empty() {
-                        "none".to_owned()
-                    } else {
-                        spec.errors.keys().cloned().collect::<Vec<_>>().join(", ")
-                    }
-                ));
+                problem(
+                    None,
+                    format!(
+                        "an error boundary catches `{code}`, which `{}` does not declare (declared: {})",
+                        spec.name,
+                        if spec.errors.is_empty() {
+                            "none".to_owned()
+                        } else {
+                            spec.errors.keys().cloned().collect::<Vec<_>>().join(", ")
+                        }
+                    ),
+                );
             }
         }
     }

@@ -99,7 +99,7 @@ pub fn diagnostics(g: &ProcessGraph, text: &str, known: &Known<'_>) -> Vec<Diagn
                 writer,
                 ..
             } => {
-                let goal_input = goal_input(g, &site, &expression);
+                let goal_input = goal_input(g, &site, &expression).is_some();
                 let sure = data.is_some()
                     && (known.start.is_some() || missions.contains(&g.process_of(node)))
                     && (!feel || goal_input);
@@ -133,7 +133,7 @@ pub fn diagnostics(g: &ProcessGraph, text: &str, known: &Known<'_>) -> Vec<Diagn
                         " (unless the mission is started with it: `trace run --var`)"
                     });
                 }
-                out.push(located(
+                let mut d = located(
                     text,
                     if sure {
                         Severity::Error
@@ -144,7 +144,9 @@ pub fn diagnostics(g: &ProcessGraph, text: &str, known: &Known<'_>) -> Vec<Diagn
                     &element,
                     offset,
                     message,
-                ));
+                );
+                d.field = field_of(g, &site, &expression);
+                out.push(d);
             }
             Finding::Sometimes {
                 var,
@@ -161,7 +163,7 @@ pub fn diagnostics(g: &ProcessGraph, text: &str, known: &Known<'_>) -> Vec<Diagn
                 } else {
                     format!(": for example {}", path.join(" → "))
                 };
-                out.push(located(
+                let mut d = located(
                     text,
                     Severity::Warning,
                     SOMETIMES,
@@ -170,7 +172,9 @@ pub fn diagnostics(g: &ProcessGraph, text: &str, known: &Known<'_>) -> Vec<Diagn
                     format!(
                         "{label} reads `{var}` (in `{expression}`), which some paths reach without writing it{via}"
                     ),
-                ));
+                );
+                d.field = field_of(g, &site, &expression);
+                out.push(d);
             }
         }
     }
@@ -186,15 +190,26 @@ fn site_node(g: &ProcessGraph, s: &Site) -> NodeId {
     }
 }
 
-/// Whether `expression` is an input of the task at `site` (it feeds a goal field).
-fn goal_input(g: &ProcessGraph, site: &Site, expression: &str) -> bool {
-    let Site::Node(n) = site else { return false };
+/// The goal field `expression` feeds, when it is an input of the task at `site`.
+fn goal_input<'g>(g: &'g ProcessGraph, site: &Site, expression: &str) -> Option<&'g str> {
+    let Site::Node(n) = site else { return None };
     let b = match &g.node(*n).kind {
         NodeKind::Task(t) => t.binding.as_ref(),
         NodeKind::CallActivity(c) => c.binding.as_ref(),
         _ => None,
-    };
-    b.is_some_and(|b| b.inputs.iter().any(|i| i.source.source == expression))
+    }?;
+    b.inputs
+        .iter()
+        .find(|i| i.source.source == expression)
+        .map(|i| i.target.as_str())
+}
+
+/// The part of the element a finding at `site` is in, for [`Diagnostic::field`].
+fn field_of(g: &ProcessGraph, site: &Site, expression: &str) -> Option<String> {
+    match site {
+        Site::Flow(_) => Some("condition".to_owned()),
+        Site::Node(_) => goal_input(g, site, expression).map(|t| format!("input:{t}")),
+    }
 }
 
 /// The processes that are TRACE missions: a task of them is bound in TRACE's own vocabulary.
@@ -237,7 +252,7 @@ fn literals(g: &ProcessGraph, text: &str) -> Vec<Diagnostic> {
                 continue;
             };
             if !fits(&v, ty) {
-                out.push(located(
+                let mut d = located(
                     text,
                     Severity::Error,
                     LITERAL,
@@ -251,7 +266,9 @@ fn literals(g: &ProcessGraph, text: &str) -> Vec<Diagnostic> {
                         i.source.source,
                         ty_name(ty)
                     ),
-                ));
+                );
+                d.field = Some(format!("input:{}", i.target));
+                out.push(d);
             }
         }
         let conditions = match &n.kind {
@@ -274,7 +291,9 @@ fn literals(g: &ProcessGraph, text: &str) -> Vec<Diagnostic> {
             && let Some(v) = literal(c)
             && !v.is_boolean()
         {
-            out.push(never_boolean(text, &f.id, f.offset, c));
+            let mut d = never_boolean(text, &f.id, f.offset, c);
+            d.field = Some("condition".to_owned());
+            out.push(d);
         }
     }
     out
@@ -366,6 +385,7 @@ pub fn located(
         message,
         file: None,
         element: Some(element.to_owned()),
+        field: None,
         offset,
         line,
         column,

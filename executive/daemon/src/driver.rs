@@ -1529,6 +1529,9 @@ impl Driver {
             .collect();
         state["dropped"] = serde_json::Value::Object(dropped);
         state["reboots"] = serde_json::json!(self.reboots);
+        // The mission clock now, and how fast it runs, so a page counts down to deadlines.
+        state["clock"] =
+            serde_json::json!({ "now_ms": self.clock.now(), "speed": self.clock.speed() });
         if let Some(p) = &self.post {
             state["fleet"] = p.state();
         }

@@ -85,6 +85,7 @@ pub fn check_file(path: &Path, options: &Options) -> (Verdict, Loaded) {
                 message: format!("cannot read {}: {e}", path.display()),
                 file: None,
                 element: None,
+                field: None,
                 offset: 0,
                 line: 1,
                 column: 1,
@@ -228,7 +229,9 @@ fn at_task(
     let offset = graph
         .node_by_id(&m.task)
         .map_or(0, |n| graph.node(n).offset);
-    crate::dataflow::located(text, severity, code, &m.task, offset, m.problem)
+    let mut d = crate::dataflow::located(text, severity, code, &m.task, offset, m.problem);
+    d.field = m.field;
+    d
 }
 
 /// [`system_diagnostics`] of a valid model with the systems of `path`, and a warning for each

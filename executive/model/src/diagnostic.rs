@@ -67,6 +67,11 @@ pub struct Diagnostic {
     /// BPMN id of the element concerned, if it has one.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub element: Option<String>,
+    /// The part of the element a form edits that the problem is in, when one is: a task's
+    /// goal input `input:<goal field>` or result output `output:<result field>`, its
+    /// `resource`, a flow's `condition` (what the studio marks on that field).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub field: Option<String>,
     /// Byte offset in the source text.
     pub offset: usize,
     /// 1-based line.
@@ -131,6 +136,7 @@ impl Sink {
             message,
             file: None,
             element: element.map(str::to_owned),
+            field: None,
             offset,
             line: 0,
             column: 0,

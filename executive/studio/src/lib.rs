@@ -42,6 +42,7 @@ pub mod templates;
 mod templates_tests;
 #[cfg(test)]
 mod tests;
+pub mod timers;
 
 use std::net::SocketAddr;
 use std::path::PathBuf;

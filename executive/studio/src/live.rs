@@ -34,6 +34,7 @@ pub struct Live {
     keys: Keys,
     heard: Arc<Mutex<BTreeMap<String, Catalogue>>>,
     executives: Arc<Mutex<BTreeMap<String, crate::ops::Presence>>>,
+    books: Mutex<crate::ops::Books>,
     _token: zenoh::liveliness::LivelinessToken,
     _watch: zenoh::pubsub::Subscriber<()>,
     _executives: zenoh::pubsub::Subscriber<()>,
@@ -93,6 +94,7 @@ impl Live {
             keys,
             heard: Arc::default(),
             executives,
+            books: Mutex::default(),
             _token: token,
             _watch: watch,
             _executives: watch_executives,
@@ -165,6 +167,10 @@ impl Live {
 
     pub(crate) fn executives_seen(&self) -> &Mutex<BTreeMap<String, crate::ops::Presence>> {
         &self.executives
+    }
+
+    pub(crate) fn books(&self) -> std::sync::MutexGuard<'_, crate::ops::Books> {
+        self.books.lock().unwrap_or_else(|p| p.into_inner())
     }
 
     /// The catalogues heard in the last round.

@@ -3,7 +3,9 @@
 //! ([`Live`]) finds the executives by their liveliness tokens, asks one for its model (to draw
 //! it) and follows it: its present state first, then every record line as it is written, the
 //! state asked again after each burst of lines (so the tokens shown are always the engine's
-//! own), and its going and coming back (a restarted executive).
+//! own), and its going and coming back (a restarted executive). The record lines it has of a
+//! mission (the last `history` reply and the lines followed since) are kept, so a mission's
+//! timeline stays once its executive has left.
 
 use std::collections::BTreeMap;
 use std::time::Duration;
@@ -13,6 +15,9 @@ use serde_json::Value;
 use tokio::sync::mpsc;
 
 use crate::live::{Live, LiveError};
+
+/// How many missions' records [`Books`] keeps (the least recently written one goes first).
+const BOOKS_KEPT: usize = 16;
 
 /// How long a state or model query waits for the executive.
 const ASK_FOR: Duration = Duration::from_secs(5);
@@ -56,6 +61,48 @@ pub enum AskError {
     Zenoh(String),
 }
 
+/// The record lines the studio has of each mission, by their `line` number (`docs/record.md`):
+/// a line met in a `history` reply and on the stream is kept once.
+#[derive(Debug, Default)]
+pub struct Books {
+    books: BTreeMap<String, (u64, BTreeMap<u64, String>)>,
+    writes: u64,
+}
+
+impl Books {
+    /// Keeps record line `line` (its text) of `mission`; a line without a number is not kept.
+    fn keep(&mut self, mission: &str, line: &Value, text: &str) {
+        let Some(n) = line["line"].as_u64() else {
+            return;
+        };
+        self.writes += 1;
+        if !self.books.contains_key(mission) && self.books.len() == BOOKS_KEPT {
+            let oldest = self
+                .books
+                .iter()
+                .min_by_key(|(_, (at, _))| *at)
+                .map(|(m, _)| m.clone());
+            if let Some(m) = oldest {
+                self.books.remove(&m);
+            }
+        }
+        let book = self.books.entry(mission.to_owned()).or_default();
+        book.0 = self.writes;
+        book.1.entry(n).or_insert_with(|| text.to_owned());
+    }
+
+    /// The record of `mission` as kept, one line each, in order; `None` if none was kept.
+    fn text(&self, mission: &str) -> Option<String> {
+        let (_, lines) = self.books.get(mission)?;
+        let mut out = String::new();
+        for l in lines.values() {
+            out.push_str(l);
+            out.push('\n');
+        }
+        Some(out)
+    }
+}
+
 enum Raw {
     Line(String),
     Token(bool),
@@ -76,12 +123,27 @@ impl Live {
             .await
     }
 
-    /// The execution record the mission's executive has written so far.
+    /// The execution record the mission's executive has written so far: its `history` reply
+    /// with the lines followed since; once the executive has left (the mission ended, or it
+    /// stopped), what the studio kept of it.
     pub async fn history(&self, mission: &str) -> Result<String, AskError> {
-        let bytes = self
+        let asked = self
             .ask_one(&self.keys().exec_history(mission), mission)
-            .await?;
-        Ok(String::from_utf8_lossy(&bytes).into_owned())
+            .await;
+        let mut books = self.books();
+        match asked {
+            Ok(bytes) => {
+                let text = String::from_utf8_lossy(&bytes);
+                for l in text.lines() {
+                    if let Ok(v) = serde_json::from_str::<Value>(l) {
+                        books.keep(mission, &v, l);
+                    }
+                }
+                // A record without line numbers (written before they were) as it came.
+                Ok(books.text(mission).unwrap_or_else(|| text.into_owned()))
+            }
+            Err(e) => books.text(mission).ok_or(e),
+        }
     }
 
     /// The mission's present state.
@@ -171,6 +233,7 @@ impl Live {
                                 tracing::warn!(%mission, "an unreadable record line was ignored");
                                 continue;
                             };
+                            live.books().keep(&mission, &line, &line.to_string());
                             // An engine step's lines: those the state already holds are
                             // skipped, the others ask for the state again. Lines of no step
                             // (accepted, feedback, reboot) pass as they are.

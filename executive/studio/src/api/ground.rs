@@ -22,14 +22,15 @@ fn station(
 }
 
 /// The open user tasks of the studio's ground station, each with its form (the answer's typed
-/// fields), context and deadline; and the station's last event lines (who answered what).
+/// fields), context and deadline (as text, and in mission ms); the last tasks closed, with who
+/// or what closed them; and the station's last event lines.
 pub(super) async fn desk(State(s): Shared) -> Response {
     let st = match station(&s) {
         Ok(st) => st,
         Err((status, why)) => return refuse(status, why),
     };
-    let tasks: Vec<serde_json::Value> = st
-        .desk()
+    let desk = st.desk();
+    let tasks: Vec<serde_json::Value> = desk
         .list()
         .map(|t| {
             let form = st.forms().action(&t.handle.action);
@@ -40,12 +41,15 @@ pub(super) async fn desk(State(s): Shared) -> Response {
                 "action": t.handle.action,
                 "context": t.context(),
                 "deadline": t.deadline(),
+                "deadline_ms": t.handle.fields.get("deadline_ms"),
                 "answering": t.answering,
                 "form": form.map(|f| json!({ "description": f.description, "fields": f.result })),
             })
         })
         .collect();
-    Json(json!({ "station": st.id, "tasks": tasks, "log": st.log() })).into_response()
+    let closed: Vec<_> = desk.closed().collect();
+    Json(json!({ "station": st.id, "tasks": tasks, "closed": closed, "log": st.log() }))
+        .into_response()
 }
 
 /// What the page sends to answer a task.

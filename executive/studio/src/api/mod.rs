@@ -1,7 +1,7 @@
 //! The studio's HTTP routes: the page, and the API of each part in its own file — missions,
 //! requirements, validation and catalogues (`missions.rs`), verification (`verify.rs`), the
 //! token games (`games.rs`), the followed missions (`ops.rs`), the ground desk (`ground.rs`),
-//! record replay (`replay.rs`). Every refusal this code makes is JSON `{"error": "..."}` with a
+//! record replay (`replay.rs`), timer previews (`timer.rs`). Every refusal this code makes is JSON `{"error": "..."}` with a
 //! status that says whose fault it is (axum's own rejections of a malformed path are plain
 //! text).
 
@@ -23,6 +23,7 @@ mod ground;
 mod missions;
 mod ops;
 mod replay;
+mod timer;
 mod verify;
 
 /// The routes of `studio`.
@@ -57,6 +58,7 @@ pub fn router(studio: Studio) -> Router {
         .route("/api/ground", get(ground::desk))
         .route("/api/ground/{number}", post(ground::answer))
         .route("/api/replay", post(replay::replay))
+        .route("/api/timer", post(timer::preview))
         .route("/api/simulate", post(games::start))
         .route("/api/simulate/{id}", post(games::act).delete(games::end))
         .route(

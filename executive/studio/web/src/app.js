@@ -12,7 +12,7 @@ import 'bpmn-js/dist/assets/bpmn-font/css/bpmn.css';
 import '@bpmn-io/properties-panel/dist/assets/properties-panel.css';
 import './style.css';
 import traceModdle from './trace-moddle.json';
-import TracePanelModule from './provider.jsx';
+import TracePanelModule, { traceTask } from './provider.jsx';
 import DrawingModule from './drawing.jsx';
 import { setupVerify } from './verify.js';
 import { setupSimulate } from './simulate.js';
@@ -30,6 +30,16 @@ const catalogue = {
   action(name) { return this.actions.find(a => a.name === name); },
 };
 
+/** The last check's diagnostics: the panel lists the selected element's (drawing.jsx) and
+ * marks each on the field it is in, so the panel and the problem list say the same. */
+const problems = {
+  diagnostics: [],
+  of(id) { return this.diagnostics.filter(d => d.element === id); },
+};
+
+/** The processes of the files the open one imports (a call activity may call them). */
+const imported = { processes: [] };
+
 const modeler = new BpmnModeler({
   container: '#canvas',
   propertiesPanel: { parent: '#panel' },
@@ -38,7 +48,8 @@ const modeler = new BpmnModeler({
     BpmnPropertiesProviderModule,
     TracePanelModule,
     DrawingModule,
-    { traceCatalogue: ['value', catalogue] },
+    { traceCatalogue: ['value', catalogue], traceProblems: ['value', problems],
+      traceImports: ['value', imported] },
   ],
   moddleExtensions: { trace: traceModdle, zeebe: zeebeModdle },
 });
@@ -105,7 +116,58 @@ async function openDiagram(id) {
   fitView();
   $('diagrams').value = id;
   document.body.dataset.diagram = id;
+  // A game being played goes on: its tokens drawn on this diagram's elements.
+  simulation.redraw();
   await check();
+}
+
+/** A free id with this prefix in the open file. */
+function freeId(prefix) {
+  const taken = new Set();
+  const walk = o => {
+    if (!o || typeof o !== 'object' || taken.has(o)) return;
+    if (typeof o.id === 'string') taken.add(o.id);
+    for (const k of Object.keys(o)) if (!k.startsWith('$')) {
+      const v = o[k];
+      if (Array.isArray(v)) v.forEach(walk); else if (v && typeof v === 'object' && v.$type) walk(v);
+    }
+  };
+  walk(modeler.getDefinitions());
+  let n = 1;
+  while (taken.has(`${prefix}_${n}`)) n += 1;
+  return `${prefix}_${n}`;
+}
+
+/** A new process in the open file (asked for its name), with a start event and a diagram of
+ * its own, opened: what a call activity can then call. */
+async function newProcess() {
+  const name = prompt('Name of the new process', 'Subtask');
+  if (name === null) return;
+  const moddle = modeler.get('moddle');
+  const defs = modeler.getDefinitions();
+  const id = freeId('Process');
+  const process = moddle.create('bpmn:Process', { id, name: name.trim() || id, isExecutable: true });
+  const start = moddle.create('bpmn:StartEvent', { id: freeId('Start'), name: 'Start' });
+  start.$parent = process;
+  process.get('flowElements').push(start);
+  process.$parent = defs;
+  defs.get('rootElements').push(process);
+  const shape = moddle.create('bpmndi:BPMNShape', {
+    id: `${start.id}_di`, bpmnElement: start,
+    bounds: moddle.create('dc:Bounds', { x: 180, y: 160, width: 36, height: 36 }),
+  });
+  const plane = moddle.create('bpmndi:BPMNPlane', { id: `${id}_plane`, bpmnElement: process, planeElement: [shape] });
+  const diagram = moddle.create('bpmndi:BPMNDiagram', { id: `${id}_diagram`, plane });
+  diagram.$parent = defs;
+  defs.get('diagrams').push(diagram);
+  // Read again from its text, so the new diagram is one bpmn-js knows.
+  const { xml } = await modeler.saveXML({ format: true });
+  await modeler.importXML(xml, diagram.id);
+  dirty = true;
+  simulation.stop();
+  listDiagrams();
+  await openDiagram(diagram.id);
+  say(`${current}: process ${process.name} added (${id})`, 'ok');
 }
 
 function fitView() {
@@ -116,8 +178,38 @@ function fitView() {
   canvas.viewbox({ x: box.x - 80, y: box.y, width: box.width + 80, height: box.height });
 }
 
+const BPMN_MODEL = 'http://www.omg.org/spec/BPMN/20100524/MODEL';
+
+/** Reads the processes of the BPMN files `definitions` imports, and of theirs (plain file
+ * names of the mission directory, at most 20 files), for the called-process list. */
+async function readImports(definitions) {
+  const found = [];
+  const seen = new Set([current]);
+  const queue = (definitions.get('imports') || []).map(i => i.location);
+  while (queue.length && seen.size <= 20) {
+    const file = queue.shift();
+    if (!file || seen.has(file) || !/^[A-Za-z0-9][A-Za-z0-9._-]*\.bpmn$/.test(file)) continue;
+    seen.add(file);
+    let doc;
+    try {
+      doc = new DOMParser().parseFromString(await api(`/api/missions/${encodeURIComponent(file)}`), 'application/xml');
+    } catch (e) {
+      say(`${file} (imported): ${e.message}`, 'warn');
+      continue;
+    }
+    for (const p of doc.getElementsByTagNameNS(BPMN_MODEL, 'process')) {
+      found.push({ id: p.getAttribute('id'), name: p.getAttribute('name') || '', file });
+    }
+    for (const i of doc.getElementsByTagNameNS(BPMN_MODEL, 'import')) {
+      if (i.getAttribute('importType') === BPMN_MODEL) queue.push(i.getAttribute('location'));
+    }
+  }
+  imported.processes = found;
+}
+
 async function show(name, xml) {
   const { warnings } = await modeler.importXML(xml);
+  imported.processes = [];
   current = name;
   dirty = false;
   $('missions').value = name;
@@ -125,6 +217,7 @@ async function show(name, xml) {
   fitView();
   say(warnings.length ? `${name}: opened with ${warnings.length} import warnings` : `${name}: opened`);
   simulation.stop();
+  await readImports(modeler.getDefinitions());
   await verification.loadRequirements(name);
   await check();
 }
@@ -238,11 +331,44 @@ async function check() {
     items.push(li);
   }
   $('problems').replaceChildren(...items);
+  problems.diagnostics = report.diagnostics;
+  markFields();
+  modeler.get('eventBus').fire('trace.checked');
   $('verdict').textContent = `— ${report.verdict}, ${report.diagnostics.length} diagnostics${fit(report.catalogue)}`;
   document.body.dataset.verdict = report.verdict;
   document.body.dataset.mismatches = String(report.catalogue ? report.catalogue.mismatches : 0);
   document.body.dataset.checks = String(Number(document.body.dataset.checks || 0) + 1);
 }
+
+/** The panel entry a diagnostic's `field` names on element `el`, if the panel shows one. */
+function entryOf(el, d) {
+  const [kind, path] = d.field.split(/:(.*)/s);
+  if (kind === 'condition') return 'trace-condition-expr';
+  if (kind === 'resource') return 'trace-resource';
+  if (kind !== 'input' && kind !== 'output') return undefined;
+  const task = traceTask(el);
+  if (!task) return undefined;
+  const goal = kind === 'input';
+  const i = task.get(goal ? 'inputs' : 'outputs').findIndex(r => r.get(goal ? 'target' : 'source') === path);
+  if (i < 0) return undefined;
+  // A path that is not the message's is the path's fault; anything else, the value's.
+  const part = /is not a (goal|result) field/.test(d.message) || !goal ? 'path' : 'expr';
+  return `${el.id}-trace-${kind}s-${i}-${part}`;
+}
+
+/** Marks the selected element's problems on the panel fields they are in (the properties
+ * panel's own error display). */
+function markFields() {
+  const [el] = modeler.get('selection').get();
+  const errors = {};
+  for (const d of el ? problems.of(el.id) : []) {
+    const entry = d.field && entryOf(el, d);
+    if (entry && !errors[entry]) errors[entry] = d.severity === 'error' ? d.message : `warning: ${d.message}`;
+  }
+  document.body.dataset.fieldErrors = JSON.stringify(errors);
+  modeler.get('eventBus').fire('propertiesPanel.setErrors', { errors });
+}
+modeler.on('selection.changed', () => markFields());
 
 modeler.on('commandStack.changed', () => {
   dirty = true;
@@ -260,6 +386,7 @@ $('missions').addEventListener('change', e => {
   open(e.target.value).catch(err => say(err.message, 'bad'));
 });
 $('new').addEventListener('click', () => create().catch(err => say(err.message, 'bad')));
+$('new-process').addEventListener('click', () => newProcess().catch(err => say(err.message, 'bad')));
 $('zoom-in').addEventListener('click', () => modeler.get('zoomScroll').stepZoom(1));
 $('zoom-out').addEventListener('click', () => modeler.get('zoomScroll').stepZoom(-1));
 $('zoom-fit').addEventListener('click', () => fitView());

@@ -1,14 +1,17 @@
 // What a planner draws besides tasks, without XML: a sequence flow's condition, a call
-// activity's called process (the file's processes), a script task's CEL script, a
-// multi-instance activity's items (Camunda 8's `zeebe:loopCharacteristics`). Each is
-// written where the executive reads it and checked by the same check as `trace validate` once
-// written (app.js marks the problems).
+// activity's called process (the file's processes and those of the files it imports), a script task's CEL script, a
+// multi-instance activity's items (Camunda 8's `zeebe:loopCharacteristics`), and under a
+// timer's value what it means (its first firings in mission time, or the executive's reason
+// for refusing it, from `POST /api/timer`); and for every element, the problems the last check
+// found on it, as the problem list says them. Each is written where the executive reads it and
+// checked by the same check as `trace validate` once written (app.js marks the problems).
 import { is, getBusinessObject } from 'bpmn-js/lib/util/ModelUtil';
 import {
   SelectEntry, TextAreaEntry, TextFieldEntry, isSelectEntryEdited, isTextFieldEntryEdited,
   isTextAreaEntryEdited,
 } from '@bpmn-io/properties-panel';
 import { useService } from 'bpmn-js-properties-panel';
+import { useEffect, useState } from '@bpmn-io/properties-panel/preact/hooks';
 import { withExtension } from './provider.jsx';
 
 /** Whether a flow's condition means something: out of a gateway that chooses, or an activity. */
@@ -40,6 +43,7 @@ function ConditionEntry({ element, id }) {
 
 function CalledEntry({ element, id }) {
   const modeling = useService('modeling');
+  const imported = useService('traceImports');
   const canvas = useService('canvas');
   const bo = getBusinessObject(element);
   const processes = () => {
@@ -49,12 +53,17 @@ function CalledEntry({ element, id }) {
   };
   return SelectEntry({
     element, id, label: 'Called process',
-    description: 'A process of this file (double-click the activity to open it)',
+    description: 'A process of this file (double-click the activity to open it) or of a file it imports',
     getValue: () => bo.get('calledElement') || '',
     setValue: value => modeling.updateProperties(element, { calledElement: value || undefined }),
     getOptions: () => {
       const current = bo.get('calledElement') || '';
       const options = processes().map(p => ({ value: p.id, label: p.name ? `${p.name} (${p.id})` : p.id }));
+      for (const p of imported.processes) {
+        if (!options.some(o => o.value === p.id)) {
+          options.push({ value: p.id, label: `${p.name || p.id} (${p.id}, from ${p.file})` });
+        }
+      }
       if (current && !options.some(o => o.value === current)) {
         options.unshift({ value: current, label: `${current} (not in this file)` });
       }
@@ -125,8 +134,71 @@ const ElementEntry = loopEntry('inputElement', 'Element variable',
 const OutputEntry = loopEntry('outputCollection', 'Output collection',
   'The variable that collects each instance\'s output, in order', false);
 
+/** The timer definition of an event, its kind (`timeDate`, …) and its text. */
+function timerOf(element) {
+  const defs = getBusinessObject(element).get('eventDefinitions') || [];
+  const timer = defs.find(d => is(d, 'bpmn:TimerEventDefinition'));
+  if (!timer) return undefined;
+  const kind = ['timeDate', 'timeCycle', 'timeDuration'].find(k => timer.get(k) !== undefined);
+  return kind && { kind, value: timer.get(kind).get('body') || '' };
+}
+
+function TimerPreview({ element }) {
+  const timer = timerOf(element);
+  const [shown, setShown] = useState({ text: '', bad: false });
+  const kind = timer && timer.kind;
+  const value = timer && timer.value;
+  useEffect(() => {
+    if (!kind) return undefined;
+    let live = true;
+    fetch('/api/timer', {
+      method: 'POST', headers: { 'Content-Type': 'application/json' },
+      body: JSON.stringify({ kind, value }),
+    }).then(async r => {
+      const b = await r.json();
+      if (!live) return;
+      setShown(r.ok
+        ? { text: `${b.summary}${b.firings.length ? `; first: ${b.firings.join(', ')}` : ''}`, bad: false }
+        : { text: b.error, bad: true });
+    }).catch(e => live && setShown({ text: e.message, bad: true }));
+    return () => { live = false; };
+  }, [kind, value]);
+  if (!kind) return null;
+  return (
+    <div class="bio-properties-panel-entry trace-timer-preview" data-entry-id="trace-timer-preview">
+      <p class={shown.bad ? 'bio-properties-panel-error' : ''}>{shown.text}</p>
+    </div>
+  );
+}
+
+/** The selected element's problems from the last check, redrawn after each check. */
+function ProblemsEntry({ element }) {
+  const eventBus = useService('eventBus');
+  const problems = useService('traceProblems');
+  const [, setChecks] = useState(0);
+  useEffect(() => {
+    const checked = () => setChecks(n => n + 1);
+    eventBus.on('trace.checked', checked);
+    return () => eventBus.off('trace.checked', checked);
+  }, [eventBus]);
+  const mine = problems.of(element.id);
+  return (
+    <div class="bio-properties-panel-entry trace-element-problems" data-entry-id="trace-element-problems">
+      {mine.length
+        ? <ul>{mine.map(d => <li class={`problem ${d.severity === 'error' ? 'error' : 'warning'}`}
+          data-code={d.code}>{d.severity} {d.code}: {d.message}</li>)}</ul>
+        : <p>None found by the last check.</p>}
+    </div>
+  );
+}
+
 function DrawingProvider(propertiesPanel) {
   this.getGroups = element => groups => {
+    if (element.businessObject && element.businessObject.$type !== 'bpmn:Definitions') {
+      groups.splice(1, 0, { id: 'trace-problems', label: 'Problems', entries: [
+        { id: 'trace-element-problems', element, component: ProblemsEntry },
+      ] });
+    }
     if (conditional(element)) {
       groups.splice(1, 0, { id: 'trace-condition', label: 'Condition', entries: [
         { id: 'trace-condition-expr', element, component: ConditionEntry, isEdited: isTextFieldEntryEdited },
@@ -148,6 +220,10 @@ function DrawingProvider(propertiesPanel) {
         { id: 'trace-loop-element', element, component: ElementEntry, isEdited: isTextFieldEntryEdited },
         { id: 'trace-loop-output', element, component: OutputEntry, isEdited: isTextFieldEntryEdited },
       ] });
+    }
+    const timer = groups.find(g => g.id === 'timer');
+    if (timer && timerOf(element)) {
+      timer.entries.push({ id: 'trace-timer-preview', element, component: TimerPreview });
     }
     return groups;
   };

@@ -4,7 +4,9 @@
 // record line; this page draws them: tokens with their counts (the state's, so always the
 // engine's own), activities in flight with their last feedback and how long they have run,
 // elements completed, failed tasks and incidents, timers with their deadlines in mission time,
-// the variables decisions read, and a plain line when the executive goes or comes back. The
+// the variables decisions read, and a plain line when the executive goes or comes back — or,
+// when its mission has ended, that it ended and how (its timeline stays, drawn from what the
+// studio kept of its record). The
 // executives of a fleet (`trace run --participant`: one per pool of a collaboration, each
 // running the same model) are followed together: each pool's tokens on the one diagram, and
 // every message flow a message has crossed marked.
@@ -28,7 +30,11 @@ export function setupOps(ctx) {
   const { api, say } = ctx;
   const $ = id => document.getElementById(id);
   const viewer = new NavigatedViewer({ container: '#ops-canvas' });
-  const ground = setupGround({ api });
+  let undrawn = '';      // why the chosen mission's model is not drawn, if it is not
+  let clock = null;      // the chosen executive's mission clock: {now_ms, speed, wall}
+  /** Mission time now on the chosen executive's clock, or null while none is known. */
+  const missionNow = () => (clock ? clock.now_ms + (Date.now() - clock.wall) * clock.speed : null);
+  const ground = setupGround({ api, say, now: missionNow });
   let sources = {};      // mission → the EventSource following it
   let mission = null;    // the mission chosen
   let model = null;      // its model's XML: another executive running it is of the same fleet
@@ -41,6 +47,14 @@ export function setupOps(ctx) {
   const feedback = {};   // task key → last feedback line
   const done = new Set();
   const failed = new Set();
+  const outcomes = {};   // instance → its outcome, null while it runs (state and record)
+  let endedAt = NaN;     // mission time of the last instance_finished line
+
+  /** The outcomes of the chosen mission's instances once every one has ended, else null. */
+  function ending() {
+    const all = Object.values(outcomes);
+    return all.length && all.every(o => o) ? all : null;
+  }
 
   /** The fleet's state: every executive's tokens, flights and timers, the chosen one's rest. */
   function merged() {
@@ -100,16 +114,18 @@ export function setupOps(ctx) {
       li.textContent = `${k} = ${JSON.stringify(v)}`;
       return li;
     }));
-    const ended = (state.instances || []).filter(i => i.outcome);
-    $('ops-status').className = '';
-    const fleet = state.pools.length > 1 ? `fleet: ${state.pools.join(', ')} · ` : '';
-    $('ops-status').textContent = `${fleet}${mission} · step ${state.seq} · mission time ${fmt(now)}`
-      + (ended.length ? ` · ended: ${ended.map(i => JSON.stringify(i.outcome)).join(', ')}` : '');
-    if (state.reboots) {
-      $('ops-status').textContent += ` · resumed ${state.reboots} time${state.reboots === 1 ? '' : 's'}`;
-      document.body.dataset.opsReboots = String(state.reboots);
-    }
+    const ended = Object.values(outcomes).filter(Boolean);
     document.body.dataset.opsSeq = String(state.seq);
+    if (state.reboots) document.body.dataset.opsReboots = String(state.reboots);
+    // Once the mission has ended and its executive left, the status says so and stays.
+    if (!document.body.dataset.opsEnded) {
+      $('ops-status').className = '';
+      const fleet = state.pools.length > 1 ? `fleet: ${state.pools.join(', ')} · ` : '';
+      $('ops-status').textContent = `${fleet}${mission} · step ${state.seq} · mission time ${fmt(now)}`
+        + (ended.length ? ` · ended: ${ended.map(o => o.type || JSON.stringify(o)).join(', ')}` : '')
+        + (state.reboots ? ` · resumed ${state.reboots} time${state.reboots === 1 ? '' : 's'}` : '')
+        + undrawn;
+    }
     document.body.dataset.opsFleet = state.pools.join(' ');
     document.body.dataset.opsMessageFlows = [...crossed].sort().join(' ');
     document.body.dataset.opsTokens = JSON.stringify(state.tokens || {});
@@ -120,6 +136,7 @@ export function setupOps(ctx) {
   let selected = null;
   let stale = false;
   let drawing = null;
+  let loads = 0;         // timeline pages asked for: each a new address, so each is loaded
   function timeline(now) {
     stale = true;
     if (drawing && !now) return;
@@ -128,7 +145,8 @@ export function setupOps(ctx) {
       drawing = null;
       if (!stale || !mission) return;
       stale = false;
-      $('ops-timeline').src = `/api/ops/${encodeURIComponent(mission)}/timeline?at=${lines.length}`;
+      loads += 1;
+      $('ops-timeline').src = `/api/ops/${encodeURIComponent(mission)}/timeline?at=${lines.length}&n=${loads}`;
     }, now ? 0 : 3000);
   }
   $('ops-timeline').addEventListener('load', () => {
@@ -167,6 +185,17 @@ export function setupOps(ctx) {
     }
     const id = v.element && v.element.id;
     switch (v.kind) {
+      case 'instance_started':
+        if (own && !(v.instance in outcomes)) outcomes[v.instance] = null;
+        break;
+      case 'instance_finished':
+        if (own) {
+          outcomes[v.instance] = v.outcome || { type: 'ended' };
+          endedAt = v.mission_ms;
+          // The end told after the going: said as an end.
+          if (document.body.dataset.opsGone === 'true') left(mission);
+        }
+        break;
       case 'dispatched':
       case 'user_task_opened':
         dispatched[v.task] = { element: id, at: v.mission_ms };
@@ -199,13 +228,37 @@ export function setupOps(ctx) {
     document.body.dataset.opsLines = String(lines.length);
   }
 
+  /** The chosen executive `m` has left: its mission ended (said so, the timeline drawn
+   * complete), or it stopped or crashed. */
+  function left(m) {
+    const ended = ending();
+    if (!ended) {
+      document.body.dataset.opsGone = 'true';
+      $('ops-status').className = 'gone';
+      $('ops-status').textContent = `${m}: the executive is gone (stopped or crashed); waiting for it to come back`;
+      return;
+    }
+    const how = [...new Set(ended.map(o => o.type || 'ended'))].join(', ');
+    document.body.dataset.opsGone = '';
+    document.body.dataset.opsEnded = how;
+    $('ops-status').className = 'ended';
+    $('ops-status').textContent = `${m}: the mission ended (${how}) at mission time ${fmt(endedAt)}; its executive has left`;
+    timeline(true);
+  }
+
   /** Follows executive `m`'s state and record (`own`: the one chosen). */
   function listen(m, own) {
     const source = new EventSource(`/api/ops/${encodeURIComponent(m)}/events`);
     sources[m] = source;
     source.addEventListener('state', e => {
       states[m] = JSON.parse(e.data);
-      if (own) document.body.dataset.opsGone = '';
+      if (own) {
+        document.body.dataset.opsGone = '';
+        const c = states[m].clock;
+        if (c && Number.isFinite(c.now_ms)) clock = { now_ms: c.now_ms, speed: c.speed || 0, wall: Date.now() };
+        // A stale state never undoes an end the record told.
+        for (const i of states[m].instances || []) outcomes[i.instance] = i.outcome || outcomes[i.instance] || null;
+      }
       mark();
     });
     source.addEventListener('record', e => { line(JSON.parse(e.data), own); mark(); });
@@ -213,12 +266,9 @@ export function setupOps(ctx) {
       source.addEventListener('gone', () => say(`${m}: an executive of the fleet is gone`, 'warn'));
       return;
     }
-    source.addEventListener('gone', () => {
-      document.body.dataset.opsGone = 'true';
-      $('ops-status').className = 'gone';
-      $('ops-status').textContent = `${m}: the executive is gone (stopped or crashed); waiting for it to come back`;
-    });
+    source.addEventListener('gone', () => left(m));
     source.addEventListener('back', () => {
+      document.body.dataset.opsEnded = '';
       document.body.dataset.opsBack = String(Number(document.body.dataset.opsBack || 0) + 1);
       say(`${m}: the executive is back`, 'ok');
     });
@@ -252,14 +302,25 @@ export function setupOps(ctx) {
     lines = [];
     done.clear();
     failed.clear();
+    clock = null;
+    endedAt = NaN;
+    for (const k of Object.keys(outcomes)) delete outcomes[k];
+    document.body.dataset.opsEnded = '';
     $('ops-log').replaceChildren();
+    undrawn = '';
     try {
       model = await api(`/api/ops/${encodeURIComponent(id)}/model`);
+    } catch (e) {
+      $('ops-status').textContent = `${id}: cannot follow it — ${e.message}`;
+      return;
+    }
+    // A model without a drawing (or one bpmn-js cannot draw) is followed all the same.
+    try {
       await viewer.importXML(model);
       viewer.get('canvas').zoom('fit-viewport');
     } catch (e) {
-      $('ops-status').textContent = `${id}: cannot draw its model — ${e.message}`;
-      return;
+      await viewer.clear();
+      undrawn = ` · its model has no diagram to draw (${e.message})`;
     }
     listen(id, true);
     timeline(true);

@@ -123,6 +123,11 @@ export function setupSimulate(ctx) {
     document.body.dataset.simulation = '';
   }
 
+  /** Draws the game again (another diagram of the file shown). */
+  function redraw() {
+    if (view) render();
+  }
+
   $('simulate').addEventListener('click', () => start());
-  return { start, stop, view: () => view };
+  return { start, stop, redraw, view: () => view };
 }
