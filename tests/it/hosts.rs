@@ -6,7 +6,8 @@
 //! a cut with goals in flight unnoticed on the lander and a late monitor given the present,
 //! seconds of latency on a narrow link, the crash matrix with router kills on either side, and
 //! TRACE Studio on the ground following the mission on the lander (with the monitor's
-//! certificate: its list, model, present and timeline, nothing refused).
+//! certificate: its list, model, present and timeline, nothing refused). A station's flood is
+//! in `flood.rs`.
 
 use std::time::Duration;
 
@@ -91,7 +92,7 @@ fn europa_flies_across_two_hosts_through_routers_with_mutual_tls_and_access_cont
 }
 
 /// A ground station with certificate `cert` on ground host `k`, answering by `policy`.
-fn station_with(lab: &mut Lab, k: usize, cert: &str, policy: &str) {
+pub(crate) fn station_with(lab: &mut Lab, k: usize, cert: &str, policy: &str) {
     let mut args = Lab::client_flags("station.json5", cert);
     args.extend(["--station", cert, "--policy", policy].map(str::to_owned));
     let args: Vec<&str> = args.iter().map(String::as_str).collect();
@@ -141,7 +142,7 @@ struct Forbidden {
     refused_by: &'static str,
 }
 
-const WAIT: Duration = Duration::from_secs(20);
+pub(crate) const WAIT: Duration = Duration::from_secs(20);
 
 #[test]
 fn every_operation_a_role_may_not_do_is_refused_by_the_routers_and_never_delivered() {
@@ -336,6 +337,17 @@ fn every_operation_a_role_may_not_do_is_refused_by_the_routers_and_never_deliver
         lab.until_logged(f.refused_by, &[REFUSAL, needle], WAIT);
         eprintln!("refused as it must be: {}", f.what);
     }
+    // What access control refused to let a station declare, undeclared by it: refused again,
+    // naming its certificate, and no error of the router's own.
+    let refused_key = "trace/d/act/lander_sim/drill/goal/undeclared";
+    lab.start_probe(
+        "undeclares",
+        &ground,
+        "station-a",
+        &["undeclare", refused_key],
+    );
+    lab.until_said("undeclares", &["undeclared"], WAIT);
+    lab.until_logged("ground-router1", &[REFUSAL, "station-a", refused_key], WAIT);
     // The same kinds of operation by the roles that may do them are delivered, after the
     // forbidden ones: what the executive heard by then is all it will hear of those.
     for (ns, cert, key) in [
@@ -377,6 +389,22 @@ fn every_operation_a_role_may_not_do_is_refused_by_the_routers_and_never_deliver
         !served.contains("cancel"),
         "a forbidden cancel was served:\n{served}"
     );
+    // Every refusal names the certificate (but the intruder's, whom no subject names), and
+    // nothing a client did made an error line.
+    for router in ["lander-router", "ground-router1"] {
+        let log = lab.log(router);
+        for l in log.lines().filter(|l| l.contains(REFUSAL)) {
+            assert!(
+                l.contains("CertCommonName(") || l.contains("did not match"),
+                "{router}: a refusal without its certificate: {l}"
+            );
+        }
+        assert!(
+            !log.lines()
+                .any(|l| l.contains(" ERROR ") && l.contains("routing::hat")),
+            "{router} logged a routing error a client caused:\n{log}"
+        );
+    }
 }
 
 #[test]
@@ -405,7 +433,10 @@ fn a_client_without_a_certificate_of_the_deployment_cannot_connect() {
         ),
     ] {
         // A station's flags with the certificate taken away or replaced, giving up after 3 s.
-        let mut args = vec!["--zenoh-set", "connect/timeout_ms/client=3000"];
+        let mut args = vec![
+            "--zenoh-set",
+            r#"connect/timeout_ms={"client": 3000, "peer": 3000, "router": 3000}"#,
+        ];
         for set in sets {
             args.extend(["--zenoh-set", set]);
         }
@@ -415,15 +446,29 @@ fn a_client_without_a_certificate_of_the_deployment_cannot_connect() {
             .output()
             .expect("probe runs");
         let text = String::from_utf8_lossy(&out.stdout);
+        // Refused by the router, not by a mistake in the probe's own configuration.
         assert!(
-            !out.status.success() && text.contains("error"),
+            !out.status.success() && text.contains("error") && !text.contains("configuration"),
             "{what}: {text}"
         );
     }
+    // The router says plainly that it refused them at the handshake, and why, without Zenoh's
+    // hint about the open-file limit.
+    let line = lab.until_logged(
+        "ground-router1",
+        &[connector_zenoh::router::HANDSHAKE],
+        WAIT,
+    );
+    assert!(!line.contains("open file limit"), "{line}");
+    assert!(
+        !lab.log("ground-router1").contains("Hint: increase"),
+        "{}",
+        lab.log("ground-router1")
+    );
 }
 
 /// A policy that approves every site after `delay_ms` (wall time), written into the lab.
-fn slow_policy(lab: &Lab, delay_ms: u64) -> String {
+pub(crate) fn slow_policy(lab: &Lab, delay_ms: u64) -> String {
     let file = lab.dir.join("slow-policy.toml");
     std::fs::write(
         &file,
@@ -477,7 +522,7 @@ grace_ms = 600000
 
 /// Starts the executive on the lander with [`APPROVAL`] and [`GROUND_ONLY`] at 300x (an hour
 /// of mission time is 12 s of wall time; the approval's six hours 72 s).
-fn run_approval(lab: &mut Lab) {
+pub(crate) fn run_approval(lab: &mut Lab) {
     std::fs::write(lab.dir.join("approval.bpmn"), APPROVAL).expect("mission");
     std::fs::write(lab.dir.join("ground.toml"), GROUND_ONLY).expect("connectors");
     let exec = lab.command(

@@ -14,6 +14,7 @@ mod europa;
 mod feel;
 mod fleet;
 mod fleet_hosts;
+mod flood;
 mod fly;
 mod fuzz;
 mod ground;

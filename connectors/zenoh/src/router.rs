@@ -17,7 +17,16 @@
 //!
 //! A flood of refused messages does not flood the log ([`Limiter`]): the same refusal (peer,
 //! operation, key) is written at most once every 10 s, and at most 50 refusals in all every
-//! 10 s; the next line written says how many were not.
+//! 10 s; the next line written says how many were not. Zenoh names a peer's certificate only
+//! on the first decision for a key, and then only its id; each line this router writes names
+//! the certificate, remembered by id.
+//!
+//! Two more of Zenoh's lines are rewritten, through the same limiter. A connection refused at
+//! the QUIC/TLS handshake (an unknown certificate authority, no client certificate) is said as
+//! such, with the handshake's reason and without Zenoh's hint about the open-file limit (the
+//! acceptor does not give the peer's address). And the errors a client can cause by
+//! undeclaring what access control refused to let it declare (`Unknown subscriber`, …: the
+//! router never knew it) are not errors of the router: they are dropped.
 
 use std::cell::RefCell;
 use std::collections::HashMap;
@@ -53,6 +62,16 @@ const CACHED: &str = "Using cached result";
 
 /// The prefix of every refusal this router writes.
 pub const REFUSAL: &str = "refused by access control:";
+
+/// The prefix of a connection refused at the handshake, as this router writes it.
+pub const HANDSHAKE: &str = "refused a connection at the QUIC/TLS handshake:";
+
+/// What Zenoh's QUIC acceptor says of a handshake that failed.
+const ACCEPT_FAILED: &str = "QUIC acceptor failed: ";
+
+/// The module of Zenoh's routing tables, whose errors on an undeclaration of something it
+/// never knew a client can cause at will.
+const HAT_TARGET: &str = "zenoh::net::routing::hat";
 
 /// Opens the router: the configuration of `args` (file, flags, `--zenoh-set`) in `router`
 /// mode, listening on the default loopback endpoint if nothing says otherwise. The router
@@ -91,7 +110,61 @@ pub fn log_router() {
         .with_writer(std::io::stderr)
         .with_filter(env);
     let refusals = Refusals.with_filter(filter_fn(|m| m.target().starts_with(ACL_TARGET)));
-    Registry::default().with(fmt).with(refusals).init();
+    Registry::default()
+        .with(Rewritten)
+        .with(fmt)
+        .with(refusals)
+        .init();
+}
+
+/// Zenoh's lines a peer can cause that this router says otherwise: a handshake refused (said
+/// plainly, rate-limited) and undeclarations of what it never knew (dropped).
+struct Rewritten;
+
+impl<S: tracing::Subscriber> Layer<S> for Rewritten {
+    fn event_enabled(&self, event: &tracing::Event<'_>, _: Context<'_, S>) -> bool {
+        let meta = event.metadata();
+        let hat = meta.target().starts_with(HAT_TARGET) && *meta.level() == tracing::Level::ERROR;
+        let quic = meta.target().contains("quic") && *meta.level() == tracing::Level::WARN;
+        if !hat && !quic {
+            return true;
+        }
+        let mut message = Message(String::new());
+        event.record(&mut message);
+        if hat {
+            return !is_unknown_undeclared(&message.0);
+        }
+        let Some(reason) = handshake_refusal(&message.0) else {
+            return true;
+        };
+        write_limited(HANDSHAKE, &reason);
+        false
+    }
+}
+
+/// Whether a routing-table error is an undeclaration of something the router never knew.
+fn is_unknown_undeclared(message: &str) -> bool {
+    matches!(
+        message,
+        "Unknown subscriber" | "Unknown token" | "Unknown id" | "Unknown queryable"
+    ) || message.contains("undeclaration in router region with no")
+}
+
+/// The reason of a failed QUIC/TLS handshake in Zenoh's warning, if the line is one.
+fn handshake_refusal(message: &str) -> Option<String> {
+    let at = message.find(ACCEPT_FAILED)?;
+    let rest = &message[at + ACCEPT_FAILED.len()..];
+    let rest = rest
+        .split(" Hint: increase the system open file limit")
+        .next()
+        .unwrap_or(rest);
+    // `ConnectionError(TransportError(Error { code: …, frame: None, reason: "…" }))`: the
+    // reason, when there is one.
+    let reason = rest
+        .split_once("reason: \"")
+        .and_then(|(_, r)| r.split_once('"'))
+        .map_or(rest.trim(), |(r, _)| r);
+    Some(reason.to_owned())
 }
 
 /// Keeps the refusals among Zenoh's access-control log events.
@@ -107,22 +180,58 @@ impl<S: tracing::Subscriber> Layer<S> for Refusals {
         let mut message = Message(String::new());
         event.record(&mut message);
         if !is_refusal(&message.0) {
+            // A decision that names the peer's certificate: remembered for later lines.
+            if !message.0.starts_with(CACHED) {
+                named(&message.0);
+            }
             return;
         }
-        let line = message.0.trim_start_matches("Using cached result: ");
-        let admitted = LIMITER
-            .lock()
-            .map(|mut l| l.admit(line, Instant::now()))
-            .unwrap_or(Some(0));
-        if let Some(unlogged) = admitted {
-            let more = if unlogged > 0 {
-                format!(" ({unlogged} refusals not logged since the last line)")
-            } else {
-                String::new()
-            };
-            // Written directly: emitting a tracing event from inside a layer would re-enter it.
-            eprintln!("WARN trace::router: {REFUSAL} {line}{more}");
+        let line = named(message.0.trim_start_matches("Using cached result: "));
+        write_limited(REFUSAL, &line);
+    }
+}
+
+/// Writes `prefix line` as a warning if the limiter admits it, saying how many were not.
+fn write_limited(prefix: &str, line: &str) {
+    let admitted = LIMITER
+        .lock()
+        .map(|mut l| l.admit(line, Instant::now()))
+        .unwrap_or(Some(0));
+    if let Some(unlogged) = admitted {
+        let more = if unlogged > 0 {
+            format!(" ({unlogged} refusals not logged since the last line)")
+        } else {
+            String::new()
+        };
+        // Written directly: emitting a tracing event from inside a layer would re-enter it.
+        eprintln!("WARN trace::router: {prefix} {line}{more}");
+    }
+}
+
+/// Peers' certificates, by Zenoh id, as Zenoh named them on a first decision (at most
+/// [`REMEMBERED`]; forgotten all at once when full).
+static SUBJECTS: Mutex<Option<HashMap<String, String>>> = Mutex::new(None);
+
+/// Learns the certificate a decision line names (`<zid> on <subject> is …`), and gives a
+/// refusal line that names only the id (`<zid> is unauthorized …`) its certificate.
+fn named(line: &str) -> String {
+    let Ok(mut subjects) = SUBJECTS.lock() else {
+        return line.to_owned();
+    };
+    let subjects = subjects.get_or_insert_with(HashMap::new);
+    let Some((zid, rest)) = line.split_once(' ') else {
+        return line.to_owned();
+    };
+    if let Some((subject, _)) = rest.strip_prefix("on ").and_then(|r| r.split_once(" is ")) {
+        if subjects.len() >= REMEMBERED && !subjects.contains_key(zid) {
+            subjects.clear();
         }
+        subjects.insert(zid.to_owned(), subject.to_owned());
+        return line.to_owned();
+    }
+    match subjects.get(zid) {
+        Some(subject) if rest.starts_with("is ") => format!("{zid} on {subject} {rest}"),
+        _ => line.to_owned(),
     }
 }
 
@@ -258,6 +367,34 @@ mod tests {
         let next = l.admit("another", t0 + EVERY * 2);
         assert_eq!(next, Some(10_000 - (BUDGET as u64 - 1)));
         assert!(l.last.as_ref().is_some_and(|m| m.len() <= REMEMBERED));
+    }
+
+    #[test]
+    fn a_refusal_named_only_by_id_is_given_the_certificate_its_first_decision_named() {
+        let first = "7a1b on CertCommonName(station-z)+Transport(Quic) is authorized to Put (ingress) on trace/d/act/ground/a/status";
+        assert_eq!(named(first), first);
+        assert_eq!(
+            named("7a1b is unauthorized to Put (ingress) on trace/d/tm/x"),
+            "7a1b on CertCommonName(station-z)+Transport(Quic) is unauthorized to Put (ingress) on trace/d/tm/x"
+        );
+        // An id never seen stays as it is.
+        let other = "99ff is unauthorized to Put (ingress) on trace/d/tm/x";
+        assert_eq!(named(other), other);
+    }
+
+    #[test]
+    fn a_failed_handshake_is_said_with_its_reason_and_undeclared_strangers_are_quiet() {
+        let warn = r#"QUIC acceptor failed: ConnectionLost(TransportError(Error { code: Code::crypto(2a), frame: None, reason: "invalid peer certificate: UnknownIssuer" })) Hint: increase the system open file limit."#;
+        assert_eq!(
+            handshake_refusal(warn).as_deref(),
+            Some("invalid peer certificate: UnknownIssuer")
+        );
+        assert_eq!(handshake_refusal("something else"), None);
+        assert!(is_unknown_undeclared("Unknown subscriber"));
+        assert!(is_unknown_undeclared(
+            "Token undeclaration in router region with no resource"
+        ));
+        assert!(!is_unknown_undeclared("Unknown wire expr"));
     }
 
     #[test]

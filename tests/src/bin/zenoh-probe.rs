@@ -8,6 +8,14 @@
 //!   zenoh-probe [ZENOH FLAGS] token KEY            declare a liveliness token, then stay up
 //!   zenoh-probe [ZENOH FLAGS] alive KEY            liveliness subscriber with history; print
 //!                                                  `alive KEY` / `gone KEY`
+//!   zenoh-probe [ZENOH FLAGS] undeclare KEY        declare a liveliness token and a queryable
+//!                                                  on KEY, undeclare both; print `undeclared`,
+//!                                                  then stay up
+//!   zenoh-probe [ZENOH FLAGS] flood KEY COUNT      COUNT puts (Drop) paced over 20 s, then,
+//!                                                  half a second later, an `end` put (Block);
+//!                                                  print `flooded COUNT`, then stay up
+//!   zenoh-probe [ZENOH FLAGS] count KEY            subscribe; at the `end` put, print
+//!                                                  `counted N`: the samples before it
 //!
 //! Every operation prints `ready` once its session is open and its declaration or send made;
 //! a session that cannot open prints `error: …` and exits 1.
@@ -23,11 +31,11 @@ use zenoh::sample::SampleKind;
 struct Cli {
     #[command(flatten)]
     zenoh: connector_zenoh::ZenohArgs,
-    /// sub, put, get, queryable, token or alive.
+    /// sub, put, get, queryable, token, alive, undeclare, flood or count.
     op: String,
     /// The key expression.
     key: String,
-    /// The payload of put and get.
+    /// The payload of put and get; flood's count.
     payload: Option<String>,
 }
 
@@ -112,6 +120,54 @@ async fn probe(cli: &Cli) -> Result<(), zenoh::Error> {
                     "gone"
                 };
                 say(&format!("{what} {}", s.key_expr()));
+            }
+        }
+        "undeclare" => {
+            let token = session.liveliness().declare_token(key).await?;
+            let queryable = session.declare_queryable(key).await?;
+            say("ready");
+            token.undeclare().await?;
+            queryable.undeclare().await?;
+            say("undeclared");
+            std::future::pending::<()>().await;
+        }
+        "flood" => {
+            let count: u64 = payload
+                .parse()
+                .map_err(|_| format!("flood: COUNT `{payload}` is not a number"))?;
+            let publisher = session
+                .declare_publisher(key)
+                .congestion_control(CongestionControl::Drop)
+                .await?;
+            say("ready");
+            let start = tokio::time::Instant::now();
+            let over = Duration::from_secs(20);
+            for i in 0..count {
+                publisher.put(format!("{{\"flood\": {i}}}")).await?;
+                // Paced: a load generator's rate, not a wait for anything.
+                if i % 100 == 99 {
+                    let due = start + over.mul_f64((i + 1) as f64 / count as f64);
+                    tokio::time::sleep_until(due).await;
+                }
+            }
+            tokio::time::sleep(Duration::from_millis(500)).await;
+            session
+                .put(key, "{\"flood\": \"end\"}")
+                .congestion_control(CongestionControl::Block)
+                .await?;
+            say(&format!("flooded {count}"));
+            std::future::pending::<()>().await;
+        }
+        "count" => {
+            let sub = session.declare_subscriber(key).await?;
+            say("ready");
+            let mut n = 0u64;
+            while let Ok(s) = sub.recv_async().await {
+                if text(s.payload()).contains("\"end\"") {
+                    say(&format!("counted {n}"));
+                } else {
+                    n += 1;
+                }
             }
         }
         other => return Err(format!("unknown operation {other}").into()),
