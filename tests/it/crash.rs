@@ -262,7 +262,7 @@ pub(crate) fn reduced_matrix(layout: mission_tests::matrix::Layout) {
         assert!(f.kills >= 1, "{}: no kill was made: {f:?}", victim.name());
         // A lander without its simulator, or a router down, for the second a restart takes is
         // over a mission day at this speed: approvals time out, the deadline comes sooner. The
-        // same end, not necessarily as many samples (README, crash matrix).
+        // same end, not necessarily as many samples (docs/benchmarks.md, the crash matrix).
         let alike = match victim {
             Victim::Executive | Victim::Ground => tally.same,
             Victim::Simulator | Victim::Both | Victim::LanderRouter | Victim::GroundRouter => {

@@ -150,6 +150,46 @@ impl std::fmt::Display for Failure {
     }
 }
 
+/// The language an undeclared expression that is not CEL is plainly written in, by the marks
+/// of the other engines' defaults: the BPMN XPath functions (§10.2.2, the specification's
+/// default language), a JSONPath `$.`, Python's word operators and constants (SpiffWorkflow),
+/// Java/MVEL statements (jBPM, Kogito: `return …;`, `kcontext`). `None` when nothing marks it.
+fn dialect(text: &str) -> Option<&'static str> {
+    const XPATH: [&str; 6] = [
+        "getDataObject(",
+        "getDataInput(",
+        "getDataOutput(",
+        "getActivityInstanceAttribute(",
+        "getProcessInstanceAttribute(",
+        "getGlobalTaskInstanceAttribute(",
+    ];
+    let t = text.trim();
+    if XPATH.iter().any(|f| t.contains(f)) || t.starts_with("/") || t.contains("bpmn:") {
+        return Some("XPath (the specification's default language)");
+    }
+    if t.starts_with("$.") || t.starts_with("$[") {
+        return Some("JSONPath");
+    }
+    let statement = t.ends_with(';') || t.starts_with("return ") || t.contains("kcontext");
+    if statement {
+        return Some("Java or MVEL (jBPM, Kogito)");
+    }
+    let words: Vec<&str> = t
+        .split(|c: char| !(c.is_alphanumeric() || c == '_'))
+        .filter(|w| !w.is_empty())
+        .collect();
+    let python = words.iter().any(|w| {
+        matches!(
+            *w,
+            "not" | "and" | "or" | "is" | "None" | "True" | "False" | "elif"
+        )
+    });
+    if python {
+        return Some("Python (SpiffWorkflow's language)");
+    }
+    None
+}
+
 impl Expression {
     /// Compiles `raw`, reading JUEL `${…}` / `#{…}` and FEEL `=…` by their wrappers and any other
     /// text as CEL.
@@ -202,6 +242,11 @@ impl Expression {
                 Failure::Unevaluated(format!(
                     "{} expression `{source}` is outside the subset TRACE evaluates ({first})",
                     language.label()
+                ))
+            } else if let Some(dialect) = dialect(&text) {
+                // Undeclared, not CEL, and plainly another engine's language: named as such.
+                Failure::Unevaluated(format!(
+                    "`{text}` reads as {dialect}, which TRACE does not evaluate, not as CEL ({first}); write it in CEL or declare its language"
                 ))
             } else {
                 Failure::Syntax(format!("{first} in `{text}`"))
@@ -529,6 +574,34 @@ fn assignment_eq(stmt: &str) -> Option<usize> {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn undeclared_expressions_of_other_engines_are_named_by_their_language() {
+        for (text, language) in [
+            ("not val", "Python"),
+            ("done and not failed", "Python"),
+            ("x is None", "Python"),
+            ("bpmn:getDataObject('approved')", "XPath"),
+            ("not(bpmn:getDataObject('approved'))", "XPath"),
+            ("$.foo == true", "JSONPath"),
+            ("return approved == true;", "MVEL"),
+            ("kcontext.getVariable(\"x\") ==", "MVEL"),
+        ] {
+            match Expression::compile(text, &Language::Cel) {
+                Err(Failure::Unevaluated(m)) => {
+                    assert!(m.contains(language), "{text}: {m}")
+                }
+                other => panic!("{text}: {other:?}"),
+            }
+        }
+        // CEL that fails for its own reasons stays a syntax error.
+        assert!(matches!(
+            Expression::compile("a >", &Language::Cel),
+            Err(Failure::Syntax(_))
+        ));
+        // And what is CEL compiles, whatever words it uses.
+        assert!(Expression::compile("notes == 'x' && order_total > 3", &Language::Cel).is_ok());
+    }
+
     use super::*;
 
     #[test]

@@ -249,31 +249,66 @@ impl Player {
     }
 
     fn message_flow(&mut self, id: &str) -> Result<(), String> {
-        let target = self
+        let (target, message) = self
             .g
             .collaborations
             .iter()
             .flat_map(|c| &c.message_flows)
             .find(|m| m.id == id)
-            .map(|m| m.target.clone())
+            .map(|m| (m.target.clone(), m.message))
             .ok_or_else(|| format!("no message flow `{id}`"))?;
         if self.g.node_by_id(&target).is_some() {
             return self.trigger(&target, None);
         }
-        // A pool: start its process.
-        let process = self
+        // A pool: start its process; a pool without one (a black box, §9.2) takes the message
+        // out of the model, and nothing here moves.
+        let pool = self
             .g
             .participants()
             .find(|p| p.id == target)
-            .and_then(|p| p.process)
             .ok_or_else(|| {
-                format!("message flow `{id}` targets `{target}`, which is not runnable")
+                format!("message flow `{id}` targets `{target}`, which is not a pool or element")
             })?;
+        let Some(process) = pool.process else {
+            return Ok(());
+        };
+        // Started once, at the message start event the message is for (the flow's message,
+        // else the only message start); a process without one starts as any other.
+        let starts: Vec<&executive_model::Node> = self
+            .g
+            .scope_nodes(executive_model::Scope::Process(process))
+            .iter()
+            .map(|n| self.g.node(*n))
+            .filter(|n| match &n.kind {
+                NodeKind::Start(s) => s
+                    .triggers
+                    .iter()
+                    .any(|t| matches!(t, executive_model::EventDefinition::Message(_))),
+                _ => false,
+            })
+            .collect();
+        let for_message = |n: &&&executive_model::Node| {
+            match &n.kind {
+            NodeKind::Start(s) => s.triggers.iter().any(|t| {
+                matches!(t, executive_model::EventDefinition::Message(m) if m.is_some() && *m == message)
+            }),
+            _ => false,
+        }
+        };
+        let start = starts
+            .iter()
+            .find(for_message)
+            .or(if starts.len() == 1 {
+                starts.first()
+            } else {
+                None
+            })
+            .map(|n| n.id.clone());
         let process = self.g.process(process).id.clone();
         self.apply(Event::InstanceStarted {
             process,
             vars: Vars::new(),
-            start: None,
+            start,
         })
     }
 

@@ -1,8 +1,8 @@
 // The TRACE groups of the properties panel: a task's action chosen from the catalogues, and its
 // goal inputs and result outputs as `trace:input` / `trace:output` rows whose paths are checked
 // against the action's goal and result fields as they are typed; on an error boundary, the
-// codes the task's action declares. What it writes is the
-// `trace:task` binding the executive reads (docs/bpmn-extensions in the README).
+// codes the task's action declares. What it writes is the `trace:task` binding the executive
+// reads (docs/guide/planning.md, "Writing missions").
 import { is, getBusinessObject } from 'bpmn-js/lib/util/ModelUtil';
 import {
   ListGroup, SelectEntry, TextFieldEntry, isSelectEntryEdited, isTextFieldEntryEdited,
