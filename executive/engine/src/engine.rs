@@ -31,7 +31,7 @@ pub struct Engine {
     state: State,
     reach: BTreeMap<(NodeId, NodeId, bool), Vec<executive_model::FlowId>>,
     /// The ready-token queue, kept empty between steps so a step does not allocate one.
-    ready: std::collections::VecDeque<crate::io::TokenId>,
+    ready: std::collections::VecDeque<(crate::io::TokenId, u32)>,
     trace_moves: bool,
     game: Option<Game>,
     /// The processes of pools other executives run, with their pool's id (a fleet).
@@ -164,7 +164,7 @@ impl Engine {
             out: Vec::with_capacity(8),
             ready,
             trace_moves: self.trace_moves,
-            deferred: Vec::new(),
+            wave: 0,
             game: self.game.as_ref(),
             throw_now: Default::default(),
             reach: &mut self.reach,

@@ -410,25 +410,34 @@ impl Run<'_> {
         }
     }
 
-    /// A signal throw waits until the other ready tokens of the step have settled, so that
-    /// parallel branches reach their catch events before a sibling branch broadcasts.
-    fn defer_signal(&mut self, t: TokenId, defs: &[EventDefinition]) -> bool {
-        if !defs.iter().any(|d| matches!(d, EventDefinition::Signal(_)))
-            || self.ready.is_empty()
-            || self.throw_now.remove(&t)
+    /// A throw — message, signal, error, escalation, compensation, cancel, terminate — takes
+    /// effect after the other tokens of its wave have arrived (`docs/engine-semantics.md`,
+    /// "Within a step"): the thrower is put back once behind them, so parallel branches that
+    /// moved with it reach their catch events and enter their activities first, and what they
+    /// start moves after the throw. A link is a jump, not a throw.
+    fn defer_throw(&mut self, t: TokenId, defs: &[EventDefinition]) -> bool {
+        if !defs.iter().any(|d| !matches!(d, EventDefinition::Link(_))) || self.throw_now.remove(&t)
         {
             return false;
         }
-        if let Some(tok) = self.s.tokens.get_mut(&t) {
-            tok.at = At::Catching;
+        let wave = self.wave;
+        let behind = self.ready.iter().any(|(u, w)| {
+            *w <= wave
+                && *u != t
+                && !self.throw_now.contains(u)
+                && self.s.tokens.get(u).is_some_and(|tok| tok.at == At::Ready)
+        });
+        if !behind {
+            return false;
         }
-        self.deferred.push(t);
+        self.throw_now.insert(t);
+        self.ready.push_back((t, wave));
         true
     }
 
     /// An end event.
     pub(crate) fn end_event(&mut self, t: TokenId, defs: &[EventDefinition]) {
-        if self.defer_signal(t, defs) {
+        if self.defer_throw(t, defs) {
             return;
         }
         let node = self.s.tokens[&t].node;
@@ -458,7 +467,7 @@ impl Run<'_> {
 
     /// An intermediate throw event.
     pub(crate) fn throw_event(&mut self, t: TokenId, defs: &[EventDefinition]) {
-        if self.defer_signal(t, defs) {
+        if self.defer_throw(t, defs) {
             return;
         }
         let node = self.s.tokens[&t].node;

@@ -19,14 +19,16 @@ pub(crate) struct Run<'a> {
     pub(crate) s: &'a mut State,
     pub(crate) now: Millis,
     pub(crate) out: Vec<Action>,
-    pub(crate) ready: VecDeque<TokenId>,
+    /// The tokens ready to arrive, each with its wave: one more than the wave of the arrival
+    /// that made it ready (the step's first tokens are wave 1).
+    pub(crate) ready: VecDeque<(TokenId, u32)>,
+    /// The wave of the token arriving now (0 before the first arrival of the step).
+    pub(crate) wave: u32,
     /// Record token moves (entered / left / took). Off only for benchmarks of raw stepping.
     pub(crate) trace_moves: bool,
     /// Token-game settings, if the engine plays a token game.
     pub(crate) game: Option<&'a crate::engine::Game>,
-    /// Signal throwers waiting for the ready tokens to settle.
-    pub(crate) deferred: Vec<TokenId>,
-    /// Deferred throwers now due to throw.
+    /// Throwers put back behind the other tokens of their wave, now due to throw.
     pub(crate) throw_now: std::collections::BTreeSet<TokenId>,
     /// The incoming flows of a join reachable from a node, memoised (derived from the graph
     /// only, not state).
@@ -79,7 +81,7 @@ impl<'a> Run<'a> {
         if let Some(sc) = self.s.scopes.get_mut(&scope) {
             sc.tokens.insert(id);
         }
-        self.ready.push_back(id);
+        self.ready.push_back((id, self.wave + 1));
         id
     }
 
@@ -87,25 +89,16 @@ impl<'a> Run<'a> {
     pub(crate) fn quiesce(&mut self) {
         let mut moves = 0;
         for _ in 0..MAX_CONDITION_ROUNDS {
-            while let Some(t) = self.ready.pop_front() {
+            while let Some((t, wave)) = self.ready.pop_front() {
                 if self.s.tokens.get(&t).is_some_and(|t| t.at == At::Ready) {
                     moves += 1;
                     if moves > MAX_MOVES {
                         self.incident(t, format!("the step exceeded {MAX_MOVES} token moves: the model loops without waiting"));
                         continue;
                     }
+                    self.wave = wave;
                     self.arrive(t);
                 }
-            }
-            if !self.deferred.is_empty() {
-                for t in std::mem::take(&mut self.deferred) {
-                    if let Some(tok) = self.s.tokens.get_mut(&t) {
-                        tok.at = At::Ready;
-                        self.throw_now.insert(t);
-                        self.ready.push_back(t);
-                    }
-                }
-                continue;
             }
             if self.joins() || self.conditions() {
                 continue;
@@ -729,7 +722,7 @@ impl<'a> Run<'a> {
                         tok.body = false;
                         tok.command = None;
                     }
-                    self.ready.push_back(t);
+                    self.ready.push_back((t, self.wave + 1));
                 } else {
                     self.spawn(scope, target, Some(f));
                 }

@@ -281,7 +281,7 @@ impl Run<'_> {
         if let Some(root) = root {
             self.cancel_scope(root);
         }
-        self.ready.retain(|t| self.s.tokens.contains_key(t));
+        self.ready.retain(|(t, _)| self.s.tokens.contains_key(t));
         self.record(
             instance,
             Entry::InstanceFinished {

@@ -15,6 +15,7 @@ mod fleet;
 mod message_flows;
 mod signals;
 mod transactions;
+mod waves;
 
 const HEAD: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
 <definitions xmlns="http://www.omg.org/spec/BPMN/20100524/MODEL"

@@ -113,10 +113,10 @@ fn a_signal_thrown_before_the_catcher_waits_is_lost() {
 }
 
 /// Parallel branches of one step have no order in the specification (§13.4.1 fork: the tokens
-/// move concurrently). TRACE lets the other ready tokens of the step settle before a signal is
-/// thrown, so a catch event reached in the same instant as the throw catches it.
+/// move concurrently). TRACE lets the other tokens of the throw's wave arrive before a signal
+/// is thrown (`waves.rs`), so a catch event reached in the same wave as the throw catches it.
 #[test]
-fn a_throw_waits_for_the_sibling_branches_of_the_same_step_to_settle() {
+fn a_throw_waits_for_the_sibling_branches_of_its_wave() {
     let mut d = Driver::new(&signals(&[
         // The throwing branch comes first in document order.
         fork_into(&[&["t"], &["c"]]),
