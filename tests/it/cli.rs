@@ -1,5 +1,7 @@
-//! The `trace validate` command as users run it: exit codes, rustc-style diagnostics with
-//! line:column and a caret, and `--json` for tools.
+//! The `trace` command as users run it: `trace validate`'s exit codes, rustc-style diagnostics
+//! with line:column and a caret, and `--json` for tools; and `docs/cli.md`, the reference of
+//! every command and flag, equal to what the clap definitions say (`TRACE_BLESS=1` writes it
+//! again after a change).
 
 use std::process::Command;
 
@@ -87,4 +89,24 @@ fn json_output_and_exit_codes_for_tools() {
     assert_eq!(reports[1]["verdict"], "unreadable");
     let (code, _) = trace(&["validate", "/nonexistent/mission.bpmn"]);
     assert_eq!(code, 2);
+}
+
+#[test]
+fn the_command_reference_is_what_the_clap_definitions_say() {
+    let (code, generated) = trace(&["cli-reference"]);
+    assert_eq!(code, 0);
+    let path = repo().join("docs/cli.md");
+    if std::env::var_os("TRACE_BLESS").is_some() {
+        std::fs::write(&path, &generated).expect("docs/cli.md written");
+    }
+    let committed = std::fs::read_to_string(&path).unwrap_or_default();
+    assert!(
+        committed == generated,
+        "docs/cli.md differs from `trace cli-reference`: run the test again with TRACE_BLESS=1 \
+         and commit the file (first differing line: {:?})",
+        committed
+            .lines()
+            .zip(generated.lines())
+            .find(|(a, b)| a != b)
+    );
 }

@@ -122,6 +122,10 @@ enum Command {
     /// goal and result field. Camunda Modeler reads them from `.camunda/element-templates/`
     /// beside a diagram or above it; what they write loads in `trace validate` and `trace run`.
     Templates(TemplatesArgs),
+    /// Print this command's reference, every subcommand and flag, as Markdown: `docs/cli.md` is
+    /// its output, and a test fails when they differ.
+    #[command(hide = true)]
+    CliReference,
     /// Print the catalogue a middleware's definitions give, as JSON: for the studio, `trace
     /// templates` and pre-flight checks of missions on systems that serve no catalogue.
     #[command(subcommand)]
@@ -349,6 +353,11 @@ fn main() -> anyhow::Result<ExitCode> {
         }
         Command::Studio(args) => studio(args),
         Command::Templates(args) => templates(args),
+        Command::CliReference => {
+            use clap::CommandFactory;
+            print!("{}", clap_markdown::help_markdown_command(&Cli::command()));
+            Ok(ExitCode::SUCCESS)
+        }
         Command::Catalogue(CatalogueKind::Ros2 { dirs, server }) => {
             let defs = connector_ros2::Definitions::from_env(&dirs);
             match connector_ros2::definitions::catalogue(&defs, &server) {
