@@ -9,8 +9,8 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use executive::validate::load_file;
 use executive_model::{Category, Loaded, Options, Severity};
+use executive_runtime::validate::load_file;
 use mission_tests::{conformance, json_array};
 
 /// Cases where we deliberately disagree, with the reason.

@@ -95,7 +95,7 @@ fn ends(child: Child, what: &str) -> ExitStatus {
 
 /// A record's lines, each line written again after a restart (same `seq` and `idx`) once.
 fn lines(record: &Path) -> Vec<serde_json::Value> {
-    let mut reader = executive::record::Reader::default();
+    let mut reader = executive_runtime::record::Reader::default();
     std::fs::read_to_string(record)
         .unwrap_or_default()
         .lines()

@@ -1,8 +1,8 @@
 //! The shipped mission models: every model under `deploy/missions/` loads with zero
 //! diagnostics, and the Europa BSM-1 model has the structure the TRACE paper describes.
 
-use executive::validate::load_file;
 use executive_model::*;
+use executive_runtime::validate::load_file;
 use mission_tests::repo;
 
 #[test]

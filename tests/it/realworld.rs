@@ -9,8 +9,8 @@
 
 use std::collections::BTreeMap;
 
-use executive::validate::load_file;
 use executive_model::{Category, Options, Severity};
+use executive_runtime::validate::load_file;
 use mission_tests::{conformance, json_array};
 
 /// Files that keep a BPMN error, with the clause and why the refusal is right.

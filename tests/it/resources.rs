@@ -24,9 +24,9 @@ fn europa() -> Arc<ProcessGraph> {
 
 fn costs(g: &ProcessGraph) -> executive_verify::resources::Costs {
     let text = std::fs::read_to_string(repo().join("deploy/connectors.toml")).expect("routes");
-    let config = executive::connectors::parse_config(&text).expect("routes parse");
+    let config = executive_runtime::connectors::parse_config(&text).expect("routes parse");
     let lander = elap_sim::catalogue::catalogue();
-    let catalogues = executive::catalogues::served(&config, &[lander]);
+    let catalogues = executive_runtime::catalogues::served(&config, &[lander]);
     let source = executive_verify::resources::Source {
         pool: None,
         config: &config,

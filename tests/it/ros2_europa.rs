@@ -240,7 +240,7 @@ fn wait(mut child: Child) -> (bool, String) {
 #[test]
 fn the_ros2_definitions_describe_the_simulator_s_arm_and_excavation_exactly() {
     let config =
-        executive::catalogues::read_connectors(&repo().join("deploy/ros2/connectors.toml"))
+        executive_runtime::catalogues::read_connectors(&repo().join("deploy/ros2/connectors.toml"))
             .expect("the connectors file reads");
     let arm = config
         .connectors

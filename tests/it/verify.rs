@@ -636,7 +636,7 @@ fn spin_and_the_engine_agree_on_the_betsy_models() {
     for t in mission_tests::json_array(&root.join("expectations.json")) {
         let (group, name) = (t["group"].as_str().unwrap(), t["name"].as_str().unwrap());
         let path = root.join(group).join(format!("{name}.bpmn"));
-        let loaded = executive::validate::load_file(&path, &options).expect("readable");
+        let loaded = executive_runtime::validate::load_file(&path, &options).expect("readable");
         let Some(graph) = loaded.graph else { continue };
         match compare(graph, &work.join(name)) {
             Compared::Refused(why) => {

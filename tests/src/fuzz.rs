@@ -38,7 +38,7 @@ static EUROPA: LazyLock<Arc<ProcessGraph>> = LazyLock::new(|| {
 });
 
 static CONNECTORS: LazyLock<ConnectorsConfig> = LazyLock::new(|| {
-    executive::connectors::parse_config(include_str!("../../deploy/connectors.toml"))
+    executive_runtime::connectors::parse_config(include_str!("../../deploy/connectors.toml"))
         .expect("the deployment's connectors file is valid")
 });
 
@@ -270,7 +270,7 @@ pub fn wire(data: &[u8]) {
 
 /// Checks the Europa mission's tasks against a catalogue as `trace validate` does.
 fn against(cat: &Catalogue) {
-    let tasks = executive::connectors::task_uses(&EUROPA);
+    let tasks = executive_runtime::connectors::task_uses(&EUROPA);
     let _ = connector_api::check(&tasks, &CONNECTORS, &[Some(cat.clone())]);
 }
 
@@ -300,13 +300,13 @@ pub fn answers(data: &[u8]) {
 /// written twice after a restart), into the timeline, and the page's data.
 pub fn record(data: &[u8]) {
     let text = String::from_utf8_lossy(data);
-    let mut reader = executive::record::Reader::default();
+    let mut reader = executive_runtime::record::Reader::default();
     for line in text.lines() {
         if let Some(v) = reader.read(line) {
             let _ = reader.resource(&v);
         }
     }
-    let t = executive::timeline::build(text.lines().map(str::to_owned));
+    let t = executive_runtime::timeline::build(text.lines().map(str::to_owned));
     let _ = serde_json::to_string(&t);
 }
 
@@ -322,10 +322,10 @@ pub fn config(data: &[u8]) {
     };
     match pick % 7 {
         0 => {
-            let _ = executive::config::Settings::default().with_text(text, "fuzz.toml");
+            let _ = executive_runtime::config::Settings::default().with_text(text, "fuzz.toml");
         }
         1 => {
-            if let Ok(c) = executive::connectors::parse_config(text) {
+            if let Ok(c) = executive_runtime::connectors::parse_config(text) {
                 for resource in ["excavation.excavate", "ground.select_site", "x"] {
                     let _ = c.route(resource);
                 }
@@ -341,7 +341,9 @@ pub fn config(data: &[u8]) {
                 }
             }
         }
-        3 => drop(serde_json::from_str::<executive::script::Script>(text)),
+        3 => drop(serde_json::from_str::<executive_runtime::script::Script>(
+            text,
+        )),
         4 => {
             if let Ok(s) = serde_json::from_str::<elap_sim::Script>(text) {
                 let _ = s.forced("excavation.excavate", 1);

@@ -7,7 +7,7 @@ use clap::{Parser, Subcommand};
 
 /// The allocator: mimalloc, as in every TRACE binary. glibc's malloc gives the heap's top back to
 /// the kernel after large frees, so a process loading models again and again (the studio, the
-/// daemon's checks) faulted its pages back in on every load: 326,000 page faults for 100 loads of
+/// runtime's checks) faulted its pages back in on every load: 326,000 page faults for 100 loads of
 /// a 10,000-node model against 19,000, medians of 25-28 ms a load against 20-22 ms, depending on the
 /// order of frees. mimalloc keeps freed pages for reuse and is also cheaper per small allocation
 /// (an engine step allocates a few strings per record entry).
@@ -82,7 +82,7 @@ enum Command {
     /// Fly a mission on this host: start the lander simulator and the policy ground responder
     /// as separate processes, run the executive against them over Zenoh, show progress, and
     /// end with a summary.
-    Fly(executive::fly::FlyOptions),
+    Fly(executive_runtime::fly::FlyOptions),
     /// Resume the mission a store holds after a crash or reboot (exit status as `trace run`).
     Resume {
         #[command(flatten)]
@@ -133,7 +133,7 @@ enum Command {
     /// Verify a mission model with Spin before it flies: no deadlock, safeness, no dead
     /// activities, every run ends, no lost signal (exit 0 all hold, 1 violated, 2 incomplete
     /// or not verifiable).
-    Verify(executive::verify::VerifyOptions),
+    Verify(executive_runtime::verify::VerifyOptions),
     /// Replay an execution record on its mission model through the engine: every step read
     /// back into its input, the engine's lines checked against the record's, and the tokens
     /// after each step printed (or only after step --at).
@@ -293,11 +293,17 @@ fn main() -> anyhow::Result<ExitCode> {
             catalogues,
         } => {
             let stdout = std::io::stdout();
-            let systems = executive::validate::Systems {
+            let systems = executive_runtime::validate::Systems {
                 connectors,
                 catalogues,
             };
-            match executive::validate::run(&files, json, strict, &systems, &mut stdout.lock()) {
+            match executive_runtime::validate::run(
+                &files,
+                json,
+                strict,
+                &systems,
+                &mut stdout.lock(),
+            ) {
                 Ok(verdict) => Ok(ExitCode::from(verdict.exit_code() as u8)),
                 // The reader stopped reading (`trace validate … | head`): nothing left to say.
                 Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(ExitCode::SUCCESS),
@@ -312,7 +318,7 @@ fn main() -> anyhow::Result<ExitCode> {
         Command::Resume { run } => drive(None, run, StartArgs::default()),
         Command::Fly(opts) => {
             logging("warn,zenoh=error", false);
-            executive::fly::fly(&opts)?;
+            executive_runtime::fly::fly(&opts)?;
             Ok(ExitCode::SUCCESS)
         }
         Command::Monitor {
@@ -324,7 +330,7 @@ fn main() -> anyhow::Result<ExitCode> {
             logging("warn,zenoh=error", false);
             let rt = one_worker()?;
             let mut stdout = std::io::stdout();
-            rt.block_on(executive::monitor::watch(
+            rt.block_on(executive_runtime::monitor::watch(
                 &zenoh,
                 mission,
                 jsonl,
@@ -372,7 +378,7 @@ fn main() -> anyhow::Result<ExitCode> {
             }
         }
         Command::Verify(opts) => {
-            let report = match executive::verify::verify(&opts) {
+            let report = match executive_runtime::verify::verify(&opts) {
                 Ok(r) => r,
                 Err(e) => {
                     eprintln!("error: {e}");
@@ -382,7 +388,7 @@ fn main() -> anyhow::Result<ExitCode> {
             if opts.json {
                 println!("{}", serde_json::to_string_pretty(&report)?);
             } else {
-                executive::verify::print(&report, &mut std::io::stdout().lock())?;
+                executive_runtime::verify::print(&report, &mut std::io::stdout().lock())?;
             }
             Ok(ExitCode::from(report.exit_code()))
         }
@@ -391,9 +397,11 @@ fn main() -> anyhow::Result<ExitCode> {
             record,
             at,
         } => {
-            let loaded =
-                executive::validate::load_file(&mission, &executive_model::Options::default())
-                    .map_err(|e| anyhow::anyhow!("{}: {e}", mission.display()))?;
+            let loaded = executive_runtime::validate::load_file(
+                &mission,
+                &executive_model::Options::default(),
+            )
+            .map_err(|e| anyhow::anyhow!("{}: {e}", mission.display()))?;
             let graph = loaded.graph.ok_or_else(|| {
                 anyhow::anyhow!(
                     "{}: the mission model is invalid (trace validate)",
@@ -402,7 +410,7 @@ fn main() -> anyhow::Result<ExitCode> {
             })?;
             let text = std::fs::read_to_string(&record)
                 .map_err(|e| anyhow::anyhow!("{}: {e}", record.display()))?;
-            let frames = executive::replay::replay(std::sync::Arc::new(graph), &text)
+            let frames = executive_runtime::replay::replay(std::sync::Arc::new(graph), &text)
                 .map_err(|e| anyhow::anyhow!("{}: {e}", record.display()))?;
             for f in frames.iter().filter(|f| at.is_none_or(|a| a == f.seq)) {
                 let tokens: Vec<String> =
@@ -424,7 +432,7 @@ fn main() -> anyhow::Result<ExitCode> {
         }
         Command::Timeline { records, output } => {
             let t = match records.as_slice() {
-                [one] => executive::timeline::write(std::path::Path::new(one), &output)
+                [one] => executive_runtime::timeline::write(std::path::Path::new(one), &output)
                     .map_err(|e| anyhow::anyhow!("{one}: {e}"))?,
                 several => {
                     let named: Vec<(String, PathBuf)> = several
@@ -441,7 +449,7 @@ fn main() -> anyhow::Result<ExitCode> {
                             }
                         })
                         .collect();
-                    executive::timeline::write_fleet(&named, &output)?
+                    executive_runtime::timeline::write_fleet(&named, &output)?
                 }
             };
             println!(
@@ -461,12 +469,14 @@ fn main() -> anyhow::Result<ExitCode> {
         }
         Command::Conformance(Corpus::Betsy { dir, expectations }) => {
             let stdout = std::io::stdout();
-            let totals = executive::conformance::betsy(&dir, &expectations, &mut stdout.lock())?;
+            let totals =
+                executive_runtime::conformance::betsy(&dir, &expectations, &mut stdout.lock())?;
             Ok(verdict(totals))
         }
         Command::Conformance(Corpus::TokenSimulation { dir }) => {
             let stdout = std::io::stdout();
-            let totals = executive::conformance::token_simulation(&dir, &mut stdout.lock())?;
+            let totals =
+                executive_runtime::conformance::token_simulation(&dir, &mut stdout.lock())?;
             Ok(verdict(totals))
         }
     }
@@ -554,7 +564,11 @@ fn templates(args: TemplatesArgs) -> anyhow::Result<ExitCode> {
     let paths = catalogue_paths(&args.dir, &args.catalogues);
     let mut catalogues = executive_studio::read_catalogues(&paths)?;
     let connectors = connectors_of(&args.dir, args.connectors)?;
-    catalogues.extend(connectors.iter().flat_map(executive::catalogues::generated));
+    catalogues.extend(
+        connectors
+            .iter()
+            .flat_map(executive_runtime::catalogues::generated),
+    );
     anyhow::ensure!(
         !catalogues.is_empty(),
         "no catalogue: pass --catalogue PATH (a system's catalogue: elap-sim --print-catalogue), or --connectors with ROS 2 connectors"
@@ -581,7 +595,11 @@ fn studio(args: StudioArgs) -> anyhow::Result<ExitCode> {
         );
     }
     let connectors = connectors_of(&args.dir, args.connectors.clone())?;
-    catalogues.extend(connectors.iter().flat_map(executive::catalogues::generated));
+    catalogues.extend(
+        connectors
+            .iter()
+            .flat_map(executive_runtime::catalogues::generated),
+    );
     let rt = one_worker()?;
     rt.block_on(async {
         let live = if args.offline {
@@ -654,7 +672,7 @@ fn one_worker() -> std::io::Result<tokio::runtime::Runtime> {
         .build()
 }
 
-fn verdict(totals: executive::conformance::Totals) -> ExitCode {
+fn verdict(totals: executive_runtime::conformance::Totals) -> ExitCode {
     if totals.failed == 0 {
         ExitCode::SUCCESS
     } else {
@@ -666,14 +684,19 @@ fn verdict(totals: executive::conformance::Totals) -> ExitCode {
 const STUCK: u8 = 3;
 
 /// The start variables and start time of `trace run`, and its waiting reports.
-fn extras(start: StartArgs, report_waiting: f64) -> anyhow::Result<executive::driver::RunExtras> {
+fn extras(
+    start: StartArgs,
+    report_waiting: f64,
+) -> anyhow::Result<executive_runtime::driver::RunExtras> {
     let mut vars = match &start.vars_file {
-        Some(p) => executive::driver::read_vars(p).map_err(|e| anyhow::anyhow!("--vars {e}"))?,
+        Some(p) => {
+            executive_runtime::driver::read_vars(p).map_err(|e| anyhow::anyhow!("--vars {e}"))?
+        }
         None => Default::default(),
     };
     for v in &start.vars {
         let (name, value) =
-            executive::driver::parse_var(v).map_err(|e| anyhow::anyhow!("--var {e}"))?;
+            executive_runtime::driver::parse_var(v).map_err(|e| anyhow::anyhow!("--var {e}"))?;
         vars.insert(name, value);
     }
     let start_at = match &start.start_at {
@@ -689,7 +712,7 @@ fn extras(start: StartArgs, report_waiting: f64) -> anyhow::Result<executive::dr
         report_waiting.is_finite() && report_waiting >= 0.0,
         "--report-waiting {report_waiting} must be a number of seconds"
     );
-    Ok(executive::driver::RunExtras {
+    Ok(executive_runtime::driver::RunExtras {
         vars,
         start_at,
         report_every: (report_waiting > 0.0)
@@ -698,7 +721,7 @@ fn extras(start: StartArgs, report_waiting: f64) -> anyhow::Result<executive::dr
 }
 
 fn drive(mission: Option<PathBuf>, args: RunArgs, start: StartArgs) -> anyhow::Result<ExitCode> {
-    use executive::config::Settings;
+    use executive_runtime::config::Settings;
     let mut settings = Settings::default();
     if let Some(path) = &args.config {
         settings = settings.with_file(path)?;
@@ -708,7 +731,7 @@ fn drive(mission: Option<PathBuf>, args: RunArgs, start: StartArgs) -> anyhow::R
     let zenoh = settings.zenoh(args.zenoh);
     let store = match (args.store.or(settings.store), &mission) {
         (Some(s), _) => s,
-        (None, Some(m)) => executive::driver::default_store(m),
+        (None, Some(m)) => executive_runtime::driver::default_store(m),
         (None, None) => {
             anyhow::bail!("trace resume needs --store DIR (or [store] dir, or TRACE_STORE)")
         }
@@ -725,7 +748,7 @@ fn drive(mission: Option<PathBuf>, args: RunArgs, start: StartArgs) -> anyhow::R
     );
     let snapshot_every = args.snapshot_every.unwrap_or(settings.snapshot_every);
     anyhow::ensure!(snapshot_every > 0, "--snapshot-every must be at least 1");
-    let opts = executive::driver::RunOptions {
+    let opts = executive_runtime::driver::RunOptions {
         model: mission,
         store,
         record: args.record.or(settings.record),
@@ -738,9 +761,9 @@ fn drive(mission: Option<PathBuf>, args: RunArgs, start: StartArgs) -> anyhow::R
         participant: args.participant,
     };
     let extras = extras(start, args.report_waiting)?;
-    let summary = match executive::driver::run_with(&opts, &extras) {
+    let summary = match executive_runtime::driver::run_with(&opts, &extras) {
         Ok(s) => s,
-        Err(e @ executive::driver::RunError::NothingStarts(_)) => {
+        Err(e @ executive_runtime::driver::RunError::NothingStarts(_)) => {
             eprintln!("error: {e}");
             return Ok(ExitCode::from(STUCK));
         }

@@ -10,7 +10,7 @@ use serde::Serialize;
 use crate::Studio;
 
 /// The code of a diagnostic from the catalogue check.
-pub use executive::validate::CATALOGUE_CODE;
+pub use executive_runtime::validate::CATALOGUE_CODE;
 
 /// What `POST /api/validate` answers.
 #[derive(Debug, Serialize)]
@@ -57,10 +57,10 @@ pub fn check(studio: &Studio, bytes: &[u8]) -> Report {
     let served = studio
         .connectors
         .as_ref()
-        .map(|c| executive::catalogues::served(c, &studio.catalogues()))
+        .map(|c| executive_runtime::catalogues::served(c, &studio.catalogues()))
         .unwrap_or_default();
     if let Some(graph) = &loaded.graph {
-        diagnostics.extend(executive::validate::system_diagnostics(
+        diagnostics.extend(executive_runtime::validate::system_diagnostics(
             graph,
             &loaded.text,
             studio.connectors.as_ref(),

@@ -154,7 +154,7 @@ pub async fn bind(studio: Studio, addr: SocketAddr, public: bool) -> Result<Boun
     Ok(Bound { listener, studio })
 }
 
-pub use executive::catalogues::{CatalogueError, read as read_catalogues, read_connectors};
+pub use executive_runtime::catalogues::{CatalogueError, read as read_catalogues, read_connectors};
 
 /// Whether the page was built from the npm packages (false: the fallback page saying how).
 pub fn has_page() -> bool {

@@ -14,7 +14,7 @@
 //!   model whose processes start only on a message, signal, timer or condition starts
 //!   nothing: their start events are offered as waits of kind `start` until one is fired
 //!   (bpmn-js-token-simulation's way of starting, as the conformance runner
-//!   `executive::conformance::token_sim` does). A drawing without executable processes
+//!   `executive_runtime::conformance::token_sim` does). A drawing without executable processes
 //!   (`isExecutable="false"`) is played as if they were, as the engine's token game allows.
 //! - **Tasks** (every task but a receive task: service, user, send, script, business-rule,
 //!   manual and plain) are *held* ([`executive_engine::Game::hold`]): the engine dispatches them
@@ -669,7 +669,7 @@ impl Simulation {
     }
 
     /// Maps record entries to bpmn-js-token-simulation's vocabulary, as the conformance runner
-    /// does (`executive::conformance::token_sim`): start and boundary events, link catch
+    /// does (`executive_runtime::conformance::token_sim`): start and boundary events, link catch
     /// events, event sub-processes and the event an event-based gateway passes to are only
     /// exited; an event-based gateway is never exited; of the withdrawn elements only
     /// activities interrupted by their own boundary event are exited.
@@ -890,7 +890,7 @@ fn startable(g: &ProcessGraph) -> Vec<ProcessId> {
 
 /// The start events (and instantiating receive tasks) of a process that starts on triggers.
 fn start_events(g: &ProcessGraph, p: ProcessId) -> Vec<NodeId> {
-    executive::waiting::triggered_starts(g, p)
+    executive_runtime::waiting::triggered_starts(g, p)
         .into_iter()
         .map(|(n, _, _)| n)
         .fold(Vec::new(), |mut out, n| {

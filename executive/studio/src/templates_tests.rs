@@ -215,7 +215,7 @@ fn every_template_applied_is_a_binding_trace_reads_and_runs() {
                 action.name
             );
             let graph = loaded.graph.expect("a graph");
-            let uses = executive::connectors::task_uses(&graph);
+            let uses = executive_runtime::connectors::task_uses(&graph);
             assert_eq!(uses.len(), 1);
             assert_eq!(uses[0].resource, action.name);
             let catalogues = vec![Some(lander.clone()), None];

@@ -117,8 +117,8 @@ pub(super) async fn timeline(State(s): Shared, Path(mission): Path<String>) -> R
         Ok(r) => r,
         Err(e) => return ask_error(e),
     };
-    let t = executive::timeline::build(record.lines().map(str::to_owned));
-    match executive::timeline::page(&t, &mission) {
+    let t = executive_runtime::timeline::build(record.lines().map(str::to_owned));
+    match executive_runtime::timeline::page(&t, &mission) {
         Ok(html) => ([(header::CONTENT_TYPE, "text/html; charset=utf-8")], html).into_response(),
         Err(e) => refuse(
             StatusCode::INTERNAL_SERVER_ERROR,

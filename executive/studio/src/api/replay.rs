@@ -1,4 +1,4 @@
-//! Replay of an execution record on the model the page holds (`executive::replay`): the
+//! Replay of an execution record on the model the page holds (`executive_runtime::replay`): the
 //! engine's state after every step, for the page to scrub through.
 
 use std::sync::Arc;
@@ -43,7 +43,7 @@ pub(super) async fn replay(State(s): Shared, body: Bytes) -> Response {
                 .map_or_else(|| "not a BPMN model".to_owned(), |d| d.message.clone());
             return Err(format!("the model is invalid: {first}"));
         };
-        executive::replay::replay(Arc::new(graph), &body.record).map_err(|e| e.to_string())
+        executive_runtime::replay::replay(Arc::new(graph), &body.record).map_err(|e| e.to_string())
     })
     .await;
     match job {

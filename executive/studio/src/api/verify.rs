@@ -68,23 +68,23 @@ pub(super) async fn verify(State(s): Shared, Path(name): Path<String>, body: Byt
     let job = tokio::task::spawn_blocking(move || {
         let _one = one;
         let loaded = checks::load(&studio.dir, body.model.as_bytes(), &Options::default());
-        executive::verify::verify_loaded(executive::verify::Job {
+        executive_runtime::verify::verify_loaded(executive_runtime::verify::Job {
             mission: name,
             loaded,
             requirements: body
                 .requirements
                 .filter(|t| !t.trim().is_empty())
                 .map(|t| (req_path, t)),
-            dir: executive::verify::default_work_dir(&model_path),
+            dir: executive_runtime::verify::default_work_dir(&model_path),
             loops: body.loops,
             depth: 1_000_000,
             native: body.native,
             systems: match &studio.connectors {
-                Some(config) => Ok(vec![executive::verify::Systems {
+                Some(config) => Ok(vec![executive_runtime::verify::Systems {
                     pool: None,
                     source: "the studio's connectors (--connectors)".into(),
                     config: config.clone(),
-                    catalogues: executive::catalogues::served(config, &studio.catalogues()),
+                    catalogues: executive_runtime::catalogues::served(config, &studio.catalogues()),
                 }]),
                 None => Err("the studio knows no connectors (--connectors)".into()),
             },
@@ -94,7 +94,7 @@ pub(super) async fn verify(State(s): Shared, Path(name): Path<String>, body: Byt
     .await;
     match job {
         Ok(Ok(report)) => Json(report).into_response(),
-        Ok(Err(e @ executive::verify::VerifyError::Spin(_))) => {
+        Ok(Err(e @ executive_runtime::verify::VerifyError::Spin(_))) => {
             refuse(StatusCode::INTERNAL_SERVER_ERROR, e)
         }
         Ok(Err(e)) => refuse(StatusCode::UNPROCESSABLE_ENTITY, e),
