@@ -5,25 +5,11 @@ use std::sync::Arc;
 
 use executive_model::{NodeId, NodeKind, ProcessGraph, TaskKind};
 
+use crate::game::Game;
 use crate::io::{Action, Entry, Event, Input, Outcome, Rejected, TaskKey, Trigger};
 use crate::run::Run;
 use crate::state::{At, On, State};
 use crate::value::Vars;
-
-/// Token-game mode: the engine as a simulator (model exploration, the token-simulation
-/// corpus). Never used to run a mission.
-#[derive(Clone, Debug, Default)]
-pub struct Game {
-    /// Gateways whose outgoing flows are chosen from outside, by node.
-    pub choices: BTreeMap<NodeId, Vec<executive_model::FlowId>>,
-    /// Tasks that wait to be completed from outside (dispatched); every other task completes
-    /// at once.
-    pub hold: std::collections::BTreeSet<NodeId>,
-    /// Every diverging gateway waits for its branches to be chosen from outside
-    /// ([`Event::BranchTaken`]), one token at a time (model exploration); a task's result
-    /// carries no data.
-    pub decide: bool,
-}
 
 /// The BPMN token engine over one validated model.
 pub struct Engine {

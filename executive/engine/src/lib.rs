@@ -21,11 +21,13 @@
 //!
 #![doc = include_str!("../../../docs/engine-semantics.md")]
 
+mod compensation;
 mod data;
 mod engine;
 mod eval;
 mod events;
 mod feel;
+mod game;
 mod gateway;
 mod io;
 mod looping;
@@ -33,10 +35,12 @@ mod messages;
 mod run;
 mod scope;
 mod state;
+mod throws;
 mod value;
 
-pub use engine::{Engine, Game};
+pub use engine::Engine;
 pub use eval::evaluate;
+pub use game::Game;
 pub use io::{
     Action, Entry, Event, Input, InstanceId, Millis, Outcome, Record, Rejected, ScopeId, TaskKey,
     TimerKey, TokenId, Trigger, WaitId,

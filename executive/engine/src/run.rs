@@ -27,7 +27,7 @@ pub(crate) struct Run<'a> {
     /// Record token moves (entered / left / took). Off only for benchmarks of raw stepping.
     pub(crate) trace_moves: bool,
     /// Token-game settings, if the engine plays a token game.
-    pub(crate) game: Option<&'a crate::engine::Game>,
+    pub(crate) game: Option<&'a crate::game::Game>,
     /// Throwers put back behind the other tokens of their wave, now due to throw.
     pub(crate) throw_now: std::collections::BTreeSet<TokenId>,
     /// The incoming flows of a join reachable from a node, memoised (derived from the graph

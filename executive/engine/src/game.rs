@@ -1,0 +1,22 @@
+//! The token-game mode's settings (`Engine::game`): what the player decides from outside.
+//! Its own module so that the step (`run.rs`) reads it without depending on the engine that
+//! owns it.
+
+use std::collections::BTreeMap;
+
+use executive_model::NodeId;
+
+/// Token-game mode: the engine as a simulator (model exploration, the token-simulation
+/// corpus). Never used to run a mission.
+#[derive(Clone, Debug, Default)]
+pub struct Game {
+    /// Gateways whose outgoing flows are chosen from outside, by node.
+    pub choices: BTreeMap<NodeId, Vec<executive_model::FlowId>>,
+    /// Tasks that wait to be completed from outside (dispatched); every other task completes
+    /// at once.
+    pub hold: std::collections::BTreeSet<NodeId>,
+    /// Every diverging gateway waits for its branches to be chosen from outside
+    /// ([`crate::Event::BranchTaken`]), one token at a time (model exploration); a task's result
+    /// carries no data.
+    pub decide: bool,
+}
