@@ -11,6 +11,7 @@ mod dataflow;
 mod durability;
 mod engine;
 mod europa;
+mod examples;
 mod feel;
 mod fleet;
 mod fleet_hosts;
