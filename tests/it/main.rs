@@ -2,6 +2,7 @@
 //! missions, hostile input, the Zenoh activity protocol, ground stations and the `trace` command, all in one
 //! test binary.
 
+mod black_box;
 mod cli;
 mod conformance;
 mod connectors;

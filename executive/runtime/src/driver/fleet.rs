@@ -257,10 +257,15 @@ impl Post {
         ));
     }
 
-    /// A letter must come from another pool of the collaboration, along a message flow that
-    /// leaves that pool (at one of its elements or at the pool itself).
+    /// A letter must come from another pool of the collaboration — one another executive runs,
+    /// or a black box (a pool without a process, §9.2, whose messages an outside system sends:
+    /// access control says which) — along a message flow that leaves that pool (at one of its
+    /// elements or at the pool itself).
     fn check(&self, g: &ProcessGraph, letter: &Letter) -> Result<(), String> {
-        if !self.peers.contains(&letter.from) {
+        let black_box = letter.from != self.pool
+            && g.participants()
+                .any(|p| p.id == letter.from && p.process.is_none());
+        if !self.peers.contains(&letter.from) && !black_box {
             return Err(format!(
                 "`{}` is not another pool of this collaboration",
                 letter.from
