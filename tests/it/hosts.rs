@@ -577,19 +577,32 @@ fn an_answer_given_while_the_link_is_cut_is_applied_once_when_the_link_returns_a
     let after = answered["mission_ms"].as_i64().expect("mission time") - cut_ms;
     assert!(after >= HOUR_MS, "applied {after} ms after the cut");
     lab.until_said("station-a", &["answered: applied"], WAIT);
+    // Applied once; the approval's own end, not its timer or a lost connection.
+    approval_answered_once(&mut lab);
+}
+
+/// Waits for [`run_approval`]'s executive to end, and checks that the approval went as with no
+/// trouble: answered once, no timer fired, no connection lost, the instance completed. The
+/// record, and how long (mission ms) the answer took after the task opened.
+pub(crate) fn approval_answered_once(lab: &mut Lab) -> (Vec<serde_json::Value>, i64) {
     let status = lab.proc("executive").child.wait().expect("executive exits");
     assert!(
         status.success(),
         "executive: {status}\n{}",
         lab.log("executive")
     );
-    // Applied once; the approval's own end, not its timer or a lost connection.
-    let lines = records(&record);
-    let once = lines
+    let lines = records(&lab.dir.join("store/record.jsonl"));
+    let opened = lines
+        .iter()
+        .find(|l| l["kind"] == "user_task_opened")
+        .expect("opened");
+    let answered: Vec<_> = lines
         .iter()
         .filter(|l| l["kind"] == "user_task_answered")
-        .count();
-    assert_eq!(once, 1);
+        .collect();
+    assert_eq!(answered.len(), 1, "{lines:#?}");
+    let took = answered[0]["mission_ms"].as_i64().expect("ms")
+        - opened["mission_ms"].as_i64().expect("ms");
     for l in &lines {
         assert_ne!(l["code"], "CONNECTOR_LOST", "{l}");
         assert_ne!(l["kind"], "timer_fired", "{l}");
@@ -600,6 +613,7 @@ fn an_answer_given_while_the_link_is_cut_is_applied_once_when_the_link_returns_a
         .find(|l| l["kind"] == "instance_finished")
         .expect("ended");
     assert_eq!(end["outcome"]["type"], "completed", "{end}");
+    (lines, took)
 }
 
 /// Europa on the lander at `speed` (the simulator's, on its store `sim`) with a policy
@@ -796,40 +810,13 @@ fn seconds_of_latency_between_the_hosts_neither_repeat_an_answer_nor_lose_the_gr
     );
     // 300x: the approval's six hours are 72 s of wall time, many round trips.
     run_approval(&mut lab);
-    let status = lab.proc("executive").child.wait().expect("executive exits");
-    assert!(
-        status.success(),
-        "executive: {status}\n{}",
-        lab.log("executive")
-    );
-    let lines = records(&lab.dir.join("store/record.jsonl"));
-    let opened = lines
-        .iter()
-        .find(|l| l["kind"] == "user_task_opened")
-        .expect("opened");
-    let answered: Vec<_> = lines
-        .iter()
-        .filter(|l| l["kind"] == "user_task_answered")
-        .collect();
-    assert_eq!(answered.len(), 1, "{lines:#?}");
     // The goal went down and the answer came up through the relay: at least one round trip
     // of mission time (300 mission ms per wall ms) between them.
-    let took = answered[0]["mission_ms"].as_i64().expect("ms")
-        - opened["mission_ms"].as_i64().expect("ms");
+    let (_, took) = approval_answered_once(&mut lab);
     assert!(
         took >= (2 * DELAY_MS * 300) as i64,
         "answered {took} mission ms after opening: the relay was not in the path"
     );
-    for l in &lines {
-        assert_ne!(l["code"], "CONNECTOR_LOST", "{l}");
-        assert_ne!(l["kind"], "timer_fired", "{l}");
-    }
-    let end = lines
-        .iter()
-        .rev()
-        .find(|l| l["kind"] == "instance_finished")
-        .expect("ended");
-    assert_eq!(end["outcome"]["type"], "completed", "{end}");
     // The station was told its answer was applied, once.
     lab.until_said("station-a", &["answered: applied"], WAIT);
     assert_eq!(

@@ -233,6 +233,36 @@ pub(crate) async fn click(c: &Client, css: &str) {
         .unwrap_or_else(|e| panic!("click {css}: {e}"));
 }
 
+/// Chooses `value` in the page's select `id`, as a browser does: the value set, then its
+/// change event.
+pub(crate) async fn choose(c: &Client, id: &str, value: &str) {
+    js(
+        c,
+        &format!(
+            "const s = document.getElementById('{id}'); s.value = '{value}';
+             s.dispatchEvent(new Event('change', {{ bubbles: true }}));"
+        ),
+        vec![],
+    )
+    .await;
+}
+
+/// Saves the open file as a planner does, with Ctrl+S, and waits until `file` is saved.
+pub(crate) async fn save_keys(c: &Client, file: &str) {
+    js(
+        c,
+        "document.body.dataset.saved = ''; window.dispatchEvent(new KeyboardEvent('keydown', { key: 's', ctrlKey: true }))",
+        vec![],
+    )
+    .await;
+    until(
+        c,
+        &format!("{file} saved"),
+        &format!("return document.body.dataset.saved === '{file}'"),
+    )
+    .await;
+}
+
 /// Opens panel group `id` unless it is open (the panel keeps a group open across elements).
 pub(crate) async fn open_group(c: &Client, id: &str) {
     let open = js(
@@ -551,13 +581,7 @@ async fn scenario(c: Client, url: String, dir: std::path::PathBuf) {
     );
 
     // Verification on the diagram: the flawed copy, its requirements beside it.
-    js(
-        &c,
-        "const s = document.getElementById('missions'); s.value = 'europa-flawed.bpmn';
-         s.dispatchEvent(new Event('change', { bubbles: true }));",
-        vec![],
-    )
-    .await;
+    choose(&c, "missions", "europa-flawed.bpmn").await;
     until(
         &c,
         "the flawed copy and its requirements",
@@ -631,13 +655,7 @@ async fn scenario(c: Client, url: String, dir: std::path::PathBuf) {
     // The token game: Europa played on the engine from the page's buttons — the planner's
     // choice at each decision, otherwise the first waiting task completed, else the first
     // wait fired — to its terminate end.
-    js(
-        &c,
-        "const s = document.getElementById('missions'); s.value = 'europa-bsm1.bpmn';
-         s.dispatchEvent(new Event('change', { bubbles: true }));",
-        vec![],
-    )
-    .await;
+    choose(&c, "missions", "europa-bsm1.bpmn").await;
     until(
         &c,
         "Europa open again",

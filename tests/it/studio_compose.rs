@@ -15,7 +15,9 @@ use mission_tests::{bin, repo};
 use serde_json::json;
 
 use crate::protocol::tempdir;
-use crate::studio::{Page, click, europa_studio, js, open_group, type_into, until};
+use crate::studio::{
+    Page, choose, click, europa_studio, js, open_group, save_keys, type_into, until,
+};
 
 #[test]
 fn a_planner_draws_a_whole_mission_from_an_empty_page_and_it_verifies() {
@@ -328,13 +330,7 @@ async fn scenario(c: Client, url: String) {
     )
     .await;
     assert_eq!(offered, json!(["Diagram", "Process_1_diagram"]));
-    js(
-        &c,
-        "const s = document.getElementById('diagrams'); s.value = 'Diagram';
-         s.dispatchEvent(new Event('change', { bubbles: true }));",
-        vec![],
-    )
-    .await;
+    choose(&c, "diagrams", "Diagram").await;
     until(
         &c,
         "the mission's diagram again",
@@ -513,13 +509,7 @@ async fn scenario(c: Client, url: String) {
         &views(now.as_str().unwrap_or("0")),
     )
     .await;
-    js(
-        &c,
-        "const s = document.getElementById('diagrams'); s.value = 'Process_1_diagram';
-         s.dispatchEvent(new Event('change', { bubbles: true }));",
-        vec![],
-    )
-    .await;
+    choose(&c, "diagrams", "Process_1_diagram").await;
     until(
         &c,
         "the called task's token on its own diagram",
@@ -541,18 +531,7 @@ async fn scenario(c: Client, url: String) {
     .await;
     assert_eq!(ended, "ended:completed");
     // Saved as the planner saves: Ctrl+S.
-    js(
-        &c,
-        "window.dispatchEvent(new KeyboardEvent('keydown', { key: 's', ctrlKey: true }))",
-        vec![],
-    )
-    .await;
-    until(
-        &c,
-        "the file saved",
-        "return document.body.dataset.saved === 'mission-1.bpmn'",
-    )
-    .await;
+    save_keys(&c, "mission-1.bpmn").await;
     let errors = js(&c, "return studio.errors", vec![]).await;
     assert_eq!(errors, json!([]), "the page's errors");
 }

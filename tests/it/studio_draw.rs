@@ -14,7 +14,9 @@ use mission_tests::{bin, repo};
 use serde_json::json;
 
 use crate::protocol::tempdir;
-use crate::studio::{Page, click, europa_studio, js, open_group, type_into, until};
+use crate::studio::{
+    Page, choose, click, europa_studio, js, open_group, save_keys, type_into, until,
+};
 
 #[test]
 fn the_studio_opens_every_process_and_edits_conditions_and_calls_without_xml() {
@@ -87,15 +89,7 @@ const LIB: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
 
 /// Selects diagram `id` from the page's list, as a planner picks it.
 async fn pick_diagram(c: &Client, id: &str) {
-    js(
-        c,
-        &format!(
-            "const s = document.getElementById('diagrams'); s.value = '{id}';
-             s.dispatchEvent(new Event('change', {{ bubbles: true }}));"
-        ),
-        vec![],
-    )
-    .await;
+    choose(c, "diagrams", id).await;
     until(
         c,
         &format!("diagram {id}"),
@@ -205,18 +199,7 @@ async fn scenario(c: Client, url: String) {
     .await;
     assert_eq!(chosen, json!("Excavate"));
     // Saved as the planner saves: Ctrl+S.
-    js(
-        &c,
-        "window.dispatchEvent(new KeyboardEvent('keydown', { key: 's', ctrlKey: true }))",
-        vec![],
-    )
-    .await;
-    until(
-        &c,
-        "the file saved",
-        "return document.body.dataset.saved === 'europa-bsm1.bpmn'",
-    )
-    .await;
+    save_keys(&c, "europa-bsm1.bpmn").await;
     // The line the problem named is the flow's in the saved file.
     let saved: String = js(
         &c,
@@ -324,26 +307,9 @@ async fn scenario(c: Client, url: String) {
          return z && z.inputCollection === '= tried_sites' && z.inputElement === 'site'",
     )
     .await;
-    js(
-        &c,
-        "document.body.dataset.saved = ''; window.dispatchEvent(new KeyboardEvent('keydown', { key: 's', ctrlKey: true }))",
-        vec![],
-    )
-    .await;
-    until(
-        &c,
-        "the file saved again",
-        "return document.body.dataset.saved === 'europa-bsm1.bpmn'",
-    )
-    .await;
+    save_keys(&c, "europa-bsm1.bpmn").await;
     // A call activity of a file that imports another is offered that file's processes too.
-    js(
-        &c,
-        "const s = document.getElementById('missions'); s.value = 'with-import.bpmn';
-         s.dispatchEvent(new Event('change', { bubbles: true }));",
-        vec![],
-    )
-    .await;
+    choose(&c, "missions", "with-import.bpmn").await;
     until(
         &c,
         "the importing mission",

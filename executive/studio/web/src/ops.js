@@ -242,7 +242,8 @@ export function setupOps(ctx) {
     document.body.dataset.opsGone = '';
     document.body.dataset.opsEnded = how;
     $('ops-status').className = 'ended';
-    $('ops-status').textContent = `${m}: the mission ended (${how}) at mission time ${fmt(endedAt)}; its executive has left`;
+    const at = Number.isFinite(endedAt) ? endedAt : state && state.mission_ms;
+    $('ops-status').textContent = `${m}: the mission ended (${how}) at mission time ${fmt(at)}; its executive has left`;
     timeline(true);
   }
 
