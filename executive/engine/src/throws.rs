@@ -496,7 +496,15 @@ impl Run<'_> {
             );
         }
         // Inner scopes first (an event sub-process hears the signal before a boundary event
-        // of its enclosing sub-process interrupts it), then in subscription order.
+        // of its enclosing sub-process interrupts it); within a scope the non-interrupting
+        // catchers before the interrupting ones (every catcher waiting when the signal is
+        // thrown catches it, whatever the document order); then in subscription order.
+        let g = self.g;
+        let interrupting = |n: NodeId| match &g.node(n).kind {
+            NodeKind::Start(s) => s.interrupting,
+            NodeKind::Boundary(b) => b.interrupting,
+            _ => false,
+        };
         let depth = |mut s: ScopeId| {
             let mut d = 0usize;
             while let Some(p) = self.s.scopes.get(&s).and_then(|x| x.parent) {
@@ -505,15 +513,15 @@ impl Run<'_> {
             }
             d
         };
-        let mut waits: Vec<(std::cmp::Reverse<usize>, WaitId)> = self
+        let mut waits: Vec<(std::cmp::Reverse<usize>, bool, WaitId)> = self
             .s
             .waits
             .iter()
             .filter(|(_, w)| matches!(&w.on, On::Signal(n) if n == name))
-            .map(|(id, w)| (std::cmp::Reverse(depth(w.scope)), *id))
+            .map(|(id, w)| (std::cmp::Reverse(depth(w.scope)), interrupting(w.node), *id))
             .collect();
         waits.sort();
-        let waits: Vec<WaitId> = waits.into_iter().map(|(_, w)| w).collect();
+        let waits: Vec<WaitId> = waits.into_iter().map(|(_, _, w)| w).collect();
         let starts = self.start_events_on(
             |d, r| matches!(d, EventDefinition::Signal(s) if r.signal_name(*s) == name),
         );

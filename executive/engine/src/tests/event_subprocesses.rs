@@ -157,6 +157,50 @@ fn one_signal_starts_every_non_interrupting_event_subprocess_of_the_scope() {
     assert_eq!(d.complete_nth(2, &[]), ["completed"]);
 }
 
+/// One signal caught in one scope by an interrupting and a non-interrupting event sub-process:
+/// both were waiting when it was thrown, so both catch it whatever the document order — the
+/// non-interrupting one first, then the interrupting one cancels the scope's work, the instance
+/// the other just started included (before its task was reached).
+#[test]
+fn one_signal_caught_by_an_interrupting_and_a_non_interrupting_sibling_is_one_outcome() {
+    for (first, second) in [(("n", false), ("i", true)), (("i", true), ("n", false))] {
+        let mut d = Driver::new(&one_task(&format!(
+            "{}{}",
+            esp(first.0, SIGNAL, first.1),
+            esp(second.0, SIGNAL, second.1)
+        )));
+        assert_eq!(d.start(&[]), ["dispatch a"]);
+        d.seq += 1;
+        let actions =
+            d.e.step(Input {
+                seq: d.seq,
+                at: d.now,
+                event: Event::SignalReceived { name: "S".into() },
+            })
+            .expect("a signal is always accepted");
+        let g = Arc::clone(d.e.graph());
+        let caught: Vec<&str> = actions
+            .iter()
+            .filter_map(|a| match a {
+                Action::Record(r) => match &r.entry {
+                    Entry::Caught { node, .. } => Some(g.node(*node).id.as_str()),
+                    _ => None,
+                },
+                _ => None,
+            })
+            .collect();
+        assert_eq!(caught, ["ns", "is"], "{} listed first", first.0);
+        let dispatched: Vec<&str> = actions
+            .iter()
+            .filter_map(|a| match a {
+                Action::DispatchTask { node, .. } => Some(g.node(*node).id.as_str()),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(dispatched, ["it"], "{} listed first", first.0);
+    }
+}
+
 /// One signal reaches event sub-processes in nested scopes: the one inside the running
 /// sub-process and the one of the process both start (inner scopes first).
 #[test]
