@@ -24,6 +24,10 @@ fn a_stations_flood_over_a_narrow_link_is_thinned_at_its_router_and_changes_noth
     let (lander, ground) = (lab.lander.clone(), lab.grounds[0].clone());
     // What of the flood reaches the lander, counted there.
     lab.start_probe("lander-count", &lander, "exec", &["count", FLOODED]);
+    // A listener to the telemetry the station may not publish: without one, its session would
+    // drop those puts itself (Zenoh sends a put only where a subscriber is), and the router
+    // would have nothing to refuse.
+    lab.start_probe("lander-tm", &lander, "exec", &["sub", "trace/d/tm/**"]);
     lab.start_probe(
         "lander-ear",
         &lander,
