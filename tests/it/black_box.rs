@@ -78,19 +78,13 @@ async fn a_black_box_pool_hears_the_mission_and_answers_it_from_outside() {
     let exec = Kill(exec.spawn().expect("trace run starts"));
     let path = dir.join("store/record.jsonl");
     // The lander sent `ping` out of the engine and waits for `pong`.
-    let began = std::time::Instant::now();
-    while !record(&path)
-        .iter()
-        .any(|l| l["kind"] == "entered" && l["element"]["id"] == "wait")
-    {
-        assert!(
-            began.elapsed() < Duration::from_secs(60),
-            "the lander never waited: {:?}",
-            record(&path)
-        );
-        // Reading a file another process writes: the pause only spares the CPU.
-        tokio::time::sleep(Duration::from_millis(20)).await;
-    }
+    mission_tests::hosts::poll(Duration::from_secs(60), || {
+        record(&path)
+            .iter()
+            .any(|l| l["kind"] == "entered" && l["element"]["id"] == "wait")
+            .then_some(())
+    })
+    .unwrap_or_else(|| panic!("the lander never waited: {:?}", record(&path)));
     let lines = record(&path);
     assert!(
         lines

@@ -6,8 +6,8 @@ use std::collections::BTreeMap;
 
 use executive_model::NodeId;
 
-/// Token-game mode: the engine as a simulator (model exploration, the token-simulation
-/// corpus). Never used to run a mission.
+/// Token-game mode: the engine as a simulator (model exploration, the studio's token game,
+/// replaying the standard's token game). Never used to run a mission.
 #[derive(Clone, Debug, Default)]
 pub struct Game {
     /// Gateways whose outgoing flows are chosen from outside, by node.

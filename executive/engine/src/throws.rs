@@ -16,8 +16,7 @@ impl Run<'_> {
     /// moved with it reach their catch events and enter their activities first, and what they
     /// start moves after the throw. A link is a jump, not a throw.
     pub(crate) fn defer_throw(&mut self, t: TokenId, defs: &[EventDefinition]) -> bool {
-        if !defs.iter().any(|d| !matches!(d, EventDefinition::Link(_))) || self.throw_now.remove(&t)
-        {
+        if defs.iter().all(|d| matches!(d, EventDefinition::Link(_))) || self.throw_now.remove(&t) {
             return false;
         }
         let wave = self.wave;

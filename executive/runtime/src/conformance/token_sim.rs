@@ -266,36 +266,24 @@ impl Player {
         };
         // Started once, at the message start event the message is for (the flow's message,
         // else the only message start); a process without one starts as any other.
-        let starts: Vec<&executive_model::Node> = self
+        let starts: Vec<(&str, Option<executive_model::MessageId>)> = self
             .g
             .scope_nodes(executive_model::Scope::Process(process))
             .iter()
             .map(|n| self.g.node(*n))
-            .filter(|n| match &n.kind {
-                NodeKind::Start(s) => s
-                    .triggers
-                    .iter()
-                    .any(|t| matches!(t, executive_model::EventDefinition::Message(_))),
-                _ => false,
+            .filter_map(|n| match &n.kind {
+                NodeKind::Start(s) => s.triggers.iter().find_map(|t| match t {
+                    executive_model::EventDefinition::Message(m) => Some((n.id.as_str(), *m)),
+                    _ => None,
+                }),
+                _ => None,
             })
             .collect();
-        let for_message = |n: &&&executive_model::Node| {
-            match &n.kind {
-            NodeKind::Start(s) => s.triggers.iter().any(|t| {
-                matches!(t, executive_model::EventDefinition::Message(m) if m.is_some() && *m == message)
-            }),
-            _ => false,
-        }
-        };
         let start = starts
             .iter()
-            .find(for_message)
-            .or(if starts.len() == 1 {
-                starts.first()
-            } else {
-                None
-            })
-            .map(|n| n.id.clone());
+            .find(|(_, m)| m.is_some() && *m == message)
+            .or((starts.len() == 1).then(|| &starts[0]))
+            .map(|(id, _)| (*id).to_owned());
         let process = self.g.process(process).id.clone();
         self.apply(Event::InstanceStarted {
             process,
