@@ -17,7 +17,7 @@ use mission_tests::{bin, repo};
 use serde_json::{Value, json};
 
 use crate::protocol::tempdir;
-use crate::studio::{Kill, Page, WAIT, click, js, start, until};
+use crate::studio::{Kill, Page, WAIT, click, js, start, until, until_within};
 
 /// A child started in a process group of its own (`process_group(0)`), killed whole when
 /// dropped: `trace fly` and its simulator, a station.
@@ -499,10 +499,14 @@ fn operations_follow_every_executive_of_a_fleet_on_one_diagram() {
             )
             .await;
             click(&c, "#ops-toggle").await;
-            until(
+            // The scout's executive comes up after waiting for its catalogues, beside the
+            // lander's, two simulators, a station and the browser: on a loaded two-core machine
+            // that may take longer than a page's usual wait, so this one has the test's budget.
+            until_within(
                 &c,
                 "both executives followed",
                 "return document.body.dataset.opsFleet === 'lander scout'",
+                std::time::Duration::from_secs(100),
             )
             .await;
             until(

@@ -201,13 +201,18 @@ pub(crate) async fn js(c: &Client, script: &str, args: Vec<Value>) -> Value {
 
 /// Waits until `script` returns a truthy value; fails naming `what`.
 pub(crate) async fn until(c: &Client, what: &str, script: &str) -> Value {
+    until_within(c, what, script, WAIT).await
+}
+
+/// [`until`], failing only after `within`.
+pub(crate) async fn until_within(c: &Client, what: &str, script: &str, within: Duration) -> Value {
     let start = std::time::Instant::now();
     loop {
         let v = js(c, script, vec![]).await;
         if !(v.is_null() || v == json!(false) || v == json!("") || v == json!(0)) {
             return v;
         }
-        if start.elapsed() > WAIT {
+        if start.elapsed() > within {
             let errors = js(c, "return studio.errors", vec![]).await;
             let problems = js(
                 c,

@@ -93,15 +93,18 @@ fn fault(script: bool) -> String {
     ))
 }
 
-/// A battery monitor aborting the excavation: by a signal thrown from a parallel branch (lost
-/// when thrown before the excavation starts), or by a level-triggered conditional boundary.
+/// A battery monitor aborting the excavation: by a signal thrown from a parallel branch once the
+/// battery is read (lost when that comes before the arm is deployed and the excavation
+/// listens), or by a level-triggered conditional boundary.
 fn abort(by_signal: bool) -> String {
     let (decl, monitor, boundary) = if by_signal {
         (
             r#"<signal id="sig" name="BatteryLow"/>"#,
             r#"<intermediateThrowEvent id="throw" name="Battery low"><signalEventDefinition signalRef="sig"/></intermediateThrowEvent>
     <endEvent id="me"/>
-    <sequenceFlow id="m1" sourceRef="fork" targetRef="throw"/>
+    <task id="read" name="Read battery"/>
+    <sequenceFlow id="m0" sourceRef="fork" targetRef="read"/>
+    <sequenceFlow id="m1" sourceRef="read" targetRef="throw"/>
     <sequenceFlow id="m2" sourceRef="throw" targetRef="me"/>"#,
             r#"<signalEventDefinition signalRef="sig"/>"#,
         )
@@ -116,7 +119,9 @@ fn abort(by_signal: bool) -> String {
         (
             r#"<parallelGateway id="fork"/>
     <sequenceFlow id="f1" sourceRef="s" targetRef="fork"/>
-    <sequenceFlow id="f2" sourceRef="fork" targetRef="sp"/>"#,
+    <sequenceFlow id="f2" sourceRef="fork" targetRef="deploy"/>
+    <task id="deploy" name="Deploy arm"/>
+    <sequenceFlow id="fd" sourceRef="deploy" targetRef="sp"/>"#,
             "",
         )
     } else {
@@ -298,8 +303,8 @@ fn a_lost_signal_is_found_and_a_level_triggered_abort_holds() {
     for p in BUILT_IN {
         assert_eq!(v[p], "holds", "{p}");
     }
-    // The signal goes out before the excavation listens, which then starts listening for a
-    // signal that will not come again.
+    // The signal goes out before the excavation listens (the monitor's branch ends in the same
+    // step), which then starts listening for a signal that will not come again.
     let path = steps(&props["no_lost_signal"]);
     assert_eq!(
         path,
@@ -307,8 +312,11 @@ fn a_lost_signal_is_found_and_a_level_triggered_abort_holds() {
             "start",
             "fork.pass",
             "throw.pass",
+            "read.run",
             "UNHEARD signal BatteryLow",
             "sp.activate",
+            "me.end",
+            "deploy.run",
             "LOST signal BatteryLow"
         ]
     );
@@ -478,6 +486,15 @@ check = 'never (done "Image" and not done "Sound")'
 [[requirement]]
 name = "x"
 check = 'eventually done "Nowhere"'
+    compare_within(graph, work, 200_000)
+}
+
+/// [`compare`], exploring the engine up to `states` states.
+pub(crate) fn compare_within(
+    graph: executive_model::ProcessGraph,
+    work: &std::path::Path,
+    states: usize,
+) -> Compared {
 [[requirement]]
 name = "y"
 check = 'count "Image" maybe'
@@ -534,7 +551,7 @@ pub(crate) fn compare(graph: executive_model::ProcessGraph, work: &std::path::Pa
         }
     };
     let graph = std::sync::Arc::new(graph);
-    let native = executive_verify::explore(std::sync::Arc::clone(&graph), 200_000);
+    let native = executive_verify::explore(std::sync::Arc::clone(&graph), states);
     if native.needs_data.is_some() || !native.complete {
         return Compared::NeedsData;
     }

@@ -388,7 +388,7 @@ impl Run<'_> {
     }
 
     pub(crate) fn rearm_or_keep(&mut self, w: WaitId) {
-        if self.game.is_some() {
+        if self.game.is_some_and(|g| !g.timers) {
             // A token game triggers by hand: the subscription stays.
             return;
         }

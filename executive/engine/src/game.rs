@@ -19,4 +19,8 @@ pub struct Game {
     /// ([`crate::Event::BranchTaken`]), one token at a time (model exploration); a task's result
     /// carries no data.
     pub decide: bool,
+    /// Timers fire as in flight — a duration once, a cycle as often as it repeats — where a
+    /// token game's player may otherwise fire a non-interrupting timer again by hand (model
+    /// exploration: the translation fires a duration once per activation).
+    pub timers: bool,
 }

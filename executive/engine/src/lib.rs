@@ -51,6 +51,7 @@ pub use state::{
     At, Compensable, CompensationRun, Handler, Instance, Loop, On, ScopeKind, ScopeState, State,
     Token, Wait,
 };
+pub use throws::throws;
 pub use value::{F64, Value, Vars};
 
 #[cfg(test)]

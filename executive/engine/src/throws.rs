@@ -9,28 +9,42 @@ use crate::run::{Run, triggers_of};
 use crate::state::{At, On, ScopeKind};
 use crate::value::{Value, Vars};
 
+/// A throw or end event with these definitions throws (anything but a link or none), and so
+/// acts at the end of its wave (`docs/engine-semantics.md`, "Within a step"). The verifier's
+/// translation orders its throws by the same rule.
+pub fn throws(defs: &[EventDefinition]) -> bool {
+    !defs.iter().all(|d| matches!(d, EventDefinition::Link(_)))
+}
+
 impl Run<'_> {
     /// A throw — message, signal, error, escalation, compensation, cancel, terminate — takes
     /// effect after the other tokens of its wave have arrived (`docs/engine-semantics.md`,
-    /// "Within a step"): the thrower is put back once behind them, so parallel branches that
-    /// moved with it reach their catch events and enter their activities first, and what they
-    /// start moves after the throw. A link is a jump, not a throw.
+    /// "Within a step"): the thrower is put back once behind them, still before the next wave,
+    /// so parallel branches that moved with it reach their catch events and enter their
+    /// activities first, and what they start moves after the throw. A link is a jump, not a
+    /// throw.
     pub(crate) fn defer_throw(&mut self, t: TokenId, defs: &[EventDefinition]) -> bool {
-        if defs.iter().all(|d| matches!(d, EventDefinition::Link(_))) || self.throw_now.remove(&t) {
+        if !throws(defs) || self.throw_now.remove(&t) {
             return false;
         }
         let wave = self.wave;
+        // Every other token of the wave, a thrower put back before it included: throwers act
+        // in the order they arrived.
         let behind = self.ready.iter().any(|(u, w)| {
-            *w <= wave
-                && *u != t
-                && !self.throw_now.contains(u)
-                && self.s.tokens.get(u).is_some_and(|tok| tok.at == At::Ready)
+            *w <= wave && *u != t && self.s.tokens.get(u).is_some_and(|tok| tok.at == At::Ready)
         });
         if !behind {
             return false;
         }
         self.throw_now.insert(t);
-        self.ready.push_back((t, wave));
+        // Behind the last token of its wave, before the first of a later one (the queue stays
+        // ordered by wave).
+        let at = self
+            .ready
+            .iter()
+            .position(|(_, w)| *w > wave)
+            .unwrap_or(self.ready.len());
+        self.ready.insert(at, (t, wave));
         true
     }
 

@@ -29,6 +29,7 @@ const BENT: &[&str] = &[
     "message-flow-none-event",
     "unknown-script-language",
     "collection-mismatch",
+    "call-data-mismatch",
 ];
 
 /// References that execution never follows, and why a dangling one leaves the meaning clear:
@@ -233,6 +234,8 @@ struct Index<'d> {
 
 impl<'d> Index<'d> {
     fn new(root: &'d Element<'d>, ids: usize) -> Index<'d> {
+    /// How many sequence flows end at and leave each element, by id. Built when first asked.
+    ends: OnceCell<HashMap<&'d str, (usize, usize)>>,
         let mut ix = Index {
             by_id: HashMap::with_capacity(ids),
             elements: Vec::with_capacity(ids),
@@ -246,6 +249,7 @@ impl<'d> Index<'d> {
         let mut stack: Vec<(&Element, Option<&str>)> = vec![(root, None)];
         while let Some((el, process)) = stack.pop() {
             if el.ns != Ns::Bpmn {
+            ends: OnceCell::new(),
                 continue;
             }
             let id = el.attr("id");
@@ -278,6 +282,24 @@ impl<'d> Index<'d> {
         let holders = self.holders.get_or_init(|| {
             let data =
                 |c: &Element| c.ns == Ns::Bpmn && matches!(c.name, "dataInput" | "dataOutput");
+    /// The sequence flows ending at and leaving element `id` (their `targetRef` and
+    /// `sourceRef` decide, whatever `<incoming>` and `<outgoing>` list).
+    fn flow_ends(&self, id: &str) -> (usize, usize) {
+        let ends = self.ends.get_or_init(|| {
+            let mut ends: HashMap<&'d str, (usize, usize)> = HashMap::new();
+            for f in self.elements.iter().filter(|e| e.name == "sequenceFlow") {
+                if let Some(t) = f.attr("targetRef") {
+                    ends.entry(local_ref(t)).or_default().0 += 1;
+                }
+                if let Some(s) = f.attr("sourceRef") {
+                    ends.entry(local_ref(s)).or_default().1 += 1;
+                }
+            }
+            ends
+        });
+        ends.get(id).copied().unwrap_or_default()
+    }
+
             let mut holders = HashMap::new();
             let mut stack = vec![self.root];
             while let Some(el) = stack.pop() {
@@ -392,7 +414,11 @@ pub(crate) fn check(doc: &Document<'_>, sink: &mut Sink) {
         } else {
             (executable, declared)
         };
-        crate::validate::element_check(el, executable, declared, sink);
+        let flows = el
+            .attr("gatewayDirection")
+            .and(el.attr("id"))
+            .map(|id| ix.flow_ends(id));
+        crate::validate::element_check(el, executable, declared, flows, sink);
         let id = el.attr("id");
         let process = if el.name == "process" { id } else { process };
         let in_process = (id.is_some() && process.is_some()) || el.name == "process";
@@ -627,9 +653,7 @@ pub(crate) fn check(doc: &Document<'_>, sink: &mut Sink) {
             // A message event implemented by a job worker or delegate (Camunda) is a task: it
             // needs no message.
             "messageEventDefinition"
-                if executable
-                    && el.attr("messageRef").is_none()
-                    && !parent.is_some_and(crate::binding::implemented_as_task) =>
+                if !parent.is_some_and(crate::binding::implemented_as_task) =>
             {
                 err(
                     "missing-message",
@@ -666,6 +690,7 @@ pub(crate) fn check(doc: &Document<'_>, sink: &mut Sink) {
                 }
             }
             _ => {}
+            "callActivity" => call_data(el, &ix, &mut err),
         }
         // Natural-language expressions cannot be executed (EXT.012).
         const EXPRESSIONS: &[&str] = &[
@@ -1281,6 +1306,79 @@ fn event_data(root: &Element, ix: &Index<'_>, sink: &mut Sink) {
                     .attr("escalationRef")
                     .and_then(|m| ix.by_id.get(local_ref(m)))
                     .and_then(|m| m.attr("structureRef")),
+/// Two item-aware elements carry the same item: one item definition, or two with the same
+/// `structureRef` and collection flag. Where either names no item (or one that does not
+/// resolve), nothing is known against it.
+fn same_item(ix: &Index<'_>, a: &Element, b: &Element) -> bool {
+    match (item_of(ix, a), item_of(ix, b)) {
+        (Some(x), Some(y)) => {
+            std::ptr::eq(x, y)
+                || (x.attr("structureRef").is_some()
+                    && x.attr("structureRef") == y.attr("structureRef")
+                    && x.attr("isCollection") == y.attr("isCollection"))
+        }
+        _ => true,
+    }
+}
+
+/// A call activity's data must match what it calls (§10.3.6: "the elements contained in the
+/// Call Activity's InputOutputSpecification MUST exactly match the elements contained in the
+/// referenced CallableElement"): as many data inputs and outputs, in order, each with the same
+/// item. Variables are passed by name, so a mismatch is a rule bent harmlessly (`--strict`
+/// refuses it).
+fn call_data(
+    el: &Element,
+    ix: &Index<'_>,
+    err: &mut impl FnMut(&'static str, &'static str, String),
+) {
+    let Some(callee) = el
+        .attr("calledElement")
+        .and_then(|r| ix.by_id.get(local_ref(r)))
+        .filter(|c| c.name == "process" || c.name.starts_with("global"))
+    else {
+        return;
+    };
+    fn data<'a, 'b>(e: &'a Element<'b>, kind: &str) -> Vec<&'a Element<'b>> {
+        e.bpmn_child("ioSpecification")
+            .map(|io| io.bpmn_children(kind).collect())
+            .unwrap_or_default()
+    }
+    let call = el.attr("id").unwrap_or_default();
+    let called = callee.attr("id").unwrap_or_default();
+    for (kind, what) in [("dataInput", "data input"), ("dataOutput", "data output")] {
+        let (mine, theirs) = (data(el, kind), data(callee, kind));
+        if mine.len() != theirs.len() {
+            err(
+                "call-data-mismatch",
+                "§10.3.6",
+                format!(
+                    "callActivity `{call}` declares {} {what}(s), the <{}> `{called}` it calls {}: a call's data must match what it calls exactly",
+                    mine.len(),
+                    callee.name,
+                    theirs.len()
+                ),
+            );
+            continue;
+        }
+        for (k, (a, b)) in mine.iter().zip(&theirs).enumerate() {
+            if !same_item(ix, a, b) {
+                err(
+                    "call-data-mismatch",
+                    "§10.3.6",
+                    format!(
+                        "{what} {} of callActivity `{call}` (`{}`) carries item `{}`, the one of `{called}` (`{}`) item `{}`",
+                        k + 1,
+                        a.attr("id").unwrap_or_default(),
+                        a.attr("itemSubjectRef").unwrap_or_default(),
+                        b.attr("id").unwrap_or_default(),
+                        b.attr("itemSubjectRef").unwrap_or_default()
+                    ),
+                );
+            }
+        }
+    }
+}
+
                 "signalEventDefinition" => d
                     .attr("signalRef")
                     .and_then(|m| ix.by_id.get(local_ref(m)))

@@ -1050,3 +1050,143 @@ fn a_quantity_over_the_bound_is_refused_when_executable_and_read_as_the_bound_in
     let x = g.node(g.node_by_id("x").expect("x"));
     assert_eq!(x.completion_quantity, crate::MAX_QUANTITY);
 }
+
+#[test]
+fn strict_applies_the_flow_rules_to_descriptive_processes_too() {
+    // BPMNspector's descriptive and analytic classes bind every process: a drawing marked
+    // isExecutable="false" with an unreachable task, a gateway without outgoing flow, a
+    // pass-through gateway or a boundary event going nowhere is refused with --strict, and only
+    // warned about without it. EXT.011 (an escalation code) binds executable processes only.
+    let cases = [
+        (
+            "unreachable",
+            r#"<bpmn:startEvent id="s"/><bpmn:task id="t"/><bpmn:task id="island"/><bpmn:endEvent id="e"/>
+            <bpmn:sequenceFlow id="f1" sourceRef="s" targetRef="t"/><bpmn:sequenceFlow id="f2" sourceRef="t" targetRef="e"/>
+            <bpmn:sequenceFlow id="f3" sourceRef="island" targetRef="e"/>"#,
+        ),
+        (
+            "no-outgoing",
+            r#"<bpmn:startEvent id="s"/><bpmn:exclusiveGateway id="g"/><bpmn:endEvent id="e"/>
+            <bpmn:sequenceFlow id="f1" sourceRef="s" targetRef="g"/>"#,
+        ),
+        (
+            "pass-through-gateway",
+            r#"<bpmn:startEvent id="s"/><bpmn:exclusiveGateway id="g"/><bpmn:endEvent id="e"/>
+            <bpmn:sequenceFlow id="f1" sourceRef="s" targetRef="g"/><bpmn:sequenceFlow id="f2" sourceRef="g" targetRef="e"/>"#,
+        ),
+        (
+            "no-outgoing",
+            r#"<bpmn:startEvent id="s"/><bpmn:task id="t"/><bpmn:endEvent id="e"/>
+            <bpmn:boundaryEvent id="b" attachedToRef="t"><bpmn:timerEventDefinition><bpmn:timeDuration xsi:type="bpmn:tFormalExpression">PT1H</bpmn:timeDuration></bpmn:timerEventDefinition></bpmn:boundaryEvent>
+            <bpmn:sequenceFlow id="f1" sourceRef="s" targetRef="t"/><bpmn:sequenceFlow id="f2" sourceRef="t" targetRef="e"/>"#,
+        ),
+    ];
+    for (code, body) in cases {
+        let xml = doc("", body).replace(r#"isExecutable="true""#, r#"isExecutable="false""#);
+        let lenient = load(xml.as_bytes());
+        assert!(lenient.graph.is_some(), "{code}: {:?}", lenient.diagnostics);
+        assert!(
+            lenient.diagnostics.iter().any(|d| d.code == code),
+            "{code}: warned about without --strict: {:?}",
+            lenient.diagnostics
+        );
+        assert!(
+            strict_errors(&xml).contains(&code),
+            "{code}: {:?}",
+            strict_errors(&xml)
+        );
+    }
+}
+
+#[test]
+fn a_call_activitys_data_must_match_what_it_calls_when_strict() {
+    // §10.3.6: the call's data inputs and outputs match the called process's exactly, in
+    // number and item (one item definition, or two with the same structureRef). Variables pass
+    // by name, so a mismatch is only warned about; --strict refuses it.
+    let call = |inputs: &str, callee_inputs: &str| {
+        format!(
+            r#"{HEAD}<bpmn:itemDefinition id="text" structureRef="xsd:string"/><bpmn:itemDefinition id="text2" structureRef="xsd:string"/><bpmn:itemDefinition id="number" structureRef="xsd:int"/>
+            <bpmn:process id="p" isExecutable="true"><bpmn:startEvent id="s"/>
+              <bpmn:callActivity id="c" calledElement="q"><bpmn:ioSpecification>{inputs}<bpmn:inputSet/><bpmn:outputSet/></bpmn:ioSpecification></bpmn:callActivity>
+              <bpmn:endEvent id="e"/><bpmn:sequenceFlow id="f1" sourceRef="s" targetRef="c"/><bpmn:sequenceFlow id="f2" sourceRef="c" targetRef="e"/></bpmn:process>
+            <bpmn:process id="q" isExecutable="true"><bpmn:ioSpecification>{callee_inputs}<bpmn:inputSet/><bpmn:outputSet/></bpmn:ioSpecification>
+              <bpmn:startEvent id="qs"/><bpmn:endEvent id="qe"/><bpmn:sequenceFlow id="g" sourceRef="qs" targetRef="qe"/></bpmn:process></bpmn:definitions>"#
+        )
+    };
+    let input =
+        |id: &str, item: &str| format!(r#"<bpmn:dataInput id="{id}" itemSubjectRef="{item}"/>"#);
+    let matching = call(&input("a", "text"), &input("b", "text2"));
+    assert!(
+        !strict_errors(&matching).contains(&"call-data-mismatch"),
+        "{:?}",
+        strict_errors(&matching)
+    );
+    for wrong in [
+        call(&input("a", "number"), &input("b", "text")),
+        call("", &input("b", "text")),
+        call(
+            &format!("{}{}", input("a", "text"), input("a2", "text")),
+            &input("b", "text"),
+        ),
+    ] {
+        let lenient = load(wrong.as_bytes());
+        assert!(lenient.graph.is_some(), "{:?}", lenient.diagnostics);
+        assert!(
+            lenient
+                .diagnostics
+                .iter()
+                .any(|d| d.code == "call-data-mismatch" && d.constraint == Some("§10.3.6"))
+        );
+        assert!(strict_errors(&wrong).contains(&"call-data-mismatch"));
+    }
+}
+
+#[test]
+fn flow_rules_read_the_sequence_flows_and_bend_harmlessly() {
+    // Each is warned about and refused with --strict, naming its clause: a gatewayDirection
+    // contradicting the sequence flows (counted from sourceRef/targetRef, with no
+    // <incoming>/<outgoing> listed), a condition on a flow leaving an event, an event
+    // sub-process with two start events.
+    let cases = [
+        (
+            "gateway-direction",
+            r#"<bpmn:startEvent id="s"/><bpmn:parallelGateway id="g"/><bpmn:parallelGateway id="j" gatewayDirection="Converging"/><bpmn:endEvent id="e"/><bpmn:endEvent id="e2"/>
+            <bpmn:sequenceFlow id="f1" sourceRef="s" targetRef="g"/><bpmn:sequenceFlow id="f2" sourceRef="g" targetRef="j"/><bpmn:sequenceFlow id="f3" sourceRef="g" targetRef="j"/>
+            <bpmn:sequenceFlow id="f4" sourceRef="j" targetRef="e"/><bpmn:sequenceFlow id="f5" sourceRef="j" targetRef="e2"/>"#,
+        ),
+        (
+            "condition-on-event",
+            r#"<bpmn:startEvent id="s"/><bpmn:task id="t"/><bpmn:endEvent id="e"/>
+            <bpmn:sequenceFlow id="f1" sourceRef="s" targetRef="t"><bpmn:conditionExpression xsi:type="bpmn:tFormalExpression">true</bpmn:conditionExpression></bpmn:sequenceFlow>
+            <bpmn:sequenceFlow id="f2" sourceRef="t" targetRef="e"/>"#,
+        ),
+        (
+            "event-subprocess-starts",
+            r#"<bpmn:startEvent id="s"/><bpmn:task id="t"/><bpmn:endEvent id="e"/>
+            <bpmn:sequenceFlow id="f1" sourceRef="s" targetRef="t"/><bpmn:sequenceFlow id="f2" sourceRef="t" targetRef="e"/>
+            <bpmn:subProcess id="esp" triggeredByEvent="true">
+              <bpmn:startEvent id="a"><bpmn:signalEventDefinition signalRef="sig"/></bpmn:startEvent>
+              <bpmn:startEvent id="b"><bpmn:signalEventDefinition signalRef="sig"/></bpmn:startEvent>
+              <bpmn:endEvent id="x"/><bpmn:sequenceFlow id="g1" sourceRef="a" targetRef="x"/><bpmn:sequenceFlow id="g2" sourceRef="b" targetRef="x"/>
+            </bpmn:subProcess>"#,
+        ),
+    ];
+    for (code, body) in cases {
+        let xml = doc(r#"<bpmn:signal id="sig" name="S"/>"#, body);
+        let lenient = load(xml.as_bytes());
+        assert!(lenient.graph.is_some(), "{code}: {:?}", lenient.diagnostics);
+        assert!(
+            lenient
+                .diagnostics
+                .iter()
+                .any(|d| d.code == code && d.constraint.is_some()),
+            "{code}: {:?}",
+            lenient.diagnostics
+        );
+        assert!(
+            strict_errors(&xml).contains(&code),
+            "{code}: {:?}",
+            strict_errors(&xml)
+        );
+    }
+}

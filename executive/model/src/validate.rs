@@ -97,8 +97,11 @@ impl Checker<'_> {
             .bent(code, rule, node.offset, Some(&node.id), message);
     }
 
-    /// A rule that binds executable processes only, bent harmlessly: as [`Self::bent`] in an
-    /// executable process; in a descriptive one, a warning even with `--strict`.
+    /// A rule that binds executable processes only by its own text (the Common Executable
+    /// conformance class, §2: EXT.011; and the conditions §10.6.1 and §13.3.1 ignore), bent
+    /// harmlessly: as [`Self::bent`] in an executable process; in a descriptive one, a warning
+    /// even with `--strict`. The Descriptive and Analytic classes' rules (flows every node
+    /// needs, reachability, gateways) bind every process.
     fn bent_executable(
         &mut self,
         n: NodeId,
@@ -134,6 +137,22 @@ impl Checker<'_> {
         let g = self.g;
         let node = g.node(n);
         let (ins, outs) = (node.incoming.len(), node.outgoing.len());
+        // Conditional flows leave activities and exclusive, inclusive and complex gateways
+        // (§8.3.13); from an event the condition is still evaluated, as on an activity.
+        if matches!(
+            node.kind,
+            NodeKind::Start(_) | NodeKind::Catch(_) | NodeKind::Throw(_) | NodeKind::Boundary(_)
+        ) {
+            for f in &node.outgoing {
+                if g.flow(*f).condition.is_some() {
+                    let msg = format!(
+                        "sequence flow `{}` leaves an event with a condition; conditional flows leave activities and gateways, and it is evaluated as on an activity",
+                        g.flow(*f).id
+                    );
+                    self.bent(n, "condition-on-event", "§8.3.13", msg);
+                }
+            }
+        }
         let in_subprocess = match node.scope {
             Scope::SubProcess(s) => Some(s),
             Scope::Process(_) => None,
@@ -394,7 +413,7 @@ impl Checker<'_> {
                     self.hard(n, "compensation-boundary-flow", Some("EXT.114"), "a compensation boundary event cannot have outgoing sequence flows; connect its handler with an association".to_owned());
                 }
                 if !compensation && outs == 0 {
-                    self.bent_executable(
+                    self.bent(
                         n,
                         "no-outgoing",
                         "EXT.116",
@@ -540,10 +559,10 @@ impl Checker<'_> {
                 "{} has no outgoing sequence flow: tokens end here",
                 gw.kind.element_name()
             );
-            self.bent_executable(n, "no-outgoing", "EXT.151", msg);
+            self.bent(n, "no-outgoing", "EXT.151", msg);
         }
         if ins <= 1 && outs <= 1 && !(gw.instantiate && ins == 0) {
-            self.bent_executable(
+            self.bent(
                 n,
                 "pass-through-gateway",
                 "EXT.135",
@@ -722,6 +741,24 @@ impl Checker<'_> {
         if nodes.is_empty() {
             return;
         }
+        // An event sub-process has one start event, its trigger (§10.3.5; Camunda 7 and 8
+        // refuse more): with several, each starts it.
+        if let Scope::SubProcess(esp) = scope
+            && matches!(&g.node(esp).kind, NodeKind::SubProcess(sp) if matches!(sp.kind, SubProcessKind::Event))
+        {
+            let starts = nodes
+                .iter()
+                .filter(|m| matches!(g.node(**m).kind, NodeKind::Start(_)))
+                .count();
+            if starts > 1 {
+                self.bent(
+                    esp,
+                    "event-subprocess-starts",
+                    "§10.3.5",
+                    format!("an event sub-process has one start event, its trigger; this one has {starts}, and each starts it"),
+                );
+            }
+        }
         let links_thrown: BTreeSet<&str> = nodes
             .iter()
             .filter_map(|n| match &g.node(*n).kind {
@@ -875,7 +912,7 @@ impl Checker<'_> {
                 node.kind.element_name(),
                 node.label()
             );
-            self.bent_executable(n, "unreachable", "EXT.150", msg);
+            self.bent(n, "unreachable", "EXT.150", msg);
         }
         // Start and end events come together at one process level (EXT.097, EXT.105).
         let has_end = nodes.iter().any(|n| match &g.node(*n).kind {
@@ -928,7 +965,7 @@ impl Checker<'_> {
                         node.kind.element_name(),
                         node.label()
                     );
-                    self.bent_executable(*n, "no-outgoing", "EXT.151", msg);
+                    self.bent(*n, "no-outgoing", "EXT.151", msg);
                 }
             }
         }
@@ -975,8 +1012,15 @@ impl Checker<'_> {
 
 /// Constraint checks of one BPMN element that need the raw element (attributes the graph does
 /// not keep). `executable` / `declared`: the element's process is executable / marked
-/// `isExecutable="true"`. Called from the walk of [`crate::constraints::check`].
-pub(crate) fn element_check(el: &Element, executable: bool, declared: bool, sink: &mut Sink) {
+/// `isExecutable="true"`; `flows`: the sequence flows ending at and leaving the element, for
+/// one with a `gatewayDirection`. Called from the walk of [`crate::constraints::check`].
+pub(crate) fn element_check(
+    el: &Element,
+    executable: bool,
+    declared: bool,
+    flows: Option<(usize, usize)>,
+    sink: &mut Sink,
+) {
     if el.ns == crate::xml::Ns::Bpmn {
         let id = el.attr("id");
         match el.name {
@@ -1071,8 +1115,8 @@ pub(crate) fn element_check(el: &Element, executable: bool, declared: bool, sink
             }
         }
         if let Some(dir) = el.attr("gatewayDirection") {
-            let ins = el.bpmn_children("incoming").count();
-            let outs = el.bpmn_children("outgoing").count();
+            // The sequence flows decide, whatever `<incoming>`/`<outgoing>` list.
+            let (ins, outs) = flows.unwrap_or_default();
             let bad = match dir {
                 "Diverging" => (ins > 1).then_some((
                     "EXT.018",

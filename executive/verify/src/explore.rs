@@ -349,6 +349,7 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
         let mut e = Engine::restore(Arc::clone(&g), state);
         let game = e.game();
         game.decide = true;
+        game.timers = true;
         game.hold = hold.clone();
         e
     };
@@ -399,7 +400,7 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
     let mut seen: HashMap<String, usize> = HashMap::new();
     seen.insert(shape(&g, &nodes[0].state, &starts), 0);
     let mut queue = VecDeque::from([0usize]);
-    while let Some(at) = queue.pop_front() {
+    'search: while let Some(at) = queue.pop_front() {
         let state = nodes[at].state.clone();
         if let Some((n, why)) = state
             .instances
@@ -461,8 +462,9 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
                 continue;
             }
             if nodes.len() >= max_states {
+                // Incomplete either way: stop rather than expand what is queued.
                 out.complete = false;
-                continue;
+                break 'search;
             }
             seen.insert(key, nodes.len());
             nodes.push(Node {

@@ -27,6 +27,10 @@ use clap::Parser;
 use zenoh::qos::CongestionControl;
 use zenoh::sample::SampleKind;
 
+/// Longer than the period of any rate limit a test's router applies (20 puts a second: 50 ms),
+/// with room for the limiter's own clock.
+const LIMITER_WINDOW: Duration = Duration::from_millis(500);
+
 #[derive(Parser)]
 struct Cli {
     #[command(flatten)]
@@ -150,7 +154,10 @@ async fn probe(cli: &Cli) -> Result<(), zenoh::Error> {
                     tokio::time::sleep_until(due).await;
                 }
             }
-            tokio::time::sleep(Duration::from_millis(500)).await;
+            // The end mark must pass a router that lets a few puts a second through
+            // (`ground-router.json5`, 20 a second per key): it goes a window of the limiter
+            // after the last flood put. Nothing comes back to wait for; the window is the event.
+            tokio::time::sleep(LIMITER_WINDOW).await;
             session
                 .put(key, "{\"flood\": \"end\"}")
                 .congestion_control(CongestionControl::Block)

@@ -226,3 +226,57 @@ fn a_throw_alone_in_its_wave_acts_at_once() {
     let entries = first_step(body);
     assert!(!entries.contains(&"entered:xc".to_owned()), "{entries:?}");
 }
+
+#[test]
+fn a_deferred_throw_keeps_its_place_before_the_next_wave() {
+    // Three tokens in one wave: a gateway before the throw, a task after it. The gateway's
+    // token moves on first (its next token is of the next wave); the throw, put back behind
+    // the task, still acts before that next-wave token arrives.
+    let body = r#"<process id="p" isExecutable="true">
+          <startEvent id="s"/><parallelGateway id="fork"/>
+          <exclusiveGateway id="A"/>
+          <serviceTask id="a2"><extensionElements><trace:task resource="r.a"/></extensionElements></serviceTask>
+          <endEvent id="T"><terminateEventDefinition/></endEvent>
+          <serviceTask id="B"><extensionElements><trace:task resource="r.b"/></extensionElements></serviceTask>
+          <sequenceFlow id="f0" sourceRef="s" targetRef="fork"/>
+          <sequenceFlow id="f1" sourceRef="fork" targetRef="A"/>
+          <sequenceFlow id="f2" sourceRef="fork" targetRef="T"/>
+          <sequenceFlow id="f3" sourceRef="fork" targetRef="B"/>
+          <sequenceFlow id="f4" sourceRef="A" targetRef="a2"/>
+        </process>"#;
+    let entries = first_step(body);
+    assert!(entries.contains(&"entered:B".to_owned()), "{entries:?}");
+    assert!(!entries.contains(&"entered:a2".to_owned()), "{entries:?}");
+}
+
+#[test]
+fn throwers_of_one_wave_act_in_the_order_they_arrived() {
+    // The signal thrower arrives first and is put back behind the terminate; the terminate,
+    // put back behind it in turn, acts second: the signal has started the process's event
+    // sub-process by then, and the terminate ends only the sub-process around both.
+    let body = r#"<signal id="sig" name="S"/>
+        <process id="p" isExecutable="true">
+          <startEvent id="ps"/>
+          <subProcess id="sub">
+            <startEvent id="s"/><parallelGateway id="fork"/>
+            <intermediateThrowEvent id="T"><signalEventDefinition signalRef="sig"/></intermediateThrowEvent>
+            <endEvent id="te"/>
+            <endEvent id="stop"><terminateEventDefinition/></endEvent>
+            <sequenceFlow id="f0" sourceRef="s" targetRef="fork"/>
+            <sequenceFlow id="f1" sourceRef="fork" targetRef="T"/>
+            <sequenceFlow id="f2" sourceRef="fork" targetRef="stop"/>
+            <sequenceFlow id="f3" sourceRef="T" targetRef="te"/>
+          </subProcess>
+          <endEvent id="pe"/>
+          <sequenceFlow id="p1" sourceRef="ps" targetRef="sub"/>
+          <sequenceFlow id="p2" sourceRef="sub" targetRef="pe"/>
+          <subProcess id="esp" triggeredByEvent="true">
+            <startEvent id="es" isInterrupting="false"><signalEventDefinition signalRef="sig"/></startEvent>
+            <serviceTask id="X"><extensionElements><trace:task resource="r.x"/></extensionElements></serviceTask>
+            <sequenceFlow id="e1" sourceRef="es" targetRef="X"/>
+          </subProcess>
+        </process>"#;
+    let entries = first_step(body);
+    assert!(entries.contains(&"entered:X".to_owned()), "{entries:?}");
+    assert!(!entries.contains(&"entered:te".to_owned()), "{entries:?}");
+}

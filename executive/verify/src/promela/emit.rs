@@ -29,6 +29,7 @@ impl Tr<'_> {
                 parts.push(format!("tok[{i}] == 0"));
             }
         }
+        parts.extend(self.arrive_slot.values().map(|k| format!("tok[{k}] == 0")));
         parts.sort();
         for ((c, n), a) in &self.act_ix {
             let scope = match &self.g.node(*n).kind {
@@ -74,6 +75,10 @@ impl Tr<'_> {
         }
         let _ = writeln!(p, "byte tok[{nf}];\nbyte act[{na}];\nbyte reps[{nc}];");
         let _ = writeln!(p, "bool heard, lost, unsafe, failed, terminated, ended;");
+        // The wave of each token (`docs/engine-semantics.md`, "Within a step"): 2 made ready
+        // by the wave now arriving, 1 arrived or arriving now, 0 arrived earlier.
+        let _ = writeln!(p, "byte gen[{nf}];\nbyte w;");
+        let _ = writeln!(p, "#define ARRIVED(f) (tok[f] > 0 && gen[f] != 2)");
         let _ = writeln!(
             p,
             "bool comp[{}];\nbyte starts[{}];\nbyte pend[{}];",
@@ -87,7 +92,24 @@ impl Tr<'_> {
         // waits, before anything from outside is heard.
         let primaries = self.ctxs.iter().filter(|c| c.call.is_none()).count();
         let _ = writeln!(p, "byte started = 1;");
-        let _ = writeln!(p, "#define MOVED ({})", self.quiet());
+        let any = |parts: Vec<String>| {
+            if parts.is_empty() {
+                "false".to_owned()
+            } else {
+                parts.join(" || ")
+            }
+        };
+        let next = any((0..self.flow_names.len())
+            .map(|i| format!("(tok[{i}] > 0 && gen[{i}] == 2)"))
+            .collect());
+        let _ = writeln!(p, "#define NEXT ({next})");
+        let settling = any(self.settling.iter().map(|g| format!("({g})")).collect());
+        let _ = writeln!(p, "#define SETTLING ({settling})");
+        let throwing = any(self.throwing.iter().map(|g| format!("({g})")).collect());
+        let _ = writeln!(p, "#define THROWING ({throwing})");
+        let joining = any(self.joining.iter().map(|g| format!("({g})")).collect());
+        let _ = writeln!(p, "#define JOINING ({joining})");
+        let _ = writeln!(p, "#define MOVED ({} && !JOINING && !NEXT)", self.quiet());
         let _ = writeln!(p, "#define QUIET (started == {primaries} && MOVED)");
         let mut atoms = Vec::new();
         for (k, a) in self.observe.iter().enumerate() {
@@ -175,6 +197,10 @@ impl Tr<'_> {
         let _ = writeln!(p, "  do");
         let mut lines = BTreeMap::new();
         for a in &me.alts {
+        // The next wave arrives once nothing of this one can move and its throws have acted.
+        me.alts.push(format!(
+            ":: atomic {{ !SETTLING && !THROWING && NEXT -> w = 0; do :: w < {nf} -> gen[w] = gen[w] >> 1; w++ :: else -> w = 0; break od }}"
+        ));
             if let Some(m) = a.split("@@BPMN ").nth(1).and_then(|r| r.split('\\').next()) {
                 lines.insert(p.lines().count() + 1, m.to_owned());
             }

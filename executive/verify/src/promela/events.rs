@@ -213,8 +213,7 @@ impl Tr<'_> {
         if interrupting(self.g, b) {
             self.cancel(c, holder, alt);
         }
-        let outs = self.g.node(b).outgoing.clone();
-        self.put_all(c, &outs, alt);
+        self.arrive(c, b, alt);
         let m = self.marker(c, b, "fire");
         alt.effect.push(format!("printf(\"@@BPMN {m}\\n\")"));
         let id = self.g.node(b).id.clone();
@@ -285,7 +284,13 @@ impl Tr<'_> {
                 (format!("act[{a}]"), format!("act[{a}] = 0"))
             } else {
                 let i = self.f(c, f);
-                (format!("tok[{i}] > 0"), format!("tok[{i}]--"))
+                // A catch event waits once its token has arrived (not one of the next wave).
+                // Taken as `= 0`, not `--`: pan's unreached `-1)` marks a step's own take
+                // (`spin.rs`, `unreached`), and this one is a branch inside another step.
+                (
+                    format!("ARRIVED({i})"),
+                    format!("tok[{i}] = 0; gen[{i}] = 0"),
+                )
             };
             fire.effect.extend(self.observed(&id, phase));
             out.push(format!(
@@ -322,19 +327,16 @@ impl Tr<'_> {
         for c in 0..self.ctxs.len() {
             for n in self.nodes(c) {
                 let node = self.g.node(n);
-                match &node.kind {
-                    NodeKind::Catch(ce) if ce.triggers.iter().any(same) => {
-                        let effects = self.hear_catch(c, n, "hear");
-                        listeners += effects.len();
-                        alt.effect.extend(effects);
-                    }
+                let (scope, interrupting) = match &node.kind {
+                    NodeKind::Catch(ce) if ce.triggers.iter().any(same) => (node.scope, false),
                     NodeKind::Start(st) if st.triggers.iter().any(same) => {
-                        listeners += usize::from(self.signal_start(c, n, alt));
+                        match self.event_sub_of(n) {
+                            Some(esp) => (self.g.node(esp).scope, st.interrupting),
+                            None => (node.scope, true),
+                        }
                     }
                     NodeKind::Boundary(be) if be.triggers.iter().any(same) => {
-                        listeners += 1;
-                        let effect = self.hear_boundary(c, n, be.attached_to);
-                        alt.effect.push(effect);
+                        (node.scope, be.interrupting)
                     }
                     _ => {}
                 }
@@ -360,6 +362,15 @@ impl Tr<'_> {
             .map(|(k, _)| format!("err{k} = 1"))
             .collect()
     }
+                NodeKind::Start(_) => {
+                    listeners += usize::from(self.signal_start(c, n, alt));
+                }
+                NodeKind::Boundary(be) => {
+                    listeners += 1;
+                    let effect = self.hear_boundary(c, n, be.attached_to);
+                    alt.effect.push(effect);
+                }
+                _ => {}
 
     pub(super) fn signal_listened(&self) -> bool {
         self.alts.iter().any(|a| a.contains("unheard["))
@@ -423,3 +434,54 @@ impl Tr<'_> {
 
     // ----- nodes -----
 }
+    /// Whether something inside the model may withdraw a token at `n` (context `c`): a
+    /// terminate or cancel end event, or an interrupting event sub-process, in a scope around
+    /// it; an interrupting boundary event, or a completion condition, on an activity around it;
+    /// an error end event anywhere (uncaught, it ends the whole run).
+    pub(super) fn withdrawable(&self, c: usize, n: NodeId) -> bool {
+        let ends = |kind: &NodeKind, what: &dyn Fn(&EventDefinition) -> bool| matches!(kind, NodeKind::End(defs) if defs.iter().any(what));
+        if self
+            .g
+            .nodes
+            .iter()
+            .any(|m| ends(&m.kind, &|d| matches!(d, EventDefinition::Error { .. })))
+        {
+            return true;
+        }
+        let (mut c, mut scope) = (c, self.g.node(n).scope);
+        loop {
+            let interrupting_sub = self
+                .event_sub_starts(scope)
+                .iter()
+                .any(|s| matches!(&self.g.node(*s).kind, NodeKind::Start(st) if st.interrupting));
+            let ending = self.g.scope_nodes(scope).iter().any(|m| {
+                ends(&self.g.node(*m).kind, &|d| {
+                    matches!(d, EventDefinition::Terminate | EventDefinition::Cancel)
+                })
+            });
+            if interrupting_sub || ending {
+                return true;
+            }
+            let holder = match scope {
+                Scope::SubProcess(s) => {
+                    scope = self.g.node(s).scope;
+                    s
+                }
+                Scope::Process(_) => {
+                    let Some((pc, call)) = self.ctxs[c].call else {
+                        return false;
+                    };
+                    c = pc;
+                    scope = self.g.node(call).scope;
+                    call
+                }
+            };
+            let node = self.g.node(holder);
+            let completion = matches!(&node.looping,
+                Some(Looping::MultiInstance(mi)) if mi.completion.is_some());
+            if completion || node.boundaries.iter().any(|b| interrupting(self.g, *b)) {
+                return true;
+            }
+        }
+    }
+

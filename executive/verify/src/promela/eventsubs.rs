@@ -60,6 +60,10 @@ impl Tr<'_> {
         let owner = self.owner_scope(esp);
         let mut parts = vec![match owner {
             Some(s) => format!("act[{}]", self.a(c, s)),
+            // An end event of the process throwing: the process is active until its throw
+            // has acted (a signal end event that is its last token still starts its event
+            // sub-process, as in the engine).
+            None if self.ending == Some(c) => "true".to_owned(),
             None => format!("!{}", self.idle_inside(c, None)),
         }];
         let element = self.g.node(esp).scope;
@@ -176,7 +180,7 @@ impl Tr<'_> {
     /// A signal thrown in the model reaches the signal starts of armed event sub-processes
     /// and of processes: the effects for one such start (`heard` set when it is taken).
     pub(super) fn signal_start(&mut self, c: usize, start: NodeId, alt: &mut Alt) -> bool {
-        if self.event_sub_of(start).is_some() {
+        if let Some(esp) = self.event_sub_of(start) {
             let Some(armed) = self.armed(c, start) else {
                 return false;
             };

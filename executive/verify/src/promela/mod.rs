@@ -88,11 +88,14 @@ pub struct Translation {
     pub atoms: Vec<String>,
 }
 
-/// Marking a flow in the safety model: a second token is an assertion violation (unsafe).
-const SAFETY_PUT: &str = "#define PUT(f) assert(tok[f] == 0); tok[f] = 1";
+/// Marking a flow in the safety model: a second token is an assertion violation (unsafe). The
+/// token is of the next wave (`gen` 2): it arrives once the wave that made it ready is over
+/// (`docs/engine-semantics.md`, "Within a step").
+const SAFETY_PUT: &str = "#define PUT(f) assert(tok[f] == 0); tok[f] = 1; gen[f] = 2";
 /// Marking a flow in the LTL model: a second token only raises `unsafe`, so claims are judged
 /// on their own.
-const LTL_PUT: &str = "#define PUT(f) if :: tok[f] > 0 -> unsafe = 1 :: else -> tok[f] = 1 fi";
+const LTL_PUT: &str =
+    "#define PUT(f) if :: tok[f] > 0 -> unsafe = 1 :: else -> tok[f] = 1; gen[f] = 2 fi";
 
 impl Translation {
     /// The model for LTL claims (same lines, flows marked without assertions).
@@ -162,6 +165,9 @@ struct Alt {
 }
 
 struct Tr<'g> {
+    /// A throw or end event that throws: it acts at the end of its wave, once no other step
+    /// of the wave can move (`SETTLING`).
+    throw: bool,
     g: &'g ProcessGraph,
     bounds: Bounds,
     ctxs: Vec<Ctx>,
@@ -199,6 +205,21 @@ struct Tr<'g> {
 /// Most parallel instances of one task the translation runs at once: a literal cardinality
 /// above it is cut to it (the instances of a task differ only in when each completes, and three
 /// already interleave every way two completions can with the rest).
+    /// The guards of the steps inside a wave (neither outside nor throws): one of them holds
+    /// while the wave is still arriving (`SETTLING`).
+    settling: Vec<String>,
+    /// The guards of the throw steps (`THROWING`).
+    throwing: Vec<String>,
+    /// The guards of the joins: a join whose tokens have all arrived passes them on within the
+    /// step, before anything outside is heard (`MOVED`).
+    joining: Vec<String>,
+    /// Events a token is put at before it moves on, one wave later (the engine spawns it at
+    /// the event): the start events of sub-processes, event sub-processes and called processes
+    /// as their scope opens, and boundary events as they fire. A slot each in `tok[]`.
+    arrive_slot: HashMap<(usize, NodeId), usize>,
+    /// The context of the end event whose throw is being written: its process is still
+    /// active while it throws, though its last token was just taken (§13.5.6).
+    ending: Option<usize>,
 const MAX_INSTANCES: u64 = 3;
 
 impl Tr<'_> {
@@ -363,6 +384,11 @@ pub fn translate(
     for id in (0..g.nodes.len() as u32).map(NodeId) {
         t.nodes_of.entry(g.process_of(id)).or_default().push(id);
     }
+        settling: Vec::new(),
+        throwing: Vec::new(),
+        joining: Vec::new(),
+        ending: None,
+        arrive_slot: HashMap::new(),
     t.contexts();
     t.slots();
     t.refuse_unsupported();
@@ -487,6 +513,15 @@ impl<'g> Tr<'g> {
                     // A compensation throw or a cancel end waits for the handlers it started.
                     NodeKind::Throw(defs) | NodeKind::End(defs) => defs.iter().any(|d| {
                         matches!(
+                let opens =
+                    matches!(node.scope, Scope::SubProcess(_)) || self.ctxs[c].call.is_some();
+                if (matches!(node.kind, NodeKind::Start(_)) && opens)
+                    || matches!(node.kind, NodeKind::Boundary(_))
+                {
+                    self.arrive_slot.insert((c, n), self.flow_names.len());
+                    self.flow_names
+                        .push(format!("{}{} (arrived)", self.ctxs[c].path, node.id));
+                }
                             d,
                             EventDefinition::Compensate { .. } | EventDefinition::Cancel
                         )
@@ -569,6 +604,7 @@ impl<'g> Tr<'g> {
         self.observe
             .iter()
             .enumerate()
+            || phase == "leave"
             .filter_map(|(k, a)| match a {
                 Atom::Done(n) if completes && self.g.node(*n).id == element => {
                     Some(format!("obs{k} = 1"))
@@ -588,8 +624,14 @@ impl<'g> Tr<'g> {
         if let Some(st) = self.steps.get(marker) {
             let more = self.observed(&st.element, &st.phase);
             alt.effect.extend(more);
+        let guard = alt.guard.join(" && ");
         }
         let guard = if alt.guard.is_empty() {
+        } else if alt.throw {
+            self.throwing.push(guard);
+            alt.guard.push("!SETTLING".to_owned());
+        } else if !guard.is_empty() {
+            self.settling.push(guard);
             "true".to_owned()
         } else {
             alt.guard.join(" && ")
@@ -613,8 +655,8 @@ impl<'g> Tr<'g> {
     /// Takes the token on flow `f` (the step needs it).
     fn take(&self, c: usize, f: FlowId, alt: &mut Alt) {
         let i = self.f(c, f);
-        alt.guard.push(format!("tok[{i}] > 0"));
-        alt.effect.push(format!("tok[{i}]--"));
+        alt.guard.push(format!("ARRIVED({i})"));
+        alt.effect.push(format!("tok[{i}]--; gen[{i}] = 0"));
     }
 
     fn put_all(&self, c: usize, flows: &[FlowId], alt: &mut Alt) {
@@ -671,6 +713,9 @@ impl<'g> Tr<'g> {
             if let Some(k) = self.cnt_ix.get(&(c, n)) {
                 inside.cnts.push(*k);
             }
+            if let Some(k) = self.arrive_slot.get(&(c, n)) {
+                inside.flows.push(*k);
+            }
             if let Some(k) = self.comp_ix.get(&(c, n)) {
                 inside.comps.push(*k);
             }
@@ -710,8 +755,12 @@ impl<'g> Tr<'g> {
 
     /// Zeroes the flows and activity slots of `inside`.
     fn clear(&self, inside: &Inside, alt: &mut Alt) {
-        alt.effect
-            .extend(inside.flows.iter().map(|f| format!("tok[{f}] = 0")));
+        alt.effect.extend(
+            inside
+                .flows
+                .iter()
+                .map(|f| format!("tok[{f}] = 0; gen[{f}] = 0")),
+        );
         alt.effect
             .extend(inside.acts.iter().map(|a| format!("act[{a}] = 0")));
         alt.effect
@@ -779,10 +828,36 @@ impl<'g> Tr<'g> {
             })
             .collect();
         for st in starts {
-            let outs = self.g.node(st).outgoing.clone();
-            self.put_all(c, &outs, alt);
+            self.arrive(c, st, alt);
         }
     }
 
     // ----- catchers -----
 }
+    /// A token is put at event `n` (a start event as its scope opens, a boundary event as it
+    /// fires): on its slot, to move on in the next wave. The first primary process's start,
+    /// with nothing beside it, moves at once.
+    fn arrive(&self, c: usize, n: NodeId, alt: &mut Alt) {
+        match self.arrive_slot.get(&(c, n)) {
+            Some(k) => alt.effect.push(format!("PUT({k})")),
+            None => {
+                let outs = self.g.node(n).outgoing.clone();
+                self.put_all(c, &outs, alt);
+            }
+        }
+    }
+
+    /// The step of an event whose token arrived on its slot: it moves on.
+    fn passes(&mut self, c: usize, n: NodeId) {
+        let Some(k) = self.arrive_slot.get(&(c, n)).copied() else {
+            return;
+        };
+        let m = self.marker(c, n, "leave");
+        let mut alt = Alt::default();
+        alt.guard.push(format!("ARRIVED({k})"));
+        alt.effect.push(format!("tok[{k}]--; gen[{k}] = 0"));
+        let outs = self.g.node(n).outgoing.clone();
+        self.put_all(c, &outs, &mut alt);
+        self.push(&m, alt);
+    }
+

@@ -90,14 +90,22 @@ impl Tr<'_> {
         let node = self.g.node(n);
         let (ins, outs) = (node.incoming.clone(), node.outgoing.clone());
         match &node.kind {
-            NodeKind::Start(_) => self.message_start(c, n),
-            NodeKind::Boundary(_) => {}
+            NodeKind::Start(_) => {
+                self.passes(c, n);
+                self.message_start(c, n);
+            }
+            NodeKind::Boundary(_) => self.passes(c, n),
             NodeKind::End(defs) => {
                 for f in ins {
                     let m = self.marker(c, n, "end");
-                    let mut alt = Alt::default();
+                    let mut alt = Alt {
+                        throw: executive_engine::throws(defs),
+                        ..Alt::default()
+                    };
                     self.take(c, f, &mut alt);
+                    self.ending = Some(c);
                     self.throw(c, n, defs, &mut alt);
+                    self.ending = None;
                     self.push(&m, alt);
                 }
                 self.resume(c, n);
@@ -115,7 +123,10 @@ impl Tr<'_> {
                 }
                 for f in ins {
                     let m = self.marker(c, n, "");
-                    let mut alt = Alt::default();
+                    let mut alt = Alt {
+                        throw: executive_engine::throws(defs),
+                        ..Alt::default()
+                    };
                     self.take(c, f, &mut alt);
                     if let Some(Some(target)) = link {
                         let on = self.g.node(target).outgoing.clone();
@@ -207,6 +218,9 @@ impl Tr<'_> {
                 for f in ins {
                     self.take(c, *f, &mut alt);
                 }
+                if ins.len() > 1 {
+                    self.joining.push(alt.guard.join(" && "));
+                }
                 self.put_all(c, outs, &mut alt);
                 self.push(&m, alt);
             }
@@ -258,25 +272,26 @@ impl Tr<'_> {
                 // arrive on the empty ones (nothing upstream of them is marked).
                 let m = self.marker(c, n, "join");
                 let mut alt = Alt::default();
+                // A token on a flow that has not arrived yet (of the next wave) is one that
+                // can still arrive.
                 let marked: Vec<String> = ins
                     .iter()
-                    .map(|f| format!("tok[{}] > 0", self.f(c, *f)))
+                    .map(|f| format!("ARRIVED({})", self.f(c, *f)))
                     .collect();
                 alt.guard.push(format!("({})", marked.join(" || ")));
                 for f in ins {
                     let i = self.f(c, *f);
                     let (flows, acts) = self.upstream(c, *f, n);
-                    let mut empty: Vec<String> =
-                        flows.iter().map(|u| format!("tok[{u}] == 0")).collect();
+                    let mut empty: Vec<String> = vec![format!("tok[{i}] == 0")];
+                    empty.extend(flows.iter().map(|u| format!("tok[{u}] == 0")));
                     empty.extend(acts.iter().map(|a| format!("!act[{a}]")));
-                    if !empty.is_empty() {
-                        alt.guard
-                            .push(format!("(tok[{i}] > 0 || ({}))", empty.join(" && ")));
-                    }
+                    alt.guard
+                        .push(format!("(ARRIVED({i}) || ({}))", empty.join(" && ")));
                     alt.effect.push(format!(
-                        "if :: tok[{i}] > 0 -> tok[{i}]-- :: else -> skip fi"
+                        "if :: ARRIVED({i}) -> tok[{i}] = 0; gen[{i}] = 0 :: else -> skip fi"
                     ));
                 }
+                self.joining.push(alt.guard.join(" && "));
                 self.put_all(c, outs, &mut alt);
                 self.push(&m, alt);
             }
@@ -432,13 +447,16 @@ impl Tr<'_> {
         }
         let catchers = self.reachable(catchers);
         // A task nothing can interrupt is one step (start and completion folded: fewer
-        // interleavings, the same reachable markings between steps).
+        // interleavings, the same reachable markings between steps). A task run outside whose
+        // scope something may withdraw is not: the engine enters it in its wave, before a
+        // throw of that wave acts, so its start is a step of its own.
         if body.is_none()
             && node.boundaries.is_empty()
             && node.looping.is_none()
             && catchers.is_empty()
             && !self.pend_ix.contains_key(&(c, n))
             && !self.observe.contains(&Atom::Running(n))
+            && !(outside(self.g, n) && self.withdrawable(c, n))
         {
             self.folded.insert(n);
             for f in ins {
@@ -519,8 +537,7 @@ impl Tr<'_> {
                 (Some(scope), Entry::Asked(_, start)) if start != n => {
                     self.reset(body_ctx, scope, &mut alt);
                     self.start_implicit(body_ctx, scope, &mut alt);
-                    let on = self.g.node(start).outgoing.clone();
-                    self.put_all(body_ctx, &on, &mut alt);
+                    self.arrive(body_ctx, start, &mut alt);
                 }
                 (Some(scope), _) => self.start_body(body_ctx, scope, &mut alt),
                 _ => {}
@@ -679,8 +696,7 @@ impl Tr<'_> {
                 alt.guard.push(format!("reps[{k}] < {limit}"));
                 alt.effect.push(format!("reps[{k}]++"));
             }
-            let outs = self.g.node(b).outgoing.clone();
-            self.put_all(c, &outs, &mut alt);
+            self.arrive(c, b, &mut alt);
             self.push(&m, alt);
         }
     }
