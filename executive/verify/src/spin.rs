@@ -259,9 +259,11 @@ fn replay(dir: &Path, trail: &str, t: &Translation) -> Result<Vec<TraceStep>, Sp
 
 /// The steps no run takes, from pan's list of unreached statements (by PROMELA line: every
 /// step is written on a line of its own; a step written on several lines — an activity entered
-/// along several flows — is unreached only if all of them are).
+/// along several flows — is unreached only if all of them are; an activity entered inside
+/// another step's branch is unreached only if its witnesses are too).
 fn unreached(text: &str, t: &Translation) -> std::collections::BTreeSet<String> {
     let mut lines = std::collections::BTreeSet::new();
+    let mut witnesses = std::collections::BTreeSet::new();
     let mut in_mission = false;
     for line in text.lines() {
         if line.starts_with("unreached in ") {
@@ -277,6 +279,15 @@ fn unreached(text: &str, t: &Translation) -> std::collections::BTreeSet<String> 
             .and_then(|r| r.split(',').next())
             .and_then(|n| n.parse::<usize>().ok());
         if in_mission
+            && let Some(k) = line
+                .split("\"entry = ")
+                .nth(1)
+                .and_then(|r| r.split('"').next())
+                .and_then(|k| k.parse::<usize>().ok())
+        {
+            witnesses.insert(k);
+        }
+        if in_mission
             && takes
             && let Some(n) = number.filter(|n| t.lines.contains_key(n))
         {
@@ -288,10 +299,18 @@ fn unreached(text: &str, t: &Translation) -> std::collections::BTreeSet<String> 
         .iter()
         .filter(|(n, _)| !lines.contains(*n))
         .map(|(_, m)| m)
+        .chain(
+            t.witnesses
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| !witnesses.contains(k))
+                .map(|(_, m)| m),
+        )
         .collect();
     lines
         .iter()
         .filter_map(|n| t.lines.get(n))
+        .chain(witnesses.iter().filter_map(|k| t.witnesses.get(*k)))
         .filter(|m| !reached.contains(m))
         .cloned()
         .collect()

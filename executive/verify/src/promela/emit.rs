@@ -74,11 +74,14 @@ impl Tr<'_> {
             let _ = writeln!(p, "/*   {i:>4} {a} */");
         }
         let _ = writeln!(p, "byte tok[{nf}];\nbyte act[{na}];\nbyte reps[{nc}];");
-        let _ = writeln!(p, "bool heard, lost, unsafe, failed, terminated, ended;");
         // The wave of each token (`docs/engine-semantics.md`, "Within a step"): 2 made ready
         // by the wave now arriving, 1 arrived or arriving now, 0 arrived earlier.
         let _ = writeln!(p, "byte gen[{nf}];\nbyte w;");
+        // Written only so pan can say which branch no run takes (`Translation::witnesses`);
+        // hidden: no part of the state.
+        let _ = writeln!(p, "hidden int entry;");
         let _ = writeln!(p, "#define ARRIVED(f) (tok[f] > 0 && gen[f] != 2)");
+        let _ = writeln!(p, "bool heard, lost, unsafe, failed, terminated, ended;");
         let _ = writeln!(
             p,
             "bool comp[{}];\nbyte starts[{}];\nbyte pend[{}];",
@@ -194,13 +197,13 @@ impl Tr<'_> {
             }
         }
         me.alts.extend(later);
-        let _ = writeln!(p, "  do");
-        let mut lines = BTreeMap::new();
-        for a in &me.alts {
         // The next wave arrives once nothing of this one can move and its throws have acted.
         me.alts.push(format!(
             ":: atomic {{ !SETTLING && !THROWING && NEXT -> w = 0; do :: w < {nf} -> gen[w] = gen[w] >> 1; w++ :: else -> w = 0; break od }}"
         ));
+        let _ = writeln!(p, "  do");
+        let mut lines = BTreeMap::new();
+        for a in &me.alts {
             if let Some(m) = a.split("@@BPMN ").nth(1).and_then(|r| r.split('\\').next()) {
                 lines.insert(p.lines().count() + 1, m.to_owned());
             }
@@ -222,6 +225,7 @@ impl Tr<'_> {
             activities,
             signals: me.lost_check,
             lines,
+            witnesses: me.witnesses,
             atoms,
         }
     }

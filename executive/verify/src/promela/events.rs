@@ -324,6 +324,11 @@ impl Tr<'_> {
                 alt.effect.push(format!("sig{k} = 1"));
             }
         }
+        // The engine's order (`docs/engine-semantics.md`, Signals): inner scopes first, within
+        // a scope the non-interrupting catchers before the interrupting ones, then (where the
+        // engine takes the order they began waiting) the document order; processes started by
+        // the signal last.
+        let mut heard: Vec<(std::cmp::Reverse<usize>, bool, usize, NodeId)> = Vec::new();
         for c in 0..self.ctxs.len() {
             for n in self.nodes(c) {
                 let node = self.g.node(n);
@@ -338,8 +343,34 @@ impl Tr<'_> {
                     NodeKind::Boundary(be) if be.triggers.iter().any(same) => {
                         (node.scope, be.interrupting)
                     }
-                    _ => {}
+                    _ => continue,
+                };
+                let depth =
+                    if self.event_sub_of(n).is_none() && matches!(node.kind, NodeKind::Start(_)) {
+                        0
+                    } else {
+                        self.depth(c, scope) + 1
+                    };
+                heard.push((std::cmp::Reverse(depth), interrupting, c, n));
+            }
+        }
+        heard.sort_by_key(|&(depth, interrupting, _, _)| (depth, interrupting));
+        for (_, _, c, n) in heard {
+            match &self.g.node(n).kind {
+                NodeKind::Catch(_) => {
+                    let effects = self.hear_catch(c, n, "hear");
+                    listeners += effects.len();
+                    alt.effect.extend(effects);
                 }
+                NodeKind::Start(_) => {
+                    listeners += usize::from(self.signal_start(c, n, alt));
+                }
+                NodeKind::Boundary(be) => {
+                    listeners += 1;
+                    let effect = self.hear_boundary(c, n, be.attached_to);
+                    alt.effect.push(effect);
+                }
+                _ => {}
             }
         }
         if listeners > 0 {
@@ -353,6 +384,20 @@ impl Tr<'_> {
         }
     }
 
+    /// How deeply `scope` of context `c` nests, as the engine counts the scopes a catcher
+    /// waits in: one per enclosing sub-process and per call activity.
+    fn depth(&self, c: usize, mut scope: Scope) -> usize {
+        let mut d = 0;
+        while let Scope::SubProcess(sp) = scope {
+            d += 1;
+            scope = self.g.node(sp).scope;
+        }
+        match self.ctxs[c].call {
+            Some((parent, call)) => d + 1 + self.depth(parent, self.g.node(call).scope),
+            None => d,
+        }
+    }
+
     /// Effects marking an error code as met (`None`: a catch-all, which may be any code).
     pub(super) fn error_observed(&self, code: Option<&str>) -> Vec<String> {
         self.observe
@@ -362,15 +407,6 @@ impl Tr<'_> {
             .map(|(k, _)| format!("err{k} = 1"))
             .collect()
     }
-                NodeKind::Start(_) => {
-                    listeners += usize::from(self.signal_start(c, n, alt));
-                }
-                NodeKind::Boundary(be) => {
-                    listeners += 1;
-                    let effect = self.hear_boundary(c, n, be.attached_to);
-                    alt.effect.push(effect);
-                }
-                _ => {}
 
     pub(super) fn signal_listened(&self) -> bool {
         self.alts.iter().any(|a| a.contains("unheard["))
@@ -432,8 +468,6 @@ impl Tr<'_> {
         go_on
     }
 
-    // ----- nodes -----
-}
     /// Whether something inside the model may withdraw a token at `n` (context `c`): a
     /// terminate or cancel end event, or an interrupting event sub-process, in a scope around
     /// it; an interrupting boundary event, or a completion condition, on an activity around it;
@@ -485,3 +519,5 @@ impl Tr<'_> {
         }
     }
 
+    // ----- nodes -----
+}

@@ -185,6 +185,15 @@ impl Tr<'_> {
                 return false;
             };
             let mut fire = Alt::default();
+            // The engine enters the event sub-process as the signal is caught (its instance
+            // opens, the start event's token put): an interrupting catcher that hears the same
+            // signal after it cancels it entered, so its entry is marked here too, not only in
+            // the step that then runs it.
+            let entered = self.marker(c, esp, "activate");
+            let k = self.witnesses.len();
+            self.witnesses.push(entered.clone());
+            fire.effect
+                .push(format!("printf(\"@@BPMN {entered}\\n\"); entry = {k}"));
             self.start_event_sub(c, start, &mut fire, true);
             alt.effect.push(format!(
                 "if :: {armed} -> {}; heard = 1 :: else -> skip fi",

@@ -84,6 +84,9 @@ pub struct Translation {
     pub signals: bool,
     /// PROMELA line → the marker of the step written on it.
     pub lines: BTreeMap<usize, String>,
+    /// Activities entered inside another step's branch: witness `k` (the statement
+    /// `entry = k`, first of the branch, which pan names when no run takes it) → the marker.
+    pub witnesses: Vec<String>,
     /// Per observed atom (in the order given), the PROMELA expression that reads it.
     pub atoms: Vec<String>,
 }
@@ -162,12 +165,12 @@ struct Alt {
     /// Something outside answers (a system, the ground, time): it happens only once nothing
     /// inside can move, as the engine runs each step to quiescence.
     outside: bool,
-}
-
-struct Tr<'g> {
     /// A throw or end event that throws: it acts at the end of its wave, once no other step
     /// of the wave can move (`SETTLING`).
     throw: bool,
+}
+
+struct Tr<'g> {
     g: &'g ProcessGraph,
     bounds: Bounds,
     ctxs: Vec<Ctx>,
@@ -191,6 +194,8 @@ struct Tr<'g> {
     waiters: Vec<(usize, String)>,
     alts: Vec<String>,
     steps: BTreeMap<String, Step>,
+    /// Markers of activities entered inside another step, by witness (`entry = k`).
+    witnesses: Vec<String>,
     refusals: Vec<Refusal>,
     lost_check: bool,
     observe: Vec<Atom>,
@@ -200,11 +205,6 @@ struct Tr<'g> {
     vars: crate::data::Variables,
     /// Nodes that start with their scope, having no incoming flow (the engine's implicit start).
     implicit: BTreeSet<NodeId>,
-}
-
-/// Most parallel instances of one task the translation runs at once: a literal cardinality
-/// above it is cut to it (the instances of a task differ only in when each completes, and three
-/// already interleave every way two completions can with the rest).
     /// The guards of the steps inside a wave (neither outside nor throws): one of them holds
     /// while the wave is still arriving (`SETTLING`).
     settling: Vec<String>,
@@ -220,6 +220,11 @@ struct Tr<'g> {
     /// The context of the end event whose throw is being written: its process is still
     /// active while it throws, though its last token was just taken (§13.5.6).
     ending: Option<usize>,
+}
+
+/// Most parallel instances of one task the translation runs at once: a literal cardinality
+/// above it is cut to it (the instances of a task differ only in when each completes, and three
+/// already interleave every way two completions can with the rest).
 const MAX_INSTANCES: u64 = 3;
 
 impl Tr<'_> {
@@ -374,21 +379,22 @@ pub fn translate(
         waiters: Vec::new(),
         alts: Vec::new(),
         steps: BTreeMap::new(),
+        witnesses: Vec::new(),
         refusals: Vec::new(),
         lost_check: false,
         observe: observe.to_vec(),
         folded: BTreeSet::new(),
+        settling: Vec::new(),
+        throwing: Vec::new(),
+        joining: Vec::new(),
+        ending: None,
+        arrive_slot: HashMap::new(),
         vars: vars.clone(),
         implicit: implicit_nodes(g),
     };
     for id in (0..g.nodes.len() as u32).map(NodeId) {
         t.nodes_of.entry(g.process_of(id)).or_default().push(id);
     }
-        settling: Vec::new(),
-        throwing: Vec::new(),
-        joining: Vec::new(),
-        ending: None,
-        arrive_slot: HashMap::new(),
     t.contexts();
     t.slots();
     t.refuse_unsupported();
@@ -507,12 +513,6 @@ impl<'g> Tr<'g> {
             }
             for &n in &nodes {
                 let node = self.g.node(n);
-                let slot = match &node.kind {
-                    NodeKind::Task(_) | NodeKind::SubProcess(_) | NodeKind::CallActivity(_) => true,
-                    NodeKind::Gateway(gw) => matches!(gw.kind, GatewayKind::EventBased { .. }),
-                    // A compensation throw or a cancel end waits for the handlers it started.
-                    NodeKind::Throw(defs) | NodeKind::End(defs) => defs.iter().any(|d| {
-                        matches!(
                 let opens =
                     matches!(node.scope, Scope::SubProcess(_)) || self.ctxs[c].call.is_some();
                 if (matches!(node.kind, NodeKind::Start(_)) && opens)
@@ -522,6 +522,12 @@ impl<'g> Tr<'g> {
                     self.flow_names
                         .push(format!("{}{} (arrived)", self.ctxs[c].path, node.id));
                 }
+                let slot = match &node.kind {
+                    NodeKind::Task(_) | NodeKind::SubProcess(_) | NodeKind::CallActivity(_) => true,
+                    NodeKind::Gateway(gw) => matches!(gw.kind, GatewayKind::EventBased { .. }),
+                    // A compensation throw or a cancel end waits for the handlers it started.
+                    NodeKind::Throw(defs) | NodeKind::End(defs) => defs.iter().any(|d| {
+                        matches!(
                             d,
                             EventDefinition::Compensate { .. } | EventDefinition::Cancel
                         )
@@ -598,13 +604,13 @@ impl<'g> Tr<'g> {
     /// Effects that count an element's completion for the requirements that observe it.
     fn observed(&self, element: &str, phase: &str) -> Vec<String> {
         let completes = !(phase == "start"
+            || phase == "leave"
             || phase == "activate"
             || phase == "arm"
             || phase.starts_with("fail["));
         self.observe
             .iter()
             .enumerate()
-            || phase == "leave"
             .filter_map(|(k, a)| match a {
                 Atom::Done(n) if completes && self.g.node(*n).id == element => {
                     Some(format!("obs{k} = 1"))
@@ -618,20 +624,20 @@ impl<'g> Tr<'g> {
     }
 
     fn push(&mut self, marker: &str, mut alt: Alt) {
+        let guard = alt.guard.join(" && ");
         if alt.outside {
             alt.guard.insert(0, "QUIET".to_owned());
-        }
-        if let Some(st) = self.steps.get(marker) {
-            let more = self.observed(&st.element, &st.phase);
-            alt.effect.extend(more);
-        let guard = alt.guard.join(" && ");
-        }
-        let guard = if alt.guard.is_empty() {
         } else if alt.throw {
             self.throwing.push(guard);
             alt.guard.push("!SETTLING".to_owned());
         } else if !guard.is_empty() {
             self.settling.push(guard);
+        }
+        if let Some(st) = self.steps.get(marker) {
+            let more = self.observed(&st.element, &st.phase);
+            alt.effect.extend(more);
+        }
+        let guard = if alt.guard.is_empty() {
             "true".to_owned()
         } else {
             alt.guard.join(" && ")
@@ -707,14 +713,14 @@ impl<'g> Tr<'g> {
             for f in &node.outgoing {
                 inside.flows.push(self.f(c, *f));
             }
+            if let Some(k) = self.arrive_slot.get(&(c, n)) {
+                inside.flows.push(*k);
+            }
             if let Some(a) = self.act_ix.get(&(c, n)) {
                 inside.acts.push(*a);
             }
             if let Some(k) = self.cnt_ix.get(&(c, n)) {
                 inside.cnts.push(*k);
-            }
-            if let Some(k) = self.arrive_slot.get(&(c, n)) {
-                inside.flows.push(*k);
             }
             if let Some(k) = self.comp_ix.get(&(c, n)) {
                 inside.comps.push(*k);
@@ -832,8 +838,6 @@ impl<'g> Tr<'g> {
         }
     }
 
-    // ----- catchers -----
-}
     /// A token is put at event `n` (a start event as its scope opens, a boundary event as it
     /// fires): on its slot, to move on in the next wave. The first primary process's start,
     /// with nothing beside it, moves at once.
@@ -861,3 +865,5 @@ impl<'g> Tr<'g> {
         self.push(&m, alt);
     }
 
+    // ----- catchers -----
+}
