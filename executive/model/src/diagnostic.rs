@@ -112,6 +112,8 @@ pub(crate) struct Sink {
     pub(crate) items: Vec<Diagnostic>,
     /// Indices in `items` of the rules bent harmlessly: errors when reading strictly.
     bent: Vec<usize>,
+    /// Indices in `items` of the rules only a strict reading reports.
+    pedantic: Vec<usize>,
 }
 
 impl Sink {
@@ -192,11 +194,37 @@ impl Sink {
             .constraint(rule)
     }
 
+    /// A rule that nearly every model of the tools people use bends and that TRACE never
+    /// needs (an `operationRef` on a message event, EXT.128): an error when reading strictly,
+    /// and not said otherwise, where it would only be noise.
+    pub(crate) fn pedantic(
+        &mut self,
+        code: &'static str,
+        rule: &'static str,
+        offset: usize,
+        element: Option<&str>,
+        message: String,
+    ) -> &mut Diagnostic {
+        self.pedantic.push(self.items.len());
+        self.bent(code, rule, offset, element, message)
+    }
+
     /// Strict reading: every rule bent harmlessly becomes an error.
     pub(crate) fn enforce_rules(&mut self) {
         for &i in &self.bent {
             self.items[i].severity = Severity::Error;
         }
+    }
+
+    /// Lenient reading: the rules only a strict reading reports are dropped.
+    pub(crate) fn drop_pedantic(&mut self) {
+        let mut k = 0;
+        let pedantic = std::mem::take(&mut self.pedantic);
+        self.items.retain(|_| {
+            k += 1;
+            !pedantic.contains(&(k - 1))
+        });
+        self.bent.clear();
     }
 
     pub(crate) fn has_errors(&self) -> bool {

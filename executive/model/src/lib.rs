@@ -290,6 +290,8 @@ pub fn load_bundle(
     arena::give_back(bump);
     if options.strict {
         sink.enforce_rules();
+    } else {
+        sink.drop_pedantic();
     }
     let ok = options.token_game || !sink.has_errors();
     let texts: Vec<diagnostic::SourceText<'_>> = std::iter::once(&main)

@@ -1190,3 +1190,200 @@ fn flow_rules_read_the_sequence_flows_and_bend_harmlessly() {
         );
     }
 }
+
+#[test]
+fn items_that_travel_together_must_be_equivalent_when_strict() {
+    // §10.3.3 and §10.4.1: a service task's data carries the items of its operation's
+    // messages (EXT.045 for the out-message), a send (receive) task's data input (output) the
+    // item of its message, and a data association without a transformation joins equivalent
+    // items — one item definition, or two naming the same structure. Each combination of
+    // where the items differ and whether they are equivalent: only the inequivalent ones are
+    // warned about, and refused with --strict.
+    let items = r#"<bpmn:itemDefinition id="text" structureRef="xsd:string"/><bpmn:itemDefinition id="text2" structureRef="xsd:string"/>
+        <bpmn:itemDefinition id="number" structureRef="xsd:int"/><bpmn:itemDefinition id="bare"/><bpmn:itemDefinition id="bare2"/>
+        <bpmn:message id="m" itemRef="text"/>
+        <bpmn:interface id="if"><bpmn:operation id="op"><bpmn:inMessageRef>m</bpmn:inMessageRef><bpmn:outMessageRef>m</bpmn:outMessageRef></bpmn:operation></bpmn:interface>"#;
+    let io = |kind: &str, item: &str| {
+        let sets = if kind == "dataInput" {
+            "<bpmn:inputSet><bpmn:dataInputRefs>din</bpmn:dataInputRefs></bpmn:inputSet><bpmn:outputSet/>"
+        } else {
+            "<bpmn:inputSet/><bpmn:outputSet><bpmn:dataOutputRefs>din</bpmn:dataOutputRefs></bpmn:outputSet>"
+        };
+        format!(
+            r#"<bpmn:ioSpecification><bpmn:{kind} id="din" itemSubjectRef="{item}"/>{sets}</bpmn:ioSpecification>"#
+        )
+    };
+    let around = |task: String| {
+        doc(
+            items,
+            &format!(
+                r#"<bpmn:startEvent id="s"/>{task}<bpmn:endEvent id="e"/>
+                <bpmn:sequenceFlow id="f1" sourceRef="s" targetRef="t"/><bpmn:sequenceFlow id="f2" sourceRef="t" targetRef="e"/>"#
+            ),
+        )
+    };
+    let task = |tag: &str, attrs: &str, kind: &str, item: &str| {
+        around(format!(
+            r#"<bpmn:{tag} id="t" {attrs}><bpmn:extensionElements><trace:task resource="x.y"/></bpmn:extensionElements>{}</bpmn:{tag}>"#,
+            io(kind, item)
+        ))
+    };
+    let association = |object: &str, input: &str, transform: bool| {
+        around(format!(
+            r#"<bpmn:dataObject id="o" itemSubjectRef="{object}"/>
+            <bpmn:serviceTask id="t"><bpmn:extensionElements><trace:task resource="x.y"/></bpmn:extensionElements>{}<bpmn:dataInputAssociation><bpmn:sourceRef>o</bpmn:sourceRef><bpmn:targetRef>din</bpmn:targetRef>{}</bpmn:dataInputAssociation></bpmn:serviceTask>"#,
+            io("dataInput", input),
+            if transform {
+                r#"<bpmn:transformation xsi:type="bpmn:tFormalExpression">string(o)</bpmn:transformation>"#
+            } else {
+                ""
+            }
+        ))
+    };
+    let mut cases = Vec::new();
+    for (item, equivalent) in [
+        ("text", true),
+        ("text2", true),
+        ("number", false),
+        ("bare", false),
+    ] {
+        for kind in ["dataInput", "dataOutput"] {
+            cases.push((
+                task("serviceTask", r#"operationRef="op""#, kind, item),
+                equivalent,
+            ));
+        }
+        cases.push((
+            task("sendTask", r#"messageRef="m""#, "dataInput", item),
+            equivalent,
+        ));
+        cases.push((
+            task("receiveTask", r#"messageRef="m""#, "dataOutput", item),
+            equivalent,
+        ));
+        cases.push((association("text", item, false), equivalent));
+        cases.push((association("text", item, true), true));
+    }
+    cases.push((association("bare", "bare", false), true));
+    cases.push((association("bare", "bare2", false), false));
+    for (xml, equivalent) in cases {
+        let lenient = load(xml.as_bytes());
+        let warned = lenient
+            .diagnostics
+            .iter()
+            .any(|d| d.code == "item-mismatch");
+        assert_eq!(warned, !equivalent, "{xml}\n{:?}", lenient.diagnostics);
+        assert!(lenient.graph.is_some(), "{:?}", lenient.diagnostics);
+        assert_eq!(
+            strict_errors(&xml).contains(&"item-mismatch"),
+            !equivalent,
+            "{xml}"
+        );
+    }
+}
+
+#[test]
+fn rules_only_a_strict_reading_reports() {
+    // A message event without operationRef in a process marked isExecutable="true" (EXT.128),
+    // and an attribute the schema lacks in a descriptive process: nearly every drawing has
+    // them and nothing needs them, so a lenient reading says nothing and --strict refuses them.
+    let message = |executable: &str, operation: &str| {
+        format!(
+            r#"{HEAD}<bpmn:message id="m" name="M"/><bpmn:interface id="if"><bpmn:operation id="op"/></bpmn:interface>
+            <bpmn:process id="p" isExecutable="{executable}"><bpmn:startEvent id="s"><bpmn:messageEventDefinition messageRef="m" {operation}/></bpmn:startEvent>
+            <bpmn:endEvent id="e"/><bpmn:sequenceFlow id="f" sourceRef="s" targetRef="e"/></bpmn:process></bpmn:definitions>"#
+        )
+    };
+    for (xml, refused) in [
+        (message("true", ""), true),
+        (message("true", r#"operationRef="op""#), false),
+        (message("false", ""), false),
+    ] {
+        let lenient = load(xml.as_bytes());
+        assert!(
+            !lenient
+                .diagnostics
+                .iter()
+                .any(|d| d.code == "missing-operation"),
+            "{:?}",
+            lenient.diagnostics
+        );
+        assert_eq!(
+            strict_errors(&xml).contains(&"missing-operation"),
+            refused,
+            "{xml}"
+        );
+    }
+    let drawing = doc(
+        "",
+        r#"<bpmn:startEvent id="s" colour="red"/><bpmn:endEvent id="e"/><bpmn:sequenceFlow id="f" sourceRef="s" targetRef="e"/>"#,
+    )
+    .replace(r#"isExecutable="true""#, r#"isExecutable="false""#);
+    assert!(
+        !load(drawing.as_bytes())
+            .diagnostics
+            .iter()
+            .any(|d| d.code == "unknown-attribute")
+    );
+    assert!(strict_errors(&drawing).contains(&"unknown-attribute"));
+}
+
+#[test]
+fn events_and_gateways_get_the_flows_their_kind_needs_when_strict() {
+    // §10.5.4: an intermediate event in normal flow is the target of a sequence flow (where
+    // the level has no start events; with them it is unreachable, EXT.150); a link catch is
+    // entered by its throw. §10.6.6: no condition on a flow out of an event-based gateway.
+    let timer = r#"<bpmn:timerEventDefinition><bpmn:timeDuration xsi:type="bpmn:tFormalExpression">PT1H</bpmn:timeDuration></bpmn:timerEventDefinition>"#;
+    let cases = [
+        (
+            "no-incoming",
+            format!(
+                r#"<bpmn:intermediateCatchEvent id="c">{timer}</bpmn:intermediateCatchEvent><bpmn:task id="t"/><bpmn:sequenceFlow id="f" sourceRef="c" targetRef="t"/>"#
+            ),
+            true,
+        ),
+        (
+            "no-incoming",
+            r#"<bpmn:intermediateThrowEvent id="c"/><bpmn:task id="t"/><bpmn:sequenceFlow id="f" sourceRef="c" targetRef="t"/>"#.to_owned(),
+            true,
+        ),
+        (
+            "no-incoming",
+            r#"<bpmn:task id="a"/><bpmn:intermediateThrowEvent id="lt"><bpmn:linkEventDefinition name="L"/></bpmn:intermediateThrowEvent>
+            <bpmn:intermediateCatchEvent id="lc"><bpmn:linkEventDefinition name="L"/></bpmn:intermediateCatchEvent><bpmn:task id="t"/>
+            <bpmn:sequenceFlow id="f0" sourceRef="a" targetRef="lt"/><bpmn:sequenceFlow id="f" sourceRef="lc" targetRef="t"/>"#.to_owned(),
+            false,
+        ),
+        (
+            "condition-on-event-gateway",
+            format!(
+                r#"<bpmn:startEvent id="s"/><bpmn:eventBasedGateway id="g"/>
+                <bpmn:intermediateCatchEvent id="c1">{timer}</bpmn:intermediateCatchEvent><bpmn:intermediateCatchEvent id="c2"><bpmn:signalEventDefinition/></bpmn:intermediateCatchEvent>
+                <bpmn:endEvent id="e"/><bpmn:sequenceFlow id="f1" sourceRef="s" targetRef="g"/>
+                <bpmn:sequenceFlow id="f2" sourceRef="g" targetRef="c1"><bpmn:conditionExpression xsi:type="bpmn:tFormalExpression">true</bpmn:conditionExpression></bpmn:sequenceFlow>
+                <bpmn:sequenceFlow id="f3" sourceRef="g" targetRef="c2"/><bpmn:sequenceFlow id="f4" sourceRef="c1" targetRef="e"/><bpmn:sequenceFlow id="f5" sourceRef="c2" targetRef="e"/>"#
+            ),
+            true,
+        ),
+    ];
+    for (code, body, refused) in cases {
+        for executable in ["true", "false"] {
+            let xml = doc("", &body).replace(
+                r#"isExecutable="true""#,
+                &format!(r#"isExecutable="{executable}""#),
+            );
+            let lenient = load(xml.as_bytes());
+            assert_eq!(
+                lenient.diagnostics.iter().any(|d| d.code == code),
+                refused,
+                "{code}: {:?}",
+                lenient.diagnostics
+            );
+            assert_eq!(
+                strict_errors(&xml).contains(&code),
+                refused,
+                "{code}: {xml}"
+            );
+        }
+    }
+}
