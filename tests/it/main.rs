@@ -38,5 +38,6 @@ mod studio_compose;
 mod studio_draw;
 mod tidy;
 mod timeline;
+mod tour;
 mod verify;
 mod waves;

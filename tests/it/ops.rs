@@ -21,7 +21,7 @@ use crate::studio::{Kill, Page, WAIT, click, js, start, until, until_within};
 
 /// A child started in a process group of its own (`process_group(0)`), killed whole when
 /// dropped: `trace fly` and its simulator, a station.
-struct Group(Kill);
+pub(crate) struct Group(pub(crate) Kill);
 
 impl Drop for Group {
     fn drop(&mut self) {

@@ -473,8 +473,11 @@ impl Connector for ZenohConnector {
         Box::pin(async move {
             let sh = &self.shared;
             let key = sh.opts.keys.catalogue(sh.server());
-            let deadline = tokio::time::Instant::now() + sh.opts.catalogue_wait;
+            let began = tokio::time::Instant::now();
+            let deadline = began + sh.opts.catalogue_wait;
             let mut pause = Duration::from_millis(20);
+            // Said at once after a few seconds, then every half minute, for as long as it waits.
+            let mut say_at = began + Duration::from_secs(5);
             loop {
                 // Every server of the key is asked: a server killed without a word (over QUIC,
                 // nothing tells its router before the lease ends) still looks declared, and
@@ -519,7 +522,17 @@ impl Connector for ZenohConnector {
                     return Ok(Some(cat));
                 }
                 // Discovery is still converging, or the server is not up yet.
-                if tokio::time::Instant::now() + pause > deadline {
+                let now = tokio::time::Instant::now();
+                if now >= say_at {
+                    tracing::warn!(
+                        system = sh.server(),
+                        key = %key,
+                        waited_s = (now - began).as_secs(),
+                        "waiting for the system's catalogue: nothing starts until it answers"
+                    );
+                    say_at = now + Duration::from_secs(30);
+                }
+                if now + pause > deadline {
                     return Err(ConnectorError::Timeout {
                         system: sh.server().to_owned(),
                         waited: sh.opts.catalogue_wait,

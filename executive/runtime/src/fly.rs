@@ -21,6 +21,16 @@ use std::time::Duration;
 
 use serde_json::Value;
 
+/// Prints to stdout what a flight says, as `println!` does, but never fails the flight when
+/// nobody reads it any more (`trace fly | head`): the flight goes on, its record is the
+/// account.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
+
 mod fleet;
 pub use fleet::vehicles;
 
@@ -35,6 +45,9 @@ const CONNECTORS: &str = include_str!("../../../deploy/connectors.toml");
 
 /// The ground station's policy (`deploy/ground/policy.toml`), built in.
 const GROUND_POLICY: &str = include_str!("../../../deploy/ground/policy.toml");
+/// How long a flight with `--no-ground` waits for the operator's ground station before it
+/// starts: a week, said every half minute (`docs/guide/operating.md`).
+const NO_GROUND_WAIT: Duration = Duration::from_secs(7 * 24 * 3600);
 
 /// The named scenarios (`deploy/scenarios/*.json`), built in.
 const SCENARIOS: &[(&str, &str)] = &[
@@ -82,9 +95,9 @@ pub struct FlyOptions {
     /// deploy/ground/policy.toml).
     #[arg(long)]
     pub ground_policy: Option<PathBuf>,
-    /// Start no ground station: answer the user tasks from another terminal with
-    /// `ground-station --interactive` (the command to type is printed), or let the model's
-    /// timers decide.
+    /// Start no ground station: the flight waits, saying so, until one joins — typically
+    /// `ground-station --interactive` in another terminal (the command to type is printed) —
+    /// and what its operator leaves unanswered the model's timers decide.
     #[arg(long)]
     pub no_ground: bool,
     /// Mission time runs this many times faster than wall time (200000: a 20-day mission in
@@ -313,7 +326,7 @@ pub fn fly(opts: &FlyOptions) -> Result<(), FlyError> {
         .unwrap_or_else(|| PathBuf::from("flights").join(&flight));
     if let Some(name) = &opts.scenario {
         let s = Scenario::load(name, &dir)?;
-        println!("scenario {name}: {}", s.description);
+        say!("scenario {name}: {}", s.description);
         (opts.seed, opts.profile, opts.faults) = (s.seed, s.profile, Some(s.faults));
     }
     // A deployment given by flag or environment is kept; otherwise the flight is its own.
@@ -501,7 +514,7 @@ fn fly_in(opts: &FlyOptions, dir: &Path) -> Result<(), FlyError> {
     children.0.extend(ground(opts, dir, &net)?);
     let record = dir.join("store").join("record.jsonl");
     let join = net.join(opts);
-    println!(
+    say!(
         "flying {shown} — simulator, {} and executive as separate processes on {}, \
          deployment {deployment}",
         if opts.no_ground {
@@ -512,9 +525,9 @@ fn fly_in(opts: &FlyOptions, dir: &Path) -> Result<(), FlyError> {
         net.hub,
     );
     if opts.no_ground {
-        println!("  answer the user tasks with: ground-station --interactive {join}");
+        say!("  answer the user tasks with: ground-station --interactive {join}");
     }
-    println!("  watch with:                 trace monitor {join}");
+    say!("  watch with:                 trace monitor {join}");
     let stop = Arc::new(AtomicBool::new(false));
     let watcher = {
         let (record, stop) = (record.clone(), Arc::clone(&stop));
@@ -527,7 +540,13 @@ fn fly_in(opts: &FlyOptions, dir: &Path) -> Result<(), FlyError> {
         script: None,
         connectors: Some(connectors),
         zenoh: net.exec,
-        catalogue_wait: Duration::from_secs(30),
+        // Without a ground station of its own, the flight waits for the operator's (saying so
+        // every half minute) as long as it takes; its own simulator answers at once.
+        catalogue_wait: if opts.no_ground {
+            NO_GROUND_WAIT
+        } else {
+            Duration::from_secs(30)
+        },
         speed: 1.0,
         snapshot_every: 1000,
         participant: None,
@@ -536,10 +555,10 @@ fn fly_in(opts: &FlyOptions, dir: &Path) -> Result<(), FlyError> {
     let _ = watcher.join();
     drop(children);
     let summary = result?;
-    print!("{}", summarize(&record, &summary));
+    say!("{}", summarize(&record, &summary).trim_end_matches('\n'));
     let page = dir.join("timeline.html");
     match crate::timeline::write(&record, &page) {
-        Ok(_) => println!("  timeline:          {}", page.display()),
+        Ok(_) => say!("  timeline:          {}", page.display()),
         Err(e) => tracing::warn!(error = %e, "timeline not written"),
     }
     Ok(())
@@ -569,7 +588,7 @@ fn progress(record: &Path, stop: &AtomicBool) {
                     continue;
                 }
                 if let Some(out) = shown.line(&partial) {
-                    println!("{out}");
+                    say!("{out}");
                 }
                 partial.clear();
             }

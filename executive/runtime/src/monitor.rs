@@ -378,11 +378,23 @@ pub async fn watch(
         })
         .await
         .map_err(zenoh_error)?;
+    // Said after a few seconds, then every half minute, for as long as no executive is there.
+    let mut waiting = tokio::time::interval_at(
+        tokio::time::Instant::now() + std::time::Duration::from_secs(5),
+        std::time::Duration::from_secs(30),
+    );
     let mission = loop {
-        match alive_rx.recv().await {
-            Some((id, true)) if mission.as_ref().is_none_or(|m| *m == id) => break id,
-            Some(_) => {}
-            None => return Err(WatchError::Stopped),
+        tokio::select! {
+            a = alive_rx.recv() => match a {
+                Some((id, true)) if mission.as_ref().is_none_or(|m| *m == id) => break id,
+                Some(_) => {}
+                None => return Err(WatchError::Stopped),
+            },
+            _ = waiting.tick() => tracing::warn!(
+                deployment = keys.deployment(),
+                mission = mission.as_deref().unwrap_or("any"),
+                "waiting for an executive to watch"
+            ),
         }
     };
     // Subscribe first, then take the snapshot, so nothing falls between them.

@@ -86,7 +86,7 @@ pub(super) fn fly(opts: &FlyOptions, dir: &Path) -> Result<(), FlyError> {
     )?);
     children.0.extend(super::ground(opts, dir, &net)?);
     let scout_exec = scout_executive(&mission, &scout, dir, &net)?;
-    println!(
+    say!(
         "flying {shown} as a fleet — the lander's and the scout's simulators and executives, \
          {}, each a separate process on {}, deployment {deployment}",
         if opts.no_ground {
@@ -98,9 +98,9 @@ pub(super) fn fly(opts: &FlyOptions, dir: &Path) -> Result<(), FlyError> {
     );
     let join = net.join(opts);
     if opts.no_ground {
-        println!("  answer the user tasks with: ground-station --interactive {join}");
+        say!("  answer the user tasks with: ground-station --interactive {join}");
     }
-    println!("  watch with:                 trace monitor {join}");
+    say!("  watch with:                 trace monitor {join}");
     let record = dir.join("store").join("record.jsonl");
     let stop = Arc::new(AtomicBool::new(false));
     let watcher = {
@@ -124,14 +124,21 @@ pub(super) fn fly(opts: &FlyOptions, dir: &Path) -> Result<(), FlyError> {
     let scout_end = ends(scout_exec, SCOUT_ENDS_WITHIN);
     drop(children);
     let summary = result?;
-    print!("{}", super::summarize(&record, &summary));
-    let scout_record = dir.join("scout").join("record.jsonl");
-    print!(
+    say!(
         "{}",
-        vehicles(&[(POOLS[0], &record), (POOLS[1], &scout_record)])
+        super::summarize(&record, &summary).trim_end_matches('\n')
     );
+    let scout_record = dir.join("scout").join("record.jsonl");
+    {
+        use std::io::Write as _;
+        let _ = write!(
+            std::io::stdout(),
+            "{}",
+            vehicles(&[(POOLS[0], &record), (POOLS[1], &scout_record)])
+        );
+    }
     if let Err(why) = scout_end {
-        println!(
+        say!(
             "  the scout's executive: {why} (its log: {})",
             dir.join("scout.log").display()
         );
@@ -142,7 +149,7 @@ pub(super) fn fly(opts: &FlyOptions, dir: &Path) -> Result<(), FlyError> {
         (POOLS[1].to_owned(), scout_record),
     ];
     match crate::timeline::write_fleet(&records, &page) {
-        Ok(_) => println!("  timeline (both vehicles): {}", page.display()),
+        Ok(_) => say!("  timeline (both vehicles): {}", page.display()),
         Err(e) => tracing::warn!(error = %e, "timeline not written"),
     }
     Ok(())
