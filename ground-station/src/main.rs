@@ -19,7 +19,7 @@ const DEFAULT_FORMS: &str = include_str!("../../deploy/ground/forms.json");
 
 /// Answer a mission's user tasks over Zenoh.
 #[derive(Parser)]
-#[command(name = "ground-station", version, about)]
+#[command(name = "ground-station", version = env!("TRACE_LONG_VERSION"), about)]
 struct Cli {
     /// The forms served (a catalogue, JSON); default: the Europa mission's.
     #[arg(long)]

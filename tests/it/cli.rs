@@ -1,7 +1,7 @@
 //! The `trace` command as users run it: `trace validate`'s exit codes, rustc-style diagnostics
 //! with line:column and a caret, and `--json` for tools; and `docs/cli.md`, the reference of
 //! every command and flag, equal to what the clap definitions say (`TRACE_BLESS=1` writes it
-//! again after a change).
+//! again after a change); every binary's `--version` with its commit and Zenoh's version.
 
 use std::process::Command;
 
@@ -109,4 +109,42 @@ fn the_command_reference_is_what_the_clap_definitions_say() {
             .zip(generated.lines())
             .find(|(a, b)| a != b)
     );
+}
+
+/// Every binary's `--version`: its name, the workspace version, the commit it was built from
+/// (this clone's HEAD) and the Zenoh version of `Cargo.lock`.
+#[test]
+fn every_binary_says_its_version_commit_and_zenoh() {
+    let lock = std::fs::read_to_string(repo().join("Cargo.lock")).expect("Cargo.lock");
+    let zenoh = lock
+        .split("[[package]]")
+        .find(|p| p.contains("\nname = \"zenoh\"\n"))
+        .and_then(|p| p.split("version = \"").nth(1))
+        .and_then(|v| v.split('"').next())
+        .expect("zenoh in Cargo.lock")
+        .to_owned();
+    let head = Command::new("git")
+        .args(["rev-parse", "--short=12", "HEAD"])
+        .current_dir(repo())
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map_or_else(
+            || "unknown".to_owned(),
+            |o| String::from_utf8_lossy(&o.stdout).trim().to_owned(),
+        );
+    for name in ["trace", "elap-sim", "ground-station", "trace-mock-system"] {
+        let out = Command::new(bin(name))
+            .arg("--version")
+            .output()
+            .expect("--version");
+        assert!(out.status.success(), "{name}");
+        assert_eq!(
+            String::from_utf8_lossy(&out.stdout).trim(),
+            format!(
+                "{name} {} (commit {head}, zenoh {zenoh})",
+                env!("CARGO_PKG_VERSION")
+            )
+        );
+    }
 }

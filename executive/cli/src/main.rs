@@ -16,7 +16,7 @@ static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 /// TRACE: model, verify and execute robotic missions written in BPMN 2.0.
 #[derive(Parser)]
-#[command(name = "trace", version, about)]
+#[command(name = "trace", version = env!("TRACE_LONG_VERSION"), about)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

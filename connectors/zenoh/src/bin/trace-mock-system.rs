@@ -9,7 +9,7 @@ use connector_zenoh::{ActionServer, Role, ServerOptions, ZenohArgs};
 
 /// Serve a mock system's actions over Zenoh.
 #[derive(Parser)]
-#[command(name = "trace-mock-system", version, about)]
+#[command(name = "trace-mock-system", version = env!("TRACE_LONG_VERSION"), about)]
 struct Cli {
     /// The definition: `{"catalogue": {...}, "behaviour": {"action": {...}}}` (JSON).
     spec: PathBuf,

@@ -32,7 +32,7 @@ static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 /// The ELAP lander simulator.
 #[derive(Parser)]
-#[command(name = "elap-sim", version, about)]
+#[command(name = "elap-sim", version = env!("TRACE_LONG_VERSION"), about)]
 struct Cli {
     /// Fault generator seed.
     #[arg(long, default_value_t = 1)]

@@ -7,6 +7,10 @@
 //! Equality is FEEL's (`Value::feel_eq`), order FEEL's (`Value::compare`). Every function
 //! spends budget in proportion to the elements it walks or makes; nothing recurses on the
 //! depth of nested lists.
+//!
+//! One file over 1,000 lines, on purpose: these are one family of DMN's built-ins (the list
+//! functions, with the aggregates that read lists), sharing their argument readers; the other
+//! families have files of their own.
 
 use std::cmp::Ordering;
 use std::collections::BTreeMap;
