@@ -1,5 +1,5 @@
 //! The generated differential test: random small models from a grammar of the constructs Spin and
-//! the engine both take — tasks, timers, signals thrown and caught, parallel blocks, branches that
+//! the engine both take — tasks, timers, signals thrown and caught, parallel and exclusive blocks, branches that
 //! end early in every kind of end event, sub-processes with boundary events, event
 //! sub-processes — seeded, a few hundred per run. On each, Spin on the PROMELA translation and
 //! the engine's own exploration must agree exactly. Each model is written out first; a
@@ -135,11 +135,7 @@ impl Draw {
                 self.flow(out, &side, &end);
                 split
             }
-            4 | 5 => {
-                // Parallel blocks only: the engine's exploration takes an exclusive split's
-                // branches as inputs from outside, once the step has settled, where the
-                // translation decides them within the step (docs/verification, "Known
-                // differences"), so a split racing a throw differs by construction.
+            4 => {
                 let (split, join) = (self.id("g"), self.id("j"));
                 let _ = write!(
                     out,
@@ -148,6 +144,34 @@ impl Draw {
                 self.flow(out, from, &split);
                 for _ in 0..2 {
                     let last = self.seq(out, &split, depth + 1, inner);
+                    self.flow(out, &last, &join);
+                }
+                join
+            }
+            5 => {
+                // An exclusive block: a condition on one branch (on a name nothing writes:
+                // both Spin and the exploration take either branch), the other the default;
+                // each branch starts with a task, so its first flow is the split's own.
+                let (split, join) = (self.id("x"), self.id("j"));
+                let firsts = [self.id("f"), self.id("f")];
+                let _ = write!(
+                    out,
+                    r#"<exclusiveGateway id="{split}" default="{}"/><exclusiveGateway id="{join}"/>"#,
+                    firsts[1]
+                );
+                self.flow(out, from, &split);
+                for (k, first) in firsts.iter().enumerate() {
+                    let t = self.task(out);
+                    let condition = if k == 0 {
+                        r#"<conditionExpression xsi:type="tFormalExpression">go == 1</conditionExpression>"#
+                    } else {
+                        ""
+                    };
+                    let _ = write!(
+                        out,
+                        r#"<sequenceFlow id="{first}" sourceRef="{split}" targetRef="{t}">{condition}</sequenceFlow>"#
+                    );
+                    let last = self.seq(out, &t, depth + 1, inner);
                     self.flow(out, &last, &join);
                 }
                 join
@@ -230,9 +254,12 @@ fn spin_and_the_engine_agree_on_generated_models() {
         .unwrap_or(1);
     let work = tempdir("generated");
     let (mut compared, mut invalid, mut refused, mut needs_data) = (0u64, 0, 0, 0);
+    // Models with an exclusive split, where the exploration decides before anything else.
+    let mut deciding = 0;
     let mut differences = Vec::new();
     for seed in first..first + count {
         let xml = model(seed);
+        deciding += u64::from(xml.contains("<exclusiveGateway"));
         let path = work.join(format!("{seed}.bpmn"));
         std::fs::write(&path, &xml).expect("model written");
         let loaded = executive_model::load(xml.as_bytes());
@@ -250,9 +277,12 @@ fn spin_and_the_engine_agree_on_generated_models() {
             Compared::Done(c) => {
                 compared += 1;
                 if !c.how.is_empty() {
+                    // Kept beyond the scratch directory, to become a test.
+                    let kept = std::env::temp_dir().join(format!("trace-generated-{seed}.bpmn"));
+                    let _ = std::fs::copy(&path, &kept);
                     differences.push(format!(
                         "seed {seed} ({}): {}",
-                        path.display(),
+                        kept.display(),
                         c.how.join("; ")
                     ));
                 }
@@ -260,7 +290,7 @@ fn spin_and_the_engine_agree_on_generated_models() {
         }
     }
     println!(
-        "generated: {count} models from seed {first}: {compared} compared, {} agree exactly; {invalid} invalid, {refused} not translated, {needs_data} not explorable",
+        "generated: {count} models from seed {first} ({deciding} with an exclusive split): {compared} compared, {} agree exactly; {invalid} invalid, {refused} not translated, {needs_data} not explorable",
         compared - differences.len() as u64
     );
     assert!(differences.is_empty(), "{}", differences.join("\n"));

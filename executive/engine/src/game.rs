@@ -16,8 +16,8 @@ pub struct Game {
     /// at once.
     pub hold: std::collections::BTreeSet<NodeId>,
     /// Every diverging gateway waits for its branches to be chosen from outside
-    /// ([`crate::Event::BranchTaken`]), one token at a time (model exploration); a task's result
-    /// carries no data.
+    /// ([`crate::Event::BranchTaken`]), one token at a time, unless `choices` names its branch
+    /// (model exploration, which chooses within the step); a task's result carries no data.
     pub decide: bool,
     /// Timers fire as in flight — a duration once, a cycle as often as it repeats — where a
     /// token game's player may otherwise fire a non-interrupting timer again by hand (model

@@ -22,7 +22,9 @@ impl Run<'_> {
                 gw.kind,
                 GatewayKind::Exclusive | GatewayKind::Inclusive | GatewayKind::Complex
             )
-            && (gw.kind == GatewayKind::Exclusive || n.incoming.len() <= 1);
+            && (gw.kind == GatewayKind::Exclusive || n.incoming.len() <= 1)
+            // A branch chosen beforehand is taken as the token arrives.
+            && !self.game.is_some_and(|g| g.choices.contains_key(&node));
         if decides {
             if let Some(tok) = self.s.tokens.get_mut(&t) {
                 tok.at = At::Deciding;

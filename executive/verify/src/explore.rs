@@ -46,6 +46,8 @@ pub struct Exploration {
 /// One state in the search: the engine state and how it was reached.
 struct Node {
     state: State,
+    /// The state it came from and what happened (`usize::MAX`: one of the ways the mission's
+    /// first step went, from nothing).
     parent: Option<(usize, String)>,
 }
 
@@ -153,6 +155,24 @@ pub(crate) fn codes(g: &ProcessGraph) -> Vec<String> {
         out.insert(UNNAMED.to_owned());
     }
     out.into_iter().collect()
+}
+
+/// Whether the engine, exploring, waits at `gateway` for its branch to be chosen
+/// (`Game::decide`): a diverging exclusive gateway, or an inclusive or complex one that does
+/// not join.
+fn decides(g: &ProcessGraph, gateway: NodeId) -> bool {
+    let n = g.node(gateway);
+    match &n.kind {
+        NodeKind::Gateway(gw) => {
+            n.outgoing.len() > 1
+                && match gw.kind {
+                    GatewayKind::Exclusive => true,
+                    GatewayKind::Inclusive | GatewayKind::Complex => n.incoming.len() <= 1,
+                    _ => false,
+                }
+        }
+        _ => false,
+    }
 }
 
 /// The choices a diverging gateway offers: one flow at an exclusive gateway, any non-empty set
@@ -333,6 +353,10 @@ fn path_of(nodes: &[Node], mut at: usize) -> Vec<String> {
     let mut steps = Vec::new();
     while let Some((parent, label)) = &nodes[at].parent {
         steps.push(label.clone());
+        if *parent == usize::MAX {
+            // One of the ways the mission's first step went.
+            break;
+        }
         at = *parent;
     }
     steps.reverse();
@@ -345,13 +369,71 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
         .map(NodeId)
         .filter(|n| outside(&g, *n))
         .collect();
-    let engine = |state: State| {
+    let engine = |state: State, choices: &BTreeMap<NodeId, Vec<FlowId>>| {
         let mut e = Engine::restore(Arc::clone(&g), state);
         let game = e.game();
         game.decide = true;
         game.timers = true;
         game.hold = hold.clone();
+        game.choices = choices.clone();
         e
+    };
+    // `events` applied to `state`, each diverging gateway the step reaches decided as the
+    // token arrives, as the engine decides it in flight: the step runs again from `state` once
+    // per branch of the first gateway it left undecided, until none is. Each run: the branches
+    // it took (labels), what it did, and where it ended.
+    let within = |state: &State, events: &[Event]| {
+        let mut done = Vec::new();
+        let mut work = vec![(BTreeMap::new(), Vec::new())];
+        while let Some((choices, labels)) = work.pop() {
+            let mut e = engine(state.clone(), &choices);
+            let mut actions = Vec::new();
+            let mut rejected = None;
+            for event in events {
+                let seq = e.state().last_seq + 1;
+                match e.step(Input {
+                    seq,
+                    at: 0,
+                    event: event.clone(),
+                }) {
+                    Ok(a) => actions.extend(a),
+                    Err(r) => {
+                        rejected = Some(r);
+                        break;
+                    }
+                }
+            }
+            if let Some(r) = rejected {
+                done.push((labels, Err(r)));
+                continue;
+            }
+            // The first gateway the step reached and left undecided (its token may be gone
+            // by the end of the step, withdrawn by what came after).
+            let open = actions.iter().find_map(|a| match a {
+                Action::Record(r) => match &r.entry {
+                    Entry::Entered { node, .. }
+                        if decides(&g, *node) && !choices.contains_key(node) =>
+                    {
+                        Some(*node)
+                    }
+                    _ => None,
+                },
+                _ => None,
+            });
+            match open {
+                Some(gateway) => {
+                    for flows in branches(&g, gateway) {
+                        let mut labels: Vec<String> = labels.clone();
+                        labels.push(take_label(&g, gateway, &flows));
+                        let mut choices = choices.clone();
+                        choices.insert(gateway, flows);
+                        work.push((choices, labels));
+                    }
+                }
+                None => done.push((labels, Ok((actions, e.state().clone())))),
+            }
+        }
+        done
     };
     let codes = codes(&g);
     let starts = outside_starts(&g);
@@ -369,37 +451,46 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
         complete: true,
         ..Exploration::default()
     };
-    // The mission starts: every primary process.
-    let mut e = engine(State::default());
-    for p in g.primary_processes() {
-        let seq = e.state().last_seq + 1;
-        match e.step(Input {
-            seq,
-            at: 0,
-            event: Event::InstanceStarted {
-                process: g.process(p).id.clone(),
-                vars: Vars::new(),
-                start: None,
-            },
-        }) {
-            Ok(actions) => note(&actions, &mut entered),
+    // The mission starts: every primary process, each way its first step may decide.
+    let start: Vec<Event> = g
+        .primary_processes()
+        .into_iter()
+        .map(|p| Event::InstanceStarted {
+            process: g.process(p).id.clone(),
+            vars: Vars::new(),
+            start: None,
+        })
+        .collect();
+    let evented: BTreeSet<executive_model::ProcessId> = {
+        let e = engine(State::default(), &BTreeMap::new());
+        (0..g.processes.len() as u32)
+            .map(executive_model::ProcessId)
+            .filter(|p| !e.starts_untriggered(*p))
+            .collect()
+    };
+    let mut nodes = Vec::new();
+    let mut seen: HashMap<String, usize> = HashMap::new();
+    let mut queue = VecDeque::new();
+    for (labels, run) in within(&State::default(), &start) {
+        match run {
+            Ok((actions, state)) => {
+                note(&actions, &mut entered);
+                let key = shape(&g, &state, &starts);
+                if seen.contains_key(&key) {
+                    continue;
+                }
+                seen.insert(key, nodes.len());
+                // The root is the empty state; the decisions of the first step label the way.
+                let parent = (!labels.is_empty()).then(|| (usize::MAX, labels.join(" ")));
+                nodes.push(Node { state, parent });
+                queue.push_back(nodes.len() - 1);
+            }
             Err(r) => {
                 out.needs_data = Some(format!("the mission does not start: {r}"));
                 return out;
             }
         }
     }
-    let evented: BTreeSet<executive_model::ProcessId> = (0..g.processes.len() as u32)
-        .map(executive_model::ProcessId)
-        .filter(|p| !e.starts_untriggered(*p))
-        .collect();
-    let mut nodes = vec![Node {
-        state: e.state().clone(),
-        parent: None,
-    }];
-    let mut seen: HashMap<String, usize> = HashMap::new();
-    seen.insert(shape(&g, &nodes[0].state, &starts), 0);
-    let mut queue = VecDeque::from([0usize]);
     'search: while let Some(at) = queue.pop_front() {
         let state = nodes[at].state.clone();
         if let Some((n, why)) = state
@@ -432,46 +523,50 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
             continue;
         }
         for (label, event) in next {
-            let mut e = engine(state.clone());
-            let seq = state.last_seq + 1;
-            let Ok(actions) = e.step(Input { seq, at: 0, event }) else {
-                continue;
-            };
-            let after = e.state();
-            // The translation fails tasks only with codes something catches.
-            let failed = after
-                .instances
-                .values()
-                .any(|i| matches!(i.outcome, Some(Outcome::Failed { .. })))
-                && !state
+            for (taken, run) in within(&state, std::slice::from_ref(&event)) {
+                let Ok((actions, after)) = run else {
+                    continue;
+                };
+                let label = std::iter::once(label.clone())
+                    .chain(taken)
+                    .collect::<Vec<_>>()
+                    .join(" ");
+                let after = &after;
+                // The translation fails tasks only with codes something catches.
+                let failed = after
                     .instances
                     .values()
-                    .any(|i| matches!(i.outcome, Some(Outcome::Failed { .. })));
-            if failed && label.contains(".fail[") {
-                continue;
+                    .any(|i| matches!(i.outcome, Some(Outcome::Failed { .. })))
+                    && !state
+                        .instances
+                        .values()
+                        .any(|i| matches!(i.outcome, Some(Outcome::Failed { .. })));
+                if failed && label.contains(".fail[") {
+                    continue;
+                }
+                // A process started by an event (another pool's message, a signal) runs one
+                // instance at a time, as the translation has one marking per process: a run that
+                // would start a second one beside it is not followed (the one before ends first).
+                if twice(after, &evented) {
+                    continue;
+                }
+                note(&actions, &mut entered);
+                let key = shape(&g, after, &starts);
+                if seen.contains_key(&key) {
+                    continue;
+                }
+                if nodes.len() >= max_states {
+                    // Incomplete either way: stop rather than expand what is queued.
+                    out.complete = false;
+                    break 'search;
+                }
+                seen.insert(key, nodes.len());
+                nodes.push(Node {
+                    state: after.clone(),
+                    parent: Some((at, label)),
+                });
+                queue.push_back(nodes.len() - 1);
             }
-            // A process started by an event (another pool's message, a signal) runs one
-            // instance at a time, as the translation has one marking per process: a run that
-            // would start a second one beside it is not followed (the one before ends first).
-            if twice(after, &evented) {
-                continue;
-            }
-            note(&actions, &mut entered);
-            let key = shape(&g, after, &starts);
-            if seen.contains_key(&key) {
-                continue;
-            }
-            if nodes.len() >= max_states {
-                // Incomplete either way: stop rather than expand what is queued.
-                out.complete = false;
-                break 'search;
-            }
-            seen.insert(key, nodes.len());
-            nodes.push(Node {
-                state: after.clone(),
-                parent: Some((at, label)),
-            });
-            queue.push_back(nodes.len() - 1);
         }
     }
     out.states = nodes.len();
