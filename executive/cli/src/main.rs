@@ -11,8 +11,48 @@ use clap::{Parser, Subcommand};
 /// a 10,000-node model against 19,000, medians of 25-28 ms a load against 20-22 ms, depending on the
 /// order of frees. mimalloc keeps freed pages for reuse and is also cheaper per small allocation
 /// (an engine step allocates a few strings per record entry).
+///
+/// Its settings for a process that runs for days: an arena is committed as it is used, not all
+/// at once, and pages unused for a second go back to the kernel. With mimalloc's defaults
+/// (arenas committed eagerly on Linux, which then keep every page they ever held) the executive
+/// flying Europa held 77 MB resident; with these, 27 MB (`cargo bench -p elap-sim --bench
+/// flight`, `docs/benchmarks.md`). A second's delay keeps the pages of a burst of loads.
 #[global_allocator]
 static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
+const ALLOCATOR_SETTINGS: [(&str, &str); 2] = [
+    ("MIMALLOC_ARENA_EAGER_COMMIT", "0"),
+    ("MIMALLOC_PURGE_DELAY", "1000"),
+];
+
+/// Runs this program again with [`ALLOCATOR_SETTINGS`] where the environment lacks them:
+/// mimalloc reads its options as it starts, before `main`, and setting them through its C API
+/// would take the `unsafe` the workspace forbids. `exec` keeps the process id, the arguments
+/// and the open files; a setting the environment already has is kept, and if `exec` fails the
+/// program goes on with mimalloc's defaults.
+fn settle_allocator() {
+    use std::os::unix::process::CommandExt;
+    let missing: Vec<_> = ALLOCATOR_SETTINGS
+        .iter()
+        .filter(|(k, _)| std::env::var_os(k).is_none())
+        .collect();
+    if missing.is_empty() {
+        return;
+    }
+    let Ok(exe) = std::env::current_exe() else {
+        return;
+    };
+    let mut args = std::env::args_os();
+    let mut again = std::process::Command::new(exe);
+    if let Some(name) = args.next() {
+        again.arg0(name);
+    }
+    again.args(args);
+    for (k, v) in missing {
+        again.env(k, v);
+    }
+    let _failed = again.exec();
+}
 
 /// TRACE: model, verify and execute robotic missions written in BPMN 2.0.
 #[derive(Parser)]
@@ -272,6 +312,7 @@ enum CatalogueKind {
 }
 
 fn main() -> anyhow::Result<ExitCode> {
+    settle_allocator();
     let cli = Cli::parse();
     if !matches!(
         cli.command,
