@@ -16,9 +16,13 @@ pub struct Game {
     /// at once.
     pub hold: std::collections::BTreeSet<NodeId>,
     /// Every diverging gateway waits for its branches to be chosen from outside
-    /// ([`crate::Event::BranchTaken`]), one token at a time, unless `choices` names its branch
-    /// (model exploration, which chooses within the step); a task's result carries no data.
+    /// ([`crate::Event::BranchTaken`]), one token at a time, unless `fixed` names its branch
+    /// (model exploration); a task's result carries no data.
     pub decide: bool,
+    /// Gateways whose branch is fixed before the step, taken as the token arrives even where
+    /// `decide` would stop it: model exploration runs a step once per branch of each gateway
+    /// it reaches, as the engine decides in flight, within the step.
+    pub fixed: BTreeMap<NodeId, Vec<executive_model::FlowId>>,
     /// Timers fire as in flight — a duration once, a cycle as often as it repeats — where a
     /// token game's player may otherwise fire a non-interrupting timer again by hand (model
     /// exploration: the translation fires a duration once per activation).

@@ -23,8 +23,8 @@ impl Run<'_> {
                 GatewayKind::Exclusive | GatewayKind::Inclusive | GatewayKind::Complex
             )
             && (gw.kind == GatewayKind::Exclusive || n.incoming.len() <= 1)
-            // A branch chosen beforehand is taken as the token arrives.
-            && !self.game.is_some_and(|g| g.choices.contains_key(&node));
+            // A branch fixed before the step is taken as the token arrives.
+            && !self.game.is_some_and(|g| g.fixed.contains_key(&node));
         if decides {
             if let Some(tok) = self.s.tokens.get_mut(&t) {
                 tok.at = At::Deciding;
@@ -90,7 +90,7 @@ impl Run<'_> {
         }
         if let Some(game) = self.game {
             let unconditioned = n.outgoing.iter().all(|f| g.flow(*f).condition.is_none());
-            if let Some(chosen) = game.choices.get(&node) {
+            if let Some(chosen) = game.fixed.get(&node).or_else(|| game.choices.get(&node)) {
                 return Ok(n
                     .outgoing
                     .iter()

@@ -242,6 +242,13 @@ struct Index<'d> {
 }
 
 impl<'d> Index<'d> {
+    /// The element attribute `attr` of `el` names, if it names one.
+    fn named(&self, el: &Element, attr: &str) -> Option<&'d Element<'d>> {
+        el.attr(attr)
+            .and_then(|r| self.by_id.get(local_ref(r)))
+            .copied()
+    }
+
     fn new(root: &'d Element<'d>, ids: usize) -> Index<'d> {
         let mut ix = Index {
             by_id: HashMap::with_capacity(ids),
@@ -605,10 +612,7 @@ pub(crate) fn check(doc: &Document<'_>, sink: &mut Sink) {
             }
             "ioSpecification" => io_specification(el, &mut err),
             "dataObject" | "dataInput" | "dataOutput" | "inputDataItem" | "outputDataItem" => {
-                if let Some(item) = el
-                    .attr("itemSubjectRef")
-                    .and_then(|r| ix.by_id.get(local_ref(r)))
-                {
+                if let Some(item) = ix.named(el, "itemSubjectRef") {
                     let coll = |e: &Element| e.attr("isCollection") == Some("true");
                     if item.name == "itemDefinition" && coll(item) != coll(el) {
                         let c = match el.name {

@@ -375,7 +375,7 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
         game.decide = true;
         game.timers = true;
         game.hold = hold.clone();
-        game.choices = choices.clone();
+        game.fixed = choices.clone();
         e
     };
     // `events` applied to `state`, each diverging gateway the step reaches decided as the

@@ -84,10 +84,7 @@ pub(super) fn operation_items(
     ix: &Index<'_>,
     err: &mut impl FnMut(&'static str, &'static str, String),
 ) {
-    let Some(op) = el
-        .attr("operationRef")
-        .and_then(|r| ix.by_id.get(local_ref(r)))
-    else {
+    let Some(op) = ix.named(el, "operationRef") else {
         return;
     };
     for (child, kind, rule, what) in [
@@ -120,10 +117,7 @@ pub(super) fn message_items(
     ix: &Index<'_>,
     err: &mut impl FnMut(&'static str, &'static str, String),
 ) {
-    let Some(message) = el
-        .attr("messageRef")
-        .and_then(|r| ix.by_id.get(local_ref(r)))
-    else {
+    let Some(message) = ix.named(el, "messageRef") else {
         return;
     };
     let (kind, what) = if el.name == "sendTask" {
@@ -377,9 +371,8 @@ pub(super) fn call_data(
     ix: &Index<'_>,
     err: &mut impl FnMut(&'static str, &'static str, String),
 ) {
-    let Some(callee) = el
-        .attr("calledElement")
-        .and_then(|r| ix.by_id.get(local_ref(r)))
+    let Some(callee) = ix
+        .named(el, "calledElement")
         .filter(|c| c.name == "process" || c.name.starts_with("global"))
     else {
         return;
@@ -514,10 +507,7 @@ pub(super) fn io_binding(
     ix: &Index<'_>,
     err: &mut impl FnMut(&'static str, &'static str, String),
 ) {
-    let Some(op) = el
-        .attr("operationRef")
-        .and_then(|r| ix.by_id.get(local_ref(r)))
-    else {
+    let Some(op) = ix.named(el, "operationRef") else {
         return;
     };
     let _ = owner;
@@ -525,7 +515,7 @@ pub(super) fn io_binding(
         ("inputDataRef", "inMessageRef"),
         ("outputDataRef", "outMessageRef"),
     ] {
-        let data = el.attr(data_attr).and_then(|r| ix.by_id.get(local_ref(r)));
+        let data = ix.named(el, data_attr);
         let msg = op
             .bpmn_child(msg_child)
             .and_then(|m| ix.by_id.get(local_ref(m.text)));
