@@ -3,12 +3,30 @@
 
 use std::collections::BTreeSet;
 
-use executive_model::{FlowId, Gateway, GatewayKind, NodeId, NodeKind};
+use executive_model::{FlowId, Gateway, GatewayKind, NodeId, NodeKind, ProcessGraph};
 
 use crate::io::{Entry, TokenId};
 use crate::run::Run;
 use crate::state::At;
 use crate::value::{Value, Vars};
+
+/// Whether a token at `gateway` waits for its branch to be chosen when the engine explores
+/// (`Game::decide`): a diverging exclusive gateway, or an inclusive or complex one that does
+/// not join.
+pub fn chosen_from_outside(g: &ProcessGraph, gateway: NodeId) -> bool {
+    let n = g.node(gateway);
+    match &n.kind {
+        NodeKind::Gateway(gw) => {
+            n.outgoing.len() > 1
+                && match gw.kind {
+                    GatewayKind::Exclusive => true,
+                    GatewayKind::Inclusive | GatewayKind::Complex => n.incoming.len() <= 1,
+                    _ => false,
+                }
+        }
+        _ => false,
+    }
+}
 
 impl Run<'_> {
     /// A token arrives at a gateway.
@@ -17,12 +35,7 @@ impl Run<'_> {
         let node = self.s.tokens[&t].node;
         let n = g.node(node);
         let decides = self.game.is_some_and(|g| g.decide)
-            && n.outgoing.len() > 1
-            && matches!(
-                gw.kind,
-                GatewayKind::Exclusive | GatewayKind::Inclusive | GatewayKind::Complex
-            )
-            && (gw.kind == GatewayKind::Exclusive || n.incoming.len() <= 1)
+            && chosen_from_outside(g, node)
             // A branch fixed before the step is taken as the token arrives.
             && !self.game.is_some_and(|g| g.fixed.contains_key(&node));
         if decides {

@@ -41,6 +41,7 @@ mod value;
 pub use engine::Engine;
 pub use eval::evaluate;
 pub use game::Game;
+pub use gateway::chosen_from_outside;
 pub use io::{
     Action, Entry, Event, Input, InstanceId, Millis, Outcome, Record, Rejected, ScopeId, TaskKey,
     TimerKey, TokenId, Trigger, WaitId,

@@ -218,11 +218,13 @@ impl Sink {
 
     /// Lenient reading: the rules only a strict reading reports are dropped.
     pub(crate) fn drop_pedantic(&mut self) {
+        // Indices ascend as they were pushed: one walk beside the items.
+        let mut pedantic = std::mem::take(&mut self.pedantic).into_iter().peekable();
         let mut k = 0;
-        let pedantic = std::mem::take(&mut self.pedantic);
         self.items.retain(|_| {
+            let drop = pedantic.next_if_eq(&k).is_some();
             k += 1;
-            !pedantic.contains(&(k - 1))
+            !drop
         });
         self.bent.clear();
     }

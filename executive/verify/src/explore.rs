@@ -15,7 +15,7 @@ use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
 use std::sync::Arc;
 
 use executive_engine::{
-    Action, At, Engine, Entry, Event, Input, On, Outcome, State, TaskKey, Vars,
+    Action, At, Engine, Entry, Event, Input, On, Outcome, State, TaskKey, Vars, chosen_from_outside,
 };
 use executive_model::{
     Called, EventDefinition, FlowId, GatewayKind, NodeId, NodeKind, ProcessGraph, TaskKind,
@@ -155,24 +155,6 @@ pub(crate) fn codes(g: &ProcessGraph) -> Vec<String> {
         out.insert(UNNAMED.to_owned());
     }
     out.into_iter().collect()
-}
-
-/// Whether the engine, exploring, waits at `gateway` for its branch to be chosen
-/// (`Game::decide`): a diverging exclusive gateway, or an inclusive or complex one that does
-/// not join.
-fn decides(g: &ProcessGraph, gateway: NodeId) -> bool {
-    let n = g.node(gateway);
-    match &n.kind {
-        NodeKind::Gateway(gw) => {
-            n.outgoing.len() > 1
-                && match gw.kind {
-                    GatewayKind::Exclusive => true,
-                    GatewayKind::Inclusive | GatewayKind::Complex => n.incoming.len() <= 1,
-                    _ => false,
-                }
-        }
-        _ => false,
-    }
 }
 
 /// The choices a diverging gateway offers: one flow at an exclusive gateway, any non-empty set
@@ -412,7 +394,7 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
             let open = actions.iter().find_map(|a| match a {
                 Action::Record(r) => match &r.entry {
                     Entry::Entered { node, .. }
-                        if decides(&g, *node) && !choices.contains_key(node) =>
+                        if chosen_from_outside(&g, *node) && !choices.contains_key(node) =>
                     {
                         Some(*node)
                     }
