@@ -220,7 +220,11 @@ pub(crate) async fn until_within(c: &Client, what: &str, script: &str, within: D
                 vec![],
             )
             .await;
-            panic!("the page never showed {what}; its errors: {errors}; its problems: {problems}");
+            // What the page had come to: its data attributes, which its views keep up to date.
+            let shown = js(c, "return Object.assign({}, document.body.dataset)", vec![]).await;
+            panic!(
+                "the page never showed {what}; its errors: {errors}; its problems: {problems}; its state: {shown}"
+            );
         }
         // What is waited for is the page's state; this pause only spares the CPU.
         tokio::time::sleep(Duration::from_millis(50)).await;

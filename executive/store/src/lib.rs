@@ -4,7 +4,8 @@
 //!
 //! One engine step is one [`Store::commit`]: the input and every action it produced are written
 //! as one atomic batch and flushed **before** the caller performs any action ("commit, then
-//! act"). Performed actions are marked [`Store::done`]; after a crash the actions not marked
+//! act"). The flush is one append and one `fdatasync` of a write-ahead log in front of sled;
+//! sled is flushed at checkpoints. Performed actions are marked [`Store::done`]; after a crash the actions not marked
 //! done are performed again — each carries its task or timer key, so repeating one is harmless.
 //! Recovery ([`Store::recover`]) returns the newest snapshot and the journal after it, with the
 //! actions each step produced, so the caller can replay the journal through the engine and
@@ -14,14 +15,19 @@
 //! twin for tests in which "a crash drops what was not flushed".
 //!
 //! # Dependencies
-//! - `sled` 0.34: an embedded, crash-safe B+ tree with multi-tree ACID transactions and an
-//!   explicit `flush`, so a step's journal entry and its outbox land together or not at all.
+//! - `sled` 0.34: an embedded, crash-safe B+ tree holding the trees, ordered by key and read
+//!   back in ranges, made durable with an explicit `flush` at checkpoints. A step's journal
+//!   entry and its outbox land together or not at all because both are in one record of the
+//!   write-ahead log, which is written and synced first.
+//! - `crc32fast`: the write-ahead log's record checksums (the CRC sled uses for its own log),
+//!   so a record cut short by a crash is told from a whole one.
 //! - `serde_json`: entries are stored as JSON, readable with any sled tool when debugging a
 //!   store after an incident.
 //! - `thiserror` for [`StoreError`], `tracing` for logs.
 
 mod mem;
 mod sled_store;
+mod wal;
 
 pub use mem::MemStore;
 pub use sled_store::{Raw, RawStep, SledStore};
@@ -30,7 +36,7 @@ use executive_engine::{Action, Input, State};
 use serde::{Deserialize, Serialize};
 
 /// The store format written by this version; a store of another format is refused.
-pub const FORMAT: &str = "trace-store/1";
+pub const FORMAT: &str = "trace-store/2";
 
 /// Snapshots kept; steps up to the oldest kept one are pruned when a new one is written.
 pub const KEEP_SNAPSHOTS: usize = 2;

@@ -1,15 +1,21 @@
 //! The store on sled: trees `meta`, `journal` (seq -> input), `outbox` (seq -> the step's
 //! actions), `done` (seq, index -> performed) and `snapshots` (seq -> state); keys are
-//! big-endian so they sort by sequence number.
+//! big-endian so they sort by sequence number. Commits, done marks and metadata are made durable
+//! by the write-ahead log in front of sled ([`crate::wal`]); sled itself is flushed at
+//! checkpoints.
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
 use executive_engine::{Action, Input, State};
-use sled::Transactional;
 
+use crate::wal::{self, Entry, Record, Wal};
 use crate::{FORMAT, KEEP_SNAPSHOTS, Recovered, Step, Store, StoreError};
+
+/// Earlier store formats this version opens, and rewrites as [`FORMAT`]: `trace-store/1` is
+/// the same trees without a write-ahead log.
+const EARLIER: &[&str] = &["trace-store/1"];
 
 /// A store in a directory on disk.
 pub struct SledStore {
@@ -20,6 +26,9 @@ pub struct SledStore {
     outbox: sled::Tree,
     done: sled::Tree,
     snapshots: sled::Tree,
+    wal: Wal,
+    /// Done marks applied to sled but not yet logged: they ride with the next record.
+    marks: Record,
 }
 
 /// How long an open waits for the store's lock. sled releases a closed database's lock only when
@@ -82,7 +91,10 @@ impl SledStore {
         let waited = Instant::now();
         let mut pause = Duration::from_millis(5);
         let opened = loop {
-            match catch_unwind(AssertUnwindSafe(|| sled::Config::new().path(path).open())) {
+            // No periodic flush: what must be durable is in the write-ahead log, and sled is
+            // flushed at checkpoints.
+            let config = sled::Config::new().path(path).flush_every_ms(None);
+            match catch_unwind(AssertUnwindSafe(|| config.open())) {
                 Ok(Err(e)) if locked(&e) && waited.elapsed() < LOCK_WAIT => {
                     tracing::debug!(path = %shown, "store locked; waiting for its lock");
                     std::thread::sleep(pause);
@@ -116,23 +128,87 @@ impl SledStore {
             }
         };
         let tree = |name: &str| db.open_tree(name).map_err(io);
-        let store = SledStore {
-            meta: tree("meta")?,
-            journal: tree("journal")?,
-            outbox: tree("outbox")?,
-            done: tree("done")?,
-            snapshots: tree("snapshots")?,
+        let (meta, journal, outbox, done, snapshots) = (
+            tree("meta")?,
+            tree("journal")?,
+            tree("outbox")?,
+            tree("done")?,
+            tree("snapshots")?,
+        );
+        let (wal, logged) = Wal::open(path)?;
+        let mut store = SledStore {
+            meta,
+            journal,
+            outbox,
+            done,
+            snapshots,
             path: shown,
             db,
+            wal,
+            marks: Record::default(),
         };
         store.check_format()?;
+        if !logged.is_empty() {
+            let n = logged.len();
+            store.apply(logged)?;
+            store.checkpoint()?;
+            tracing::info!(path = %store.path, entries = n, "store caught up from its write-ahead log");
+        }
         tracing::debug!(path = %store.path, "store opened");
         Ok(store)
+    }
+
+    /// Applies logged entries to sled, in order (each an insert, so applying one again is
+    /// harmless).
+    fn apply(&self, entries: Vec<Entry>) -> Result<(), StoreError> {
+        for entry in entries {
+            match entry {
+                Entry::Step {
+                    key,
+                    input,
+                    actions,
+                } => {
+                    self.journal.insert(key.as_slice(), input).map_err(io)?;
+                    self.outbox.insert(key, actions).map_err(io)?;
+                }
+                Entry::Done { key } => {
+                    self.done.insert(key, &[]).map_err(io)?;
+                }
+                Entry::Meta { key, value } => {
+                    self.meta.insert(key, value).map_err(io)?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Makes sled durable and empties the log, whose entries sled now holds.
+    fn checkpoint(&mut self) -> Result<(), StoreError> {
+        self.db.flush().map_err(io)?;
+        self.wal.clear()?;
+        self.marks = Record::default();
+        Ok(())
+    }
+
+    /// Logs `record`, with the done marks not yet logged ahead of it, durably.
+    fn log(&mut self, record: Record) -> Result<(), StoreError> {
+        let mut marks = std::mem::take(&mut self.marks);
+        marks.extend(record);
+        if marks.is_empty() {
+            return Ok(());
+        }
+        self.wal.append(&marks)
     }
 
     fn check_format(&self) -> Result<(), StoreError> {
         match self.meta.get("format").map_err(io)? {
             Some(f) if f.as_ref() == FORMAT.as_bytes() => Ok(()),
+            Some(f) if EARLIER.iter().any(|e| f.as_ref() == e.as_bytes()) => {
+                tracing::info!(path = %self.path, from = %String::from_utf8_lossy(&f), to = FORMAT, "store format upgraded");
+                self.meta.insert("format", FORMAT.as_bytes()).map_err(io)?;
+                self.db.flush().map_err(io)?;
+                Ok(())
+            }
             Some(f) => Err(StoreError::Foreign {
                 path: self.path.clone(),
                 found: format!("format `{}`", String::from_utf8_lossy(&f)),
@@ -195,16 +271,21 @@ impl Store for SledStore {
                 serde_json::to_vec(actions).map_err(io)?,
             ));
         }
-        (&self.journal, &self.outbox)
-            .transaction(|(j, o)| {
-                for (key, input, actions) in &rows {
-                    j.insert(key, input.as_slice())?;
-                    o.insert(key, actions.as_slice())?;
-                }
-                Ok::<(), sled::transaction::ConflictableTransactionError<()>>(())
-            })
-            .map_err(|e| io(format!("{e:?}")))?;
-        self.db.flush().map_err(io)?;
+        let mut record = Record::default();
+        for (key, input, actions) in &rows {
+            record.step(key, input, actions);
+        }
+        self.log(record)?;
+        // No sled transaction: the record makes the step's entries atomic (a crash between
+        // the inserts is caught up from it on open), and a transaction would seal sled's
+        // buffer, writing and syncing it on every step.
+        for (key, input, actions) in rows {
+            self.journal.insert(key, input).map_err(io)?;
+            self.outbox.insert(key, actions).map_err(io)?;
+        }
+        if self.wal.len() > wal::CHECKPOINT_BYTES {
+            self.checkpoint()?;
+        }
         Ok(())
     }
 
@@ -219,7 +300,8 @@ impl Store for SledStore {
         }
         let mut key = seq_key(seq).to_vec();
         key.extend_from_slice(&index.to_be_bytes());
-        self.done.insert(key, &[]).map_err(io)?;
+        self.done.insert(key.as_slice(), &[]).map_err(io)?;
+        self.marks.done(&key);
         Ok(())
     }
 
@@ -266,23 +348,35 @@ impl Store for SledStore {
                 self.done.remove(k).map_err(io)?;
             }
         }
-        self.db.flush().map_err(io)?;
-        Ok(())
+        self.checkpoint()
     }
 
     fn set_meta(&mut self, key: &str, value: &str) -> Result<(), StoreError> {
+        let mut record = Record::default();
+        record.meta(key.as_bytes(), value.as_bytes());
+        self.log(record)?;
         self.meta.insert(key, value.as_bytes()).map_err(io)?;
-        self.db.flush().map_err(io)?;
         Ok(())
     }
 
     fn flush(&mut self) -> Result<(), StoreError> {
-        self.db.flush().map_err(io)?;
-        Ok(())
+        self.log(Record::default())
     }
 
     fn recover(&self) -> Result<Recovered, StoreError> {
         self.raw()?.decode()
+    }
+}
+
+/// A store closed in order leaves sled holding everything and its log empty, so that tools
+/// reading sled directly see the whole store (a kill leaves the log to be caught up on open).
+impl Drop for SledStore {
+    fn drop(&mut self) {
+        if (self.wal.len() > 0 || !self.marks.is_empty())
+            && let Err(e) = self.checkpoint()
+        {
+            tracing::warn!(path = %self.path, error = %e, "store closed without a checkpoint; its write-ahead log is caught up when it is opened");
+        }
     }
 }
 

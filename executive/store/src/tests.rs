@@ -1,5 +1,6 @@
-//! The sled store against its in-memory twin on random operation sequences, the refusal of
-//! foreign, damaged, in-use and out-of-order input, and a closed store reopened at once.
+//! The sled store against its in-memory twin on random operation sequences (with kills that
+//! leave the directory as the process had written it), the refusal of foreign, damaged, in-use
+//! and out-of-order input, a closed store reopened at once, and an earlier format upgraded.
 
 use std::path::PathBuf;
 
@@ -55,7 +56,22 @@ enum Op {
     Meta(u8),
     Flush,
     Reopen,
+    Kill,
     Stale,
+}
+
+/// Copies a store directory as it is on disk now: what a SIGKILL of its process would leave.
+fn copy_dir(from: &std::path::Path, to: &std::path::Path) {
+    std::fs::create_dir_all(to).expect("copy dir");
+    for entry in std::fs::read_dir(from).expect("read dir") {
+        let path = entry.expect("entry").path();
+        let target = to.join(path.file_name().expect("name"));
+        if path.is_dir() {
+            copy_dir(&path, &target);
+        } else {
+            std::fs::copy(&path, &target).expect("copy file");
+        }
+    }
 }
 
 fn op() -> impl Strategy<Value = Op> {
@@ -66,6 +82,7 @@ fn op() -> impl Strategy<Value = Op> {
         1 => any::<u8>().prop_map(Op::Meta),
         1 => Just(Op::Flush),
         1 => Just(Op::Reopen),
+        2 => Just(Op::Kill),
         1 => Just(Op::Stale),
     ]
 }
@@ -117,6 +134,17 @@ proptest! {
                     disk = SledStore::open(&dir).expect("reopens");
                     mem = mem.crash();
                 }
+                Op::Kill => {
+                    // The process dies: its files stay as written, sled's unflushed pages
+                    // never reach them, and the store resumes from the copy.
+                    let killed = scratch("killed");
+                    copy_dir(&dir, &killed);
+                    drop(disk);
+                    std::fs::remove_dir_all(&dir).expect("remove");
+                    std::fs::rename(&killed, &dir).expect("rename");
+                    disk = SledStore::open(&dir).expect("reopens after a kill");
+                    mem = mem.crash();
+                }
                 Op::Stale => {
                     let a = disk.commit(&input(seq), &[]);
                     let b = mem.commit(&input(seq), &[]);
@@ -134,6 +162,77 @@ proptest! {
         drop(disk);
         let _ = std::fs::remove_dir_all(&dir);
     }
+}
+
+#[test]
+fn a_kill_right_after_commits_keeps_them_all_from_the_log() {
+    let dir = scratch("kill");
+    let killed = scratch("killed");
+    let mut s = SledStore::open(&dir).expect("opens");
+    for seq in 1..=50 {
+        s.commit(&input(seq), &actions(seq, 2)).expect("commit");
+        s.done(seq, 0).expect("done");
+    }
+    s.set_meta("model", "europa.bpmn").expect("meta");
+    copy_dir(&dir, &killed);
+    drop(s);
+    let log = std::fs::metadata(killed.join(crate::wal::FILE))
+        .expect("log")
+        .len();
+    assert!(log > 0, "the commits are in the write-ahead log");
+    let r = SledStore::open(&killed)
+        .expect("reopens")
+        .recover()
+        .expect("recovers");
+    assert_eq!(r.steps.len(), 50);
+    // Each step's first mark rode with the next commit; the last one with the metadata.
+    assert_eq!(r.pending().len(), 50);
+    assert_eq!(r.meta, vec![("model".to_owned(), "europa.bpmn".to_owned())]);
+    // Caught up, the log is empty again.
+    assert_eq!(
+        std::fs::metadata(killed.join(crate::wal::FILE))
+            .expect("log")
+            .len(),
+        0
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_dir_all(&killed);
+}
+
+#[test]
+fn a_store_of_the_format_before_the_log_opens_and_is_upgraded() {
+    let dir = scratch("upgrade");
+    {
+        let mut s = SledStore::open(&dir).expect("opens");
+        s.commit(&input(1), &actions(1, 1)).expect("commit");
+        s.snapshot(1, &state(1)).expect("snapshot");
+        s.commit(&input(2), &actions(2, 1)).expect("commit");
+        s.snapshot(2, &state(2)).expect("snapshot");
+    }
+    // Mark it as the earlier format wrote it: the same trees, no log.
+    {
+        let db = sled::open(&dir).expect("sled");
+        db.open_tree("meta")
+            .expect("meta")
+            .insert("format", "trace-store/1")
+            .expect("insert");
+        db.flush().expect("flush");
+    }
+    std::fs::remove_file(dir.join(crate::wal::FILE)).expect("no log before");
+    let r = SledStore::open(&dir)
+        .expect("an earlier format opens")
+        .recover()
+        .expect("recovers");
+    assert_eq!(r.snapshot.map(|(s, _)| s), Some(2));
+    let db = sled::open(&dir).expect("sled");
+    let format = db
+        .open_tree("meta")
+        .expect("meta")
+        .get("format")
+        .expect("get");
+    assert_eq!(format.as_deref(), Some(crate::FORMAT.as_bytes()));
+    drop(db);
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
