@@ -258,9 +258,26 @@ fn read_entries(payload: &[u8], record: usize, out: &mut Vec<Entry>) -> Result<(
 
 #[cfg(test)]
 mod tests {
-    //! Records read back whole; a torn tail is dropped; damage before the end is refused.
+    //! Records read back whole; a torn tail is dropped; damage before the end is refused; any
+    //! bytes at all are read without a panic.
 
     use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #[test]
+        fn any_bytes_are_read_or_refused_never_a_panic(
+            bytes in prop::collection::vec(any::<u8>(), 0..512),
+            at in 0usize..64,
+        ) {
+            let _ = parse(&bytes);
+            // Behind whole records too, and with a header whose length is anything.
+            let mut log = log(&[record(1)]);
+            log.extend_from_slice(&MAGIC);
+            log.extend_from_slice(&bytes[..bytes.len().min(at)]);
+            let _ = parse(&log);
+        }
+    }
 
     fn record(n: u8) -> Record {
         let mut r = Record::default();
