@@ -4,7 +4,7 @@
 //!
 //! One engine step is one [`Store::commit`]: the input and every action it produced are written
 //! as one atomic batch and flushed **before** the caller performs any action ("commit, then
-//! act"). The flush is one append and one `fdatasync` of a write-ahead log in front of sled;
+//! act"). The flush is one write and one `fdatasync` of a write-ahead log in front of sled;
 //! sled is flushed at checkpoints. Performed actions are marked [`Store::done`]; after a crash the actions not marked
 //! done are performed again — each carries its task or timer key, so repeating one is harmless.
 //! Recovery ([`Store::recover`]) returns the newest snapshot and the journal after it, with the

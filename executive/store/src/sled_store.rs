@@ -13,6 +13,9 @@ use executive_engine::{Action, Input, State};
 use crate::wal::{self, Entry, Record, Wal};
 use crate::{FORMAT, KEEP_SNAPSHOTS, Recovered, Step, Store, StoreError};
 
+/// The `meta` key of the write-ahead log's current pass ([`crate::wal`]), four bytes big-endian.
+const EPOCH: &str = "wal-epoch";
+
 /// Earlier store formats this version opens, and rewrites as [`FORMAT`]: `trace-store/1` is
 /// the same trees without a write-ahead log.
 const EARLIER: &[&str] = &["trace-store/1"];
@@ -135,7 +138,17 @@ impl SledStore {
             tree("done")?,
             tree("snapshots")?,
         );
-        let (wal, logged) = Wal::open(path)?;
+        let epoch = match meta.get(EPOCH).map_err(io)? {
+            None => 0,
+            Some(v) => <[u8; 4]>::try_from(v.as_ref())
+                .map(u32::from_be_bytes)
+                .map_err(|_| StoreError::Corrupt {
+                    tree: "meta",
+                    key: EPOCH.to_owned(),
+                    reason: format!("{} bytes where an epoch has 4", v.len()),
+                })?,
+        };
+        let (wal, logged) = Wal::open(path, epoch)?;
         let mut store = SledStore {
             meta,
             journal,
@@ -182,10 +195,13 @@ impl SledStore {
         Ok(())
     }
 
-    /// Makes sled durable and empties the log, whose entries sled now holds.
+    /// Makes sled durable, with the next pass of the log, which then starts: sled holds every
+    /// entry logged so far.
     fn checkpoint(&mut self) -> Result<(), StoreError> {
+        let next = self.wal.epoch().wrapping_add(1);
+        self.meta.insert(EPOCH, &next.to_be_bytes()).map_err(io)?;
         self.db.flush().map_err(io)?;
-        self.wal.clear()?;
+        self.wal.restart(next);
         self.marks = Record::default();
         Ok(())
     }
@@ -505,7 +521,7 @@ impl Raw {
         let meta = self
             .meta
             .iter()
-            .filter(|(k, _)| k.as_slice() != b"format")
+            .filter(|(k, _)| k.as_slice() != b"format" && k.as_slice() != EPOCH.as_bytes())
             .map(|(k, v)| {
                 (
                     String::from_utf8_lossy(k).into_owned(),
