@@ -28,6 +28,8 @@ fn main() {
         .unwrap_or(flights.div_ceil(4));
     let root = std::env::temp_dir().join(format!("trace-crash-bench-{}", std::process::id()));
     let bound = Duration::from_secs(180);
+    // The binaries are built (if stale) before any flight's bound starts counting.
+    mission_tests::bin("trace");
     let t0 = Instant::now();
     for (layout, kinds, flights) in [
         (Layout::Loopback, &Victim::ALL[..], flights),

@@ -9,29 +9,15 @@ use std::time::{Duration, Instant};
 use connector_api::{
     ActionSpec, Catalogue, Command, Connector, ConnectorConfig, Fields, Keys, Kind, Report,
 };
-use connector_zenoh::{
-    ActionServer, ClientOptions, Request, Role, ServerOptions, ZenohArgs, ZenohConnector,
-};
-use zenoh::Wait;
+use connector_zenoh::{ActionServer, ClientOptions, Request, ServerOptions, ZenohConnector};
 
 /// The allocator the TRACE binaries run with (see the `trace` command's `main.rs`), so that the
 /// bench measures what ships.
 #[global_allocator]
 static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
-fn pct(sorted: &[Duration], p: f64) -> Duration {
-    sorted[((sorted.len() as f64 - 1.0) * p).round() as usize]
-}
-
-fn args(listen: &[String], connect: &[String]) -> ZenohArgs {
-    ZenohArgs {
-        listen: listen.to_vec(),
-        connect: connect.to_vec(),
-        no_multicast_scouting: true,
-        root: "bench".into(),
-        ..ZenohArgs::default()
-    }
-}
+mod loopback;
+use loopback::{echo, pair, pct, raw_query};
 
 #[tokio::main(flavor = "multi_thread", worker_threads = 2)]
 async fn main() {
@@ -39,38 +25,12 @@ async fn main() {
         .ok()
         .and_then(|r| r.parse().ok())
         .unwrap_or(3000);
-    let port = std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .expect("port");
-    let ep = format!("tcp/127.0.0.1:{port}");
-    let sys = args(std::slice::from_ref(&ep), &[])
-        .open(Role::Spoke)
-        .await
-        .expect("system session");
-    let exec = args(&[], std::slice::from_ref(&ep))
-        .open(Role::Spoke)
-        .await
-        .expect("executive session");
+    let (sys, exec) = pair().await;
     let keys = Keys::new("bench").expect("root");
 
     // Baseline: a raw queryable answering at once.
-    let _raw = sys
-        .declare_queryable("bench/raw/echo")
-        .callback(|q| {
-            let _ = q.reply(q.key_expr().clone(), b"{}".to_vec()).wait();
-        })
-        .await
-        .expect("queryable");
-    let raw_once = || async {
-        let replies = exec
-            .get("bench/raw/echo")
-            .payload(br#"{"goal_id":"x","fields":{}}"#.to_vec())
-            .consolidation(zenoh::query::ConsolidationMode::None)
-            .await
-            .expect("get");
-        replies.recv_async().await.is_ok()
-    };
+    let _raw = echo(&sys).await;
+    let raw_once = || raw_query(&exec);
     while !raw_once().await {} // wait for routing
     // The action server: succeeds every goal at once.
     let catalogue = Catalogue {

@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 
 use connector_api::wire::Letter;
 use connector_api::{Keys, Report};
-use connector_zenoh::{Fleet, Role, ZenohArgs};
+use connector_zenoh::Fleet;
 use executive_engine::{Action, Engine, Event, Input, Vars};
 use executive_store::{Recovered, SledStore, Store, StoreError};
 use tokio::sync::mpsc::{UnboundedReceiver, unbounded_channel};
@@ -48,22 +48,12 @@ const MODEL: &str = r#"<definitions xmlns="http://www.omg.org/spec/BPMN/20100524
   </process>
 </definitions>"#;
 
-fn pct(sorted: &[Duration], p: f64) -> Duration {
-    sorted[((sorted.len() as f64 - 1.0) * p).round() as usize]
-}
+#[path = "../../../connectors/zenoh/benches/loopback/mod.rs"]
+mod loopback;
+use loopback::{echo, pair, pct, raw_query};
 
 fn us(d: Duration) -> f64 {
     d.as_secs_f64() * 1e6
-}
-
-fn args(listen: &[String], connect: &[String]) -> ZenohArgs {
-    ZenohArgs {
-        listen: listen.to_vec(),
-        connect: connect.to_vec(),
-        no_multicast_scouting: true,
-        root: "bench".into(),
-        ..ZenohArgs::default()
-    }
 }
 
 /// One executive's side: its engine, its store and its next sequence number.
@@ -300,30 +290,12 @@ async fn main() {
     let loaded = executive_model::load(MODEL.as_bytes());
     let graph = Arc::new(loaded.graph.expect("bench model"));
 
-    let port = std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .expect("port");
-    let ep = format!("tcp/127.0.0.1:{port}");
-    let sb = args(std::slice::from_ref(&ep), &[])
-        .open(Role::Spoke)
-        .await
-        .expect("session B");
-    let sa = args(&[], std::slice::from_ref(&ep))
-        .open(Role::Spoke)
-        .await
-        .expect("session A");
+    let (sb, sa) = pair().await;
     let mut durable = Link::join((&sa, &sb), "bench", &graph, Some(&dir)).await;
     let mut memory = Link::join((&sa, &sb), "bench-mem", &graph, None).await;
 
     // Baselines on the same sessions: a raw query answered at once, and a put answered by a put.
-    let _echo = sb
-        .declare_queryable("bench/raw/echo")
-        .callback(|q| {
-            let _ = q.reply(q.key_expr().clone(), b"{}".to_vec()).wait();
-        })
-        .await
-        .expect("queryable");
+    let _echo = echo(&sb).await;
     let pong_to = sb.clone();
     let _ping = sb
         .declare_subscriber("bench/raw/ping")
@@ -338,22 +310,13 @@ async fn main() {
         .declare_subscriber("bench/raw/pong")
         .await
         .expect("pong subscriber");
-    let raw_query = || async {
-        let replies = sa
-            .get("bench/raw/echo")
-            .payload(br#"{"key":"bench.m1"}"#.to_vec())
-            .consolidation(zenoh::query::ConsolidationMode::None)
-            .await
-            .expect("get");
-        replies.recv_async().await.is_ok()
-    };
     let raw_put = || async {
         sa.put("bench/raw/ping", br#"{"key":"bench.m1"}"#.to_vec())
             .await
             .expect("put");
         pongs.recv_async().await.expect("pong");
     };
-    while !raw_query().await {} // wait for routing
+    while !raw_query(&sa).await {} // wait for routing
     let mut probe = std::fs::File::create(dir.join("fsync-probe")).expect("probe file");
     let mut fsync = || {
         let t = Instant::now();
@@ -364,7 +327,7 @@ async fn main() {
 
     // Warm-up, then alternating blocks, so that every measurement sees the same machine load.
     for _ in 0..200 {
-        raw_query().await;
+        raw_query(&sa).await;
         raw_put().await;
         durable.once().await;
         memory.once().await;
@@ -379,7 +342,7 @@ async fn main() {
     while path.len() < rounds {
         for _ in 0..100 {
             let t = Instant::now();
-            raw_query().await;
+            raw_query(&sa).await;
             query.push(t.elapsed());
         }
         for _ in 0..100 {

@@ -384,8 +384,9 @@ impl Store for SledStore {
     }
 }
 
-/// A store closed in order leaves sled holding everything and its log empty, so that tools
-/// reading sled directly see the whole store (a kill leaves the log to be caught up on open).
+/// A store closed in order leaves sled holding everything, its log at a new pass with nothing in
+/// it, so that tools reading sled directly see the whole store (a kill leaves the log to be
+/// caught up on open).
 impl Drop for SledStore {
     fn drop(&mut self) {
         if (self.wal.len() > 0 || !self.marks.is_empty())
