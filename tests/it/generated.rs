@@ -1,7 +1,7 @@
 //! The generated differential test: random small models from a grammar of the constructs Spin and
-//! the engine both take — tasks, timers, signals thrown and caught, parallel and exclusive blocks, branches that
-//! end early in every kind of end event, sub-processes with boundary events, event
-//! sub-processes — seeded, a few hundred per run. On each, Spin on the PROMELA translation and
+//! the engine both take — tasks, timers, signals thrown and caught, parallel and exclusive
+//! blocks, branches that end early in every kind of end event, sub-processes with boundary
+//! events, event sub-processes — seeded, a few hundred per run. On each, Spin on the PROMELA translation and
 //! the engine's own exploration must agree exactly. Each model is written out first; a
 //! disagreement names its seed and file, to be kept as a test.
 

@@ -15,8 +15,8 @@ use clap::{Parser, Subcommand};
 /// Its settings for a process that runs for days: an arena is committed as it is used, not all
 /// at once, and pages unused for a second go back to the kernel. With mimalloc's defaults
 /// (arenas committed eagerly on Linux, which then keep every page they ever held) the executive
-/// flying Europa held 77 MB resident; with these, 27 MB (`cargo bench -p elap-sim --bench
-/// flight`, `docs/benchmarks.md`). A second's delay keeps the pages of a burst of loads.
+/// flying Europa held 75 MB resident at real time and 88 MB at 200,000x; with these, 26 MB and
+/// 35 MB (`cargo bench -p elap-sim --bench flight`, `docs/benchmarks.md`). A second's delay keeps the pages of a burst of loads.
 #[global_allocator]
 static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 

@@ -696,7 +696,7 @@ pub(crate) fn check(doc: &Document<'_>, sink: &mut Sink) {
             {
                 err("two-loop-markers", "EXT.041", "an activity has either standard loop or multi-instance characteristics, not both".to_owned());
             }
-            "ioBinding" => io_binding(el, parent, &ix, &mut err),
+            "ioBinding" => io_binding(el, &ix, &mut err),
             "callActivity" => call_data(el, &ix, &mut err),
             "conditionExpression"
             | "condition"

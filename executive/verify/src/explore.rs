@@ -46,9 +46,10 @@ pub struct Exploration {
 /// One state in the search: the engine state and how it was reached.
 struct Node {
     state: State,
-    /// The state it came from and what happened (`usize::MAX`: one of the ways the mission's
-    /// first step went, from nothing).
-    parent: Option<(usize, String)>,
+    /// The state it came from (`None`: the mission's first step, from nothing).
+    from: Option<usize>,
+    /// What happened on the way (for a first step, the branches it took, if any).
+    label: String,
 }
 
 /// The shape of a state: tokens by (scope path, node, flow in, what they do), waits by node,
@@ -333,13 +334,15 @@ pub(crate) fn running_beside(g: &ProcessGraph, s: &State, w: &executive_engine::
 
 fn path_of(nodes: &[Node], mut at: usize) -> Vec<String> {
     let mut steps = Vec::new();
-    while let Some((parent, label)) = &nodes[at].parent {
-        steps.push(label.clone());
-        if *parent == usize::MAX {
-            // One of the ways the mission's first step went.
-            break;
+    loop {
+        let node = &nodes[at];
+        if !node.label.is_empty() {
+            steps.push(node.label.clone());
         }
-        at = *parent;
+        match node.from {
+            Some(from) => at = from,
+            None => break,
+        }
     }
     steps.reverse();
     steps
@@ -462,9 +465,11 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
                     continue;
                 }
                 seen.insert(key, nodes.len());
-                // The root is the empty state; the decisions of the first step label the way.
-                let parent = (!labels.is_empty()).then(|| (usize::MAX, labels.join(" ")));
-                nodes.push(Node { state, parent });
+                nodes.push(Node {
+                    state,
+                    from: None,
+                    label: labels.join(" "),
+                });
                 queue.push_back(nodes.len() - 1);
             }
             Err(r) => {
@@ -504,6 +509,12 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
             }
             continue;
         }
+        let failed = |s: &State| {
+            s.instances
+                .values()
+                .any(|i| matches!(i.outcome, Some(Outcome::Failed { .. })))
+        };
+        let failed_before = failed(&state);
         for (label, event) in next {
             for (taken, run) in within(&state, std::slice::from_ref(&event)) {
                 let Ok((actions, after)) = run else {
@@ -513,27 +524,18 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
                     .chain(taken)
                     .collect::<Vec<_>>()
                     .join(" ");
-                let after = &after;
                 // The translation fails tasks only with codes something catches.
-                let failed = after
-                    .instances
-                    .values()
-                    .any(|i| matches!(i.outcome, Some(Outcome::Failed { .. })))
-                    && !state
-                        .instances
-                        .values()
-                        .any(|i| matches!(i.outcome, Some(Outcome::Failed { .. })));
-                if failed && label.contains(".fail[") {
+                if !failed_before && failed(&after) && label.contains(".fail[") {
                     continue;
                 }
                 // A process started by an event (another pool's message, a signal) runs one
                 // instance at a time, as the translation has one marking per process: a run that
                 // would start a second one beside it is not followed (the one before ends first).
-                if twice(after, &evented) {
+                if twice(&after, &evented) {
                     continue;
                 }
                 note(&actions, &mut entered);
-                let key = shape(&g, after, &starts);
+                let key = shape(&g, &after, &starts);
                 if seen.contains_key(&key) {
                     continue;
                 }
@@ -544,8 +546,9 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
                 }
                 seen.insert(key, nodes.len());
                 nodes.push(Node {
-                    state: after.clone(),
-                    parent: Some((at, label)),
+                    state: after,
+                    from: Some(at),
+                    label,
                 });
                 queue.push_back(nodes.len() - 1);
             }

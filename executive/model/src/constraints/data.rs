@@ -503,14 +503,12 @@ pub(super) fn multi_instance(
 /// An ioBinding must bind a data input and output whose items match the operation's messages.
 pub(super) fn io_binding(
     el: &Element,
-    owner: Option<&Element>,
     ix: &Index<'_>,
     err: &mut impl FnMut(&'static str, &'static str, String),
 ) {
     let Some(op) = ix.named(el, "operationRef") else {
         return;
     };
-    let _ = owner;
     for (data_attr, msg_child) in [
         ("inputDataRef", "inMessageRef"),
         ("outputDataRef", "outMessageRef"),
