@@ -46,7 +46,7 @@ fn resource(g: &ProcessGraph, name: &str) -> String {
     match &g.node(find(g, name)).kind {
         NodeKind::Task(Task {
             binding: Some(b), ..
-        }) => b.resource.clone().unwrap_or_default(),
+        }) => b.resource.as_deref().unwrap_or_default().to_owned(),
         other => panic!("{name} is not a bound task: {other:?}"),
     }
 }

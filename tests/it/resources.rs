@@ -117,7 +117,7 @@ fn flight(
                     }
                 }
                 Action::InstanceFinished { .. } => over = true,
-                Action::SendMessage { .. } => {}
+                Action::SendMessage(_) => {}
             }
         }
         if over {

@@ -117,10 +117,10 @@ fn fly(graph: Arc<ProcessGraph>, budget: u64) {
                     queue.push((at, Event::TimerFired { timer }));
                     continue;
                 }
-                Action::SendMessage { name, payload, .. } => Event::MessageReceived {
-                    name,
+                Action::SendMessage(m) => Event::MessageReceived {
+                    name: m.name,
                     correlation: None,
-                    payload,
+                    payload: m.payload,
                     flow: None,
                     key: None,
                 },

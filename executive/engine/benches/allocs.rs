@@ -11,7 +11,7 @@ use executive_engine::Engine;
 use stats_alloc::{INSTRUMENTED_SYSTEM, Region, StatsAlloc};
 
 mod workload;
-use workload::{bind, instance, operations};
+use workload::{Buffers, bind, instance, operations};
 
 #[path = "../../model/benches/peers.rs"]
 mod peers;
@@ -53,9 +53,10 @@ fn main() {
                 .expect("the model loads"),
         );
         let ops = bind(&graph, &operations(&xml));
+        let mut buffers = Buffers::default();
         let mut engine = Engine::new(Arc::clone(&graph));
         let mut seq = 0;
-        let nodes = instance(&mut engine, &mut seq, process, &ops);
+        let nodes = instance(&mut engine, &mut seq, process, &ops, &mut buffers);
         // As the `steps` bench runs them: a fresh engine per 16 instances, its state dropped
         // (and counted) with it.
         let region = Region::new(ALLOCATOR);
@@ -64,7 +65,7 @@ fn main() {
             let mut engine = Engine::new(Arc::clone(&graph));
             let mut seq = 0;
             for _ in 0..16 {
-                instance(&mut engine, &mut seq, process, &ops);
+                instance(&mut engine, &mut seq, process, &ops, &mut buffers);
                 n += 1;
             }
         }

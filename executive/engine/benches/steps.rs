@@ -16,7 +16,7 @@ use std::time::Instant;
 use executive_engine::{Engine, Event, Input, Vars};
 
 mod workload;
-use workload::{bind, instance, operations};
+use workload::{Buffers, bind, instance, operations};
 
 #[path = "../../model/benches/peers.rs"]
 mod peers;
@@ -41,9 +41,10 @@ fn ours(path: &Path, process: &str, expected: usize, min_seconds: f64) -> Result
             .ok_or_else(|| format!("{:?}", loaded.diagnostics.first()))?,
     );
     let ops = bind(&graph, &operations(&xml));
+    let mut buffers = Buffers::default();
     let mut e = Engine::new(Arc::clone(&graph));
     let mut seq = 0;
-    let steps = instance(&mut e, &mut seq, process, &ops);
+    let steps = instance(&mut e, &mut seq, process, &ops, &mut buffers);
     if steps != expected {
         return Err(format!("{steps} flow nodes completed, expected {expected}"));
     }
@@ -54,7 +55,7 @@ fn ours(path: &Path, process: &str, expected: usize, min_seconds: f64) -> Result
         let mut e = Engine::new(Arc::clone(&graph));
         let mut seq = 0;
         for _ in 0..16 {
-            instance(&mut e, &mut seq, process, &ops);
+            instance(&mut e, &mut seq, process, &ops, &mut buffers);
             n += 1;
         }
     }

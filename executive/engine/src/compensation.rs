@@ -48,24 +48,19 @@ impl Run<'_> {
                 .any(|d| matches!(d, EventDefinition::Cancel))
         });
         let instance = self.s.tokens[&t].instance;
-        self.record(
-            instance,
-            Entry::Thrown {
-                what: Trigger::Cancel,
-                name: String::new(),
-                node: Some(self.s.tokens[&t].node),
-            },
-        );
+        let node = Some(self.s.tokens[&t].node);
+        self.record(instance, || Entry::Thrown {
+            what: Trigger::Cancel,
+            name: String::new(),
+            node,
+        });
         self.cancel_scope(scope);
         if let Some(b) = boundary {
-            self.record(
-                instance,
-                Entry::Caught {
-                    what: Trigger::Cancel,
-                    name: String::new(),
-                    node: b,
-                },
-            );
+            self.record(instance, || Entry::Caught {
+                what: Trigger::Cancel,
+                name: String::new(),
+                node: b,
+            });
         }
         self.withdraw(owner);
         // Without a cancel boundary the transaction still rolls back; its path then ends (the
@@ -106,16 +101,13 @@ impl Run<'_> {
     pub(crate) fn compensate(&mut self, t: TokenId, activity: Option<NodeId>) -> bool {
         let tok = &self.s.tokens[&t];
         let (scope, instance, node) = (tok.scope, tok.instance, tok.node);
-        self.record(
-            instance,
-            Entry::Thrown {
-                what: Trigger::Compensation,
-                name: activity
-                    .map(|a| self.g.node(a).id.clone())
-                    .unwrap_or_default(),
-                node: Some(node),
-            },
-        );
+        self.record(instance, || Entry::Thrown {
+            what: Trigger::Compensation,
+            name: activity
+                .map(|a| self.g.node(a).id.clone())
+                .unwrap_or_default(),
+            node: Some(node),
+        });
         // Thrown inside an event sub-process: compensate the scope the event sub-process is in.
         let mut target = scope;
         while let Some(sc) = self.s.scopes.get(&target) {
@@ -160,13 +152,10 @@ impl Run<'_> {
             if self.trace_moves
                 && let Some(instance) = self.s.tokens.get(&waiter).map(|t| t.instance)
             {
-                self.record(
-                    instance,
-                    Entry::Left {
-                        node: n,
-                        token: waiter,
-                    },
-                );
+                self.record(instance, || Entry::Left {
+                    node: n,
+                    token: waiter,
+                });
             }
             if handlers.is_empty() {
                 return self.resume_waiter(waiter);
@@ -192,13 +181,10 @@ impl Run<'_> {
                 if self.trace_moves
                     && let Some(instance) = self.s.scopes.get(&scope).map(|s| s.instance)
                 {
-                    self.record(
-                        instance,
-                        Entry::Entered {
-                            node: esp,
-                            token: et,
-                        },
-                    );
+                    self.record(instance, || Entry::Entered {
+                        node: esp,
+                        token: et,
+                    });
                 }
                 self.spawn(child, start, None);
                 et

@@ -297,13 +297,10 @@ impl Run<'_> {
             if store {
                 let instance = self.s.scopes[&scope].instance;
                 self.s.data.insert(name.clone(), v.clone());
-                self.record(
-                    instance,
-                    Entry::Data {
-                        key: name,
-                        value: v,
-                    },
-                );
+                self.record(instance, || Entry::Data {
+                    key: name,
+                    value: v,
+                });
             } else {
                 self.set_var(scope, &name, v);
             }

@@ -3,7 +3,7 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use executive_model::{NodeId, NodeKind, ProcessGraph, TaskKind};
+use executive_model::{NodeId, NodeKind, ProcessGraph, ProcessId, TaskKind};
 
 use crate::game::Game;
 use crate::io::{Action, Entry, Event, Input, Outcome, Rejected, TaskKey, Trigger};
@@ -31,7 +31,10 @@ impl Engine {
     }
 
     /// An engine resuming from a saved state (the same model it was saved with).
-    pub fn restore(graph: Arc<ProcessGraph>, state: State) -> Engine {
+    pub fn restore(graph: Arc<ProcessGraph>, mut state: State) -> Engine {
+        for t in state.tokens.values_mut() {
+            t.upgrade();
+        }
         Engine {
             graph,
             state,
@@ -90,13 +93,27 @@ impl Engine {
     /// armed timer at its absolute deadline (an overdue one fires at once).
     pub fn in_flight(&self) -> Vec<Action> {
         let s = &self.state;
-        let commands = s.tokens.values().filter_map(|t| match (&t.at, &t.command) {
-            (At::Task(k), Some(c)) | (At::UserTask(k), Some(c))
-                if matches!(&**c, Action::DispatchTask { task, .. } | Action::OpenUserTask { task, .. } if task == k) =>
-            {
-                Some((**c).clone())
+        let game = self.game.is_some();
+        let commands = s.tokens.values().filter_map(|t| {
+            let goal = || t.goal.as_deref().cloned().unwrap_or_default();
+            match t.at {
+                At::Task(task) => Some(Action::DispatchTask {
+                    task,
+                    node: t.node,
+                    resource: if game {
+                        self.graph.node(t.node).id.as_str().into()
+                    } else {
+                        crate::run::resource(&self.graph, t.node)
+                    },
+                    request: goal(),
+                }),
+                At::UserTask(task) => Some(Action::OpenUserTask {
+                    task,
+                    node: t.node,
+                    context: goal(),
+                }),
+                _ => None,
             }
-            _ => None,
         });
         let timers = s.waits.values().filter_map(|w| match w.on {
             On::Timer { key, due, .. } if due != crate::io::Millis::MAX => {
@@ -132,22 +149,37 @@ impl Engine {
     /// Applies one input. On `Err` the state is unchanged.
     #[must_use = "actions must be persisted, then executed by the driver"]
     pub fn step(&mut self, input: Input) -> Result<Vec<Action>, Rejected> {
+        // Room for a typical step (7 actions) in one of the allocator's small size classes.
+        let mut out = Vec::with_capacity(8);
+        self.step_into(input, &mut out).map(|()| out)
+    }
+
+    /// [`Engine::step`], appending the actions to `out`: a driver that drains one buffer
+    /// step after step allocates none for them. On `Err`, the state and `out` are unchanged.
+    pub fn step_into(&mut self, input: Input, out: &mut Vec<Action>) -> Result<(), Rejected> {
         if input.seq <= self.state.last_seq {
             return Err(Rejected::Duplicate {
                 seq: input.seq,
                 last: self.state.last_seq,
             });
         }
-        self.check(&input.event)?;
+        // The process an instance starts is found once, by its id.
+        let started = match &input.event {
+            Event::InstanceStarted { process, start, .. } => {
+                Some(self.check_start(process, start.as_deref())?)
+            }
+            other => {
+                self.check(other)?;
+                None
+            }
+        };
         let mut ready = std::mem::take(&mut self.ready);
         ready.clear();
         let mut run = Run {
             g: &self.graph,
             s: &mut self.state,
             now: input.at,
-            // Room for a typical step (7 actions), and small enough (768 bytes) for the allocator's
-            // per-thread cache: 16 went through its slower shared bins on every step.
-            out: Vec::with_capacity(8),
+            out,
             ready,
             trace_moves: self.trace_moves,
             wave: 0,
@@ -180,10 +212,39 @@ impl Engine {
         }
         run.s.last_seq = input.seq;
         run.s.now = run.s.now.max(input.at);
-        apply(&mut run, input.event);
+        apply(&mut run, input.event, started);
         run.quiesce();
         self.ready = run.ready;
-        Ok(run.out)
+        Ok(())
+    }
+
+    /// The process an `InstanceStarted` starts, if it may start here (at `start`, if named).
+    fn check_start(&self, process: &str, start: Option<&str>) -> Result<ProcessId, Rejected> {
+        let g = &self.graph;
+        let game = self.game.is_some();
+        let p = g
+            .process_by_id(process)
+            .filter(|p| game || g.process(*p).executable)
+            .ok_or_else(|| Rejected::UnknownProcess(process.to_owned()))?;
+        if let Some(pool) = self.remote.get(&p) {
+            return Err(Rejected::Unsupported {
+                element: process.to_owned(),
+                reason: format!("its pool `{pool}` is run by another executive"),
+            });
+        }
+        if let Some(start) = start {
+            let ok = g.node_by_id(start).is_some_and(|n| {
+                g.node(n).scope == executive_model::Scope::Process(p)
+                    && g.node(n).incoming.is_empty()
+            });
+            if !ok {
+                return Err(Rejected::UnknownStart {
+                    process: process.to_owned(),
+                    start: start.to_owned(),
+                });
+            }
+        }
+        Ok(p)
     }
 
     /// Refuses inputs that do not fit the state, before anything changes.
@@ -192,30 +253,7 @@ impl Engine {
         let g = &self.graph;
         match event {
             Event::InstanceStarted { process, start, .. } => {
-                let game = self.game.is_some();
-                let p = g
-                    .process_by_id(process)
-                    .filter(|p| game || g.process(*p).executable)
-                    .ok_or_else(|| Rejected::UnknownProcess(process.clone()))?;
-                if let Some(pool) = self.remote.get(&p) {
-                    return Err(Rejected::Unsupported {
-                        element: process.clone(),
-                        reason: format!("its pool `{pool}` is run by another executive"),
-                    });
-                }
-                if let Some(start) = start {
-                    let ok = g.node_by_id(start).is_some_and(|n| {
-                        g.node(n).scope == executive_model::Scope::Process(p)
-                            && g.node(n).incoming.is_empty()
-                    });
-                    if !ok {
-                        return Err(Rejected::UnknownStart {
-                            process: process.clone(),
-                            start: start.clone(),
-                        });
-                    }
-                }
-                Ok(())
+                self.check_start(process, start.as_deref()).map(|_| ())
             }
             Event::TaskCompleted { task, .. } | Event::TaskFailed { task, .. } => {
                 match s.tokens.get(&task.token).map(|t| &t.at) {
@@ -330,29 +368,27 @@ fn check_answer(
     Ok(())
 }
 
-fn apply(run: &mut Run<'_>, event: Event) {
+/// Applies a checked event; `started` is the process an `InstanceStarted` starts.
+fn apply(run: &mut Run<'_>, event: Event, started: Option<ProcessId>) {
     match event {
         Event::InstanceStarted {
             process,
             vars,
             start,
         } => {
-            let Some(p) = run.g.process_by_id(&process) else {
+            let Some(p) = started else {
                 return;
             };
-            let (_, root) = run.open_instance(p, vars);
+            let (_, root) = run.open_instance(p, vars, Some(process));
             let start = start.and_then(|s| run.g.node_by_id(&s));
             run.start_process_scope(root, p, start);
         }
         Event::TaskCompleted { task, output } => {
             let t = task.token;
-            run.record(
-                task.instance,
-                Entry::Completed {
-                    task,
-                    output: output.clone(),
-                },
-            );
+            run.record(task.instance, || Entry::Completed {
+                task,
+                output: output.clone(),
+            });
             if let Some(tok) = run.s.tokens.get_mut(&t) {
                 tok.at = At::Ready;
             }
@@ -375,18 +411,22 @@ fn apply(run: &mut Run<'_>, event: Event) {
             code,
             message,
         } => {
-            run.record(
-                task.instance,
-                Entry::Failed {
-                    task,
-                    code: code.clone(),
-                    message: message.clone(),
-                },
-            );
             if let Some(tok) = run.s.tokens.get_mut(&task.token) {
                 tok.at = At::Ready;
             }
+            // The failure is recorded before what it causes, with the input's own strings.
+            let first = run.out.len();
             run.task_error(task.token, &code, &message);
+            let failed = crate::io::Record {
+                instance: task.instance,
+                at: run.now,
+                entry: Entry::Failed {
+                    task,
+                    code,
+                    message,
+                },
+            };
+            run.out.insert(first, Action::Record(failed));
         }
         Event::UserTaskAnswered {
             task,
@@ -394,14 +434,11 @@ fn apply(run: &mut Run<'_>, event: Event) {
             operator,
         } => {
             let t = task.token;
-            run.record(
-                task.instance,
-                Entry::Answered {
-                    task,
-                    operator,
-                    answer: answer.clone(),
-                },
-            );
+            run.record(task.instance, || Entry::Answered {
+                task,
+                operator,
+                answer: answer.clone(),
+            });
             run.out.push(Action::CloseUserTask { task });
             if let Some(tok) = run.s.tokens.get_mut(&t) {
                 tok.at = At::Ready;
@@ -422,7 +459,7 @@ fn apply(run: &mut Run<'_>, event: Event) {
                 return;
             };
             let node = w.node;
-            run.record(timer.instance, Entry::TimerFired { timer, node });
+            run.record(timer.instance, || Entry::TimerFired { timer, node });
             run.trigger(timer.wait, Trigger::Timer, String::new(), &Vars::new());
         }
         Event::MessageReceived {

@@ -124,14 +124,11 @@ impl Run<'_> {
         };
         wait.on = On::Timer { key, due, left };
         let (instance, node) = (wait.instance, wait.node);
-        self.record(
-            instance,
-            Entry::TimerStarted {
-                timer: key,
-                node,
-                due,
-            },
-        );
+        self.record(instance, || Entry::TimerStarted {
+            timer: key,
+            node,
+            due,
+        });
         self.out.push(Action::StartTimer {
             timer: key,
             at: due,
@@ -251,14 +248,11 @@ impl Run<'_> {
             return;
         };
         let node = g.node(wait.node);
-        self.record(
-            wait.instance,
-            Entry::Caught {
-                what,
-                name,
-                node: wait.node,
-            },
-        );
+        self.record(wait.instance, || Entry::Caught {
+            what,
+            name,
+            node: wait.node,
+        });
         match &node.kind {
             NodeKind::Boundary(b) => {
                 let Some(owner) = wait.token else { return };
@@ -332,13 +326,10 @@ impl Run<'_> {
                 if at_node != wait.node {
                     // An event-based gateway: move to the target that fired.
                     if self.trace_moves {
-                        self.record(
-                            wait.instance,
-                            Entry::Left {
-                                node: at_node,
-                                token: t,
-                            },
-                        );
+                        self.record(wait.instance, || Entry::Left {
+                            node: at_node,
+                            token: t,
+                        });
                     }
                     let flow = g
                         .node(at_node)
@@ -352,15 +343,12 @@ impl Run<'_> {
                     }
                     if self.trace_moves {
                         if let Some(f) = flow {
-                            self.record(wait.instance, Entry::Took { flow: f });
+                            self.record(wait.instance, || Entry::Took { flow: f });
                         }
-                        self.record(
-                            wait.instance,
-                            Entry::Entered {
-                                node: wait.node,
-                                token: t,
-                            },
-                        );
+                        self.record(wait.instance, || Entry::Entered {
+                            node: wait.node,
+                            token: t,
+                        });
                     }
                 }
                 if node.is_activity() {
@@ -409,13 +397,10 @@ impl Run<'_> {
         let child = self.open_scope(et, ScopeKind::SubProcess(esp), vars);
         if self.trace_moves {
             let instance = self.s.scopes[&scope].instance;
-            self.record(
-                instance,
-                Entry::Entered {
-                    node: esp,
-                    token: et,
-                },
-            );
+            self.record(instance, || Entry::Entered {
+                node: esp,
+                token: et,
+            });
         }
         self.spawn(child, start, None);
         for n in self.implicit_starts(Scope::SubProcess(esp)) {

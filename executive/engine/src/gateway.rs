@@ -80,7 +80,7 @@ impl Run<'_> {
         if self.trace_moves {
             let tok = &self.s.tokens[&t];
             let (instance, node) = (tok.instance, tok.node);
-            self.record(instance, Entry::Left { node, token: t });
+            self.record(instance, || Entry::Left { node, token: t });
         }
         self.take(t, flows, 1);
     }
@@ -140,14 +140,11 @@ impl Run<'_> {
             taken.push(d);
         }
         let instance = self.s.tokens[&t].instance;
-        self.record(
-            instance,
-            Entry::Decided {
-                node,
-                flows: taken.clone(),
-                read,
-            },
-        );
+        self.record(instance, || Entry::Decided {
+            node,
+            flows: taken.clone(),
+            read,
+        });
         if taken.is_empty() {
             return Err(format!(
                 "no condition of gateway `{}` holds and it has no default flow",

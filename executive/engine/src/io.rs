@@ -1,6 +1,8 @@
 //! What goes into the engine (inputs: things that happened) and what comes out (actions: things
 //! the driver must do, and record entries).
 
+use std::sync::Arc;
+
 use serde::{Deserialize, Serialize};
 
 use crate::value::{Value, Vars};
@@ -179,8 +181,8 @@ pub enum Action {
         /// The task element.
         node: NodeId,
         /// The resource name (`excavation.excavate`), or the script text of a script task run
-        /// by a connector.
-        resource: String,
+        /// by a connector: the model's own, shared.
+        resource: Arc<str>,
         /// The goal's fields.
         request: Vars,
     },
@@ -217,26 +219,9 @@ pub enum Action {
     },
     /// Deliver a message outside the engine: along a message flow to a pool this engine does
     /// not run (another executive's, or a black box), or, with no flow, because no catcher
-    /// inside waited for it.
-    SendMessage {
-        /// The message name.
-        name: String,
-        /// Its fields.
-        payload: Vars,
-        /// The participant (pool) it goes to, when a message flow names one.
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        to: Option<String>,
-        /// The message flow it goes along.
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        flow: Option<String>,
-        /// The sender's value of the message's correlation key, if it has one.
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        correlation: Option<Value>,
-        /// The message's number, minted by this engine (one more per message sent along a
-        /// flow): with the mission id, the key that makes sending it again harmless.
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        number: Option<u64>,
-    },
+    /// inside waited for it. Boxed: the rarest command is the largest, and every other action
+    /// (most are record entries) moves at the size of the next largest.
+    SendMessage(Box<Outgoing>),
     /// Append an entry to the execution record.
     Record(Record),
     /// The instance ended.
@@ -246,6 +231,28 @@ pub enum Action {
         /// How.
         outcome: Outcome,
     },
+}
+
+/// A message the engine sends out ([`Action::SendMessage`]).
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct Outgoing {
+    /// The message name.
+    pub name: String,
+    /// Its fields.
+    pub payload: Vars,
+    /// The participant (pool) it goes to, when a message flow names one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub to: Option<String>,
+    /// The message flow it goes along.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flow: Option<String>,
+    /// The sender's value of the message's correlation key, if it has one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub correlation: Option<Value>,
+    /// The message's number, minted by this engine (one more per message sent along a
+    /// flow): with the mission id, the key that makes sending it again harmless.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub number: Option<u64>,
 }
 
 /// How an instance ended.
@@ -337,8 +344,8 @@ pub enum Entry {
         task: TaskKey,
         /// The task element.
         node: NodeId,
-        /// The resource.
-        resource: String,
+        /// The resource (the model's own, shared).
+        resource: Arc<str>,
         /// The goal.
         request: Vars,
     },

@@ -184,10 +184,10 @@ impl Run<'_> {
                 owner: Some(t),
                 kind: ScopeKind::Body(node),
                 vars,
-                compensable: Vec::new(),
+                compensable: thin_vec::ThinVec::new(),
                 ending: false,
                 tokens: Default::default(),
-                waits: Vec::new(),
+                waits: thin_vec::ThinVec::new(),
             },
         );
         if let Some(l) = self.loop_mut(t) {
@@ -330,14 +330,11 @@ impl Run<'_> {
                 .iter()
                 .any(|d| matches!(d, EventDefinition::Signal(_)))
             {
-                self.record(
-                    instance,
-                    Entry::Caught {
-                        what: Trigger::Signal,
-                        name: "multi-instance behavior".to_owned(),
-                        node: b,
-                    },
-                );
+                self.record(instance, || Entry::Caught {
+                    what: Trigger::Signal,
+                    name: "multi-instance behavior".to_owned(),
+                    node: b,
+                });
                 self.spawn(scope, b, None);
             }
         }

@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 
 use executive_model::{EventDefinition, NodeId, NodeKind, ProcessGraph, ProcessId, Scope};
 
-use crate::io::{Action, Entry, InstanceId, Rejected, ScopeId, TokenId, Trigger, WaitId};
+use crate::io::{Action, Entry, InstanceId, Outgoing, Rejected, ScopeId, TokenId, Trigger, WaitId};
 use crate::run::Run;
 use crate::state::On;
 use crate::value::{Value, Vars};
@@ -106,14 +106,14 @@ impl Run<'_> {
             _ => self.deliver_message(&name, correlation.as_ref(), &payload),
         };
         if !delivered {
-            self.out.push(Action::SendMessage {
+            self.out.push(Action::SendMessage(Box::new(Outgoing {
                 name,
                 payload,
                 to: None,
                 flow: None,
                 correlation: None,
                 number: None,
-            });
+            })));
         }
     }
 
@@ -126,14 +126,11 @@ impl Run<'_> {
         scope: ScopeId,
         name: &str,
     ) -> Option<Value> {
-        self.record(
-            instance,
-            Entry::Thrown {
-                what: Trigger::Message,
-                name: name.to_owned(),
-                node,
-            },
-        );
+        self.record(instance, || Entry::Thrown {
+            what: Trigger::Message,
+            name: name.to_owned(),
+            node,
+        });
         let key = self.g.messages.iter().find(|m| m.name == name)?;
         let key = key.correlation_key.as_ref()?;
         // A key that cannot be evaluated is null, which no keyed receiver matches.
@@ -259,20 +256,20 @@ impl Run<'_> {
                 self.start_instance_at(p, n, payload.clone(), Trigger::Message, name);
             }
             Receiver::Pool(p, None) => {
-                let (_, root) = self.open_instance(p, payload.clone());
+                let (_, root) = self.open_instance(p, payload.clone(), None);
                 self.start_process_scope(root, p, None);
             }
             Receiver::Away(to) => {
                 self.s.sent += 1;
                 let number = self.s.sent;
-                self.out.push(Action::SendMessage {
+                self.out.push(Action::SendMessage(Box::new(Outgoing {
                     name: name.to_owned(),
                     payload: payload.clone(),
                     to: Some(to),
                     flow: Some(flow.to_owned()),
                     correlation: correlation.cloned(),
                     number: Some(number),
-                });
+                })));
             }
         }
     }

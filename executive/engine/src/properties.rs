@@ -122,7 +122,7 @@ impl Pending {
                         self.instances.push(r.instance);
                     }
                 }
-                Action::SendMessage { .. } => {}
+                Action::SendMessage(_) => {}
             }
         }
     }
@@ -202,6 +202,8 @@ proptest! {
         let mut now = 0i64;
         let mut accepted: Vec<(Input, Vec<Action>)> = Vec::new();
         let mut last: Option<Input> = None;
+        // Every dispatch and user task as the engine gave it, by key.
+        let mut given: std::collections::BTreeMap<TaskKey, Action> = Default::default();
         let start = || Event::InstanceStarted { process: "p".into(), vars: Vars::new(), start: None };
         for op in std::iter::once(Op::Start).chain(ops) {
             let event = match op {
@@ -283,6 +285,24 @@ proptest! {
                     p.tasks.retain(|k| e.state().tokens.get(&k.token).is_some_and(|t| t.at == crate::At::Task(*k)) && !finished.contains(&k.instance));
                     p.user.retain(|k| e.state().tokens.get(&k.token).is_some_and(|t| t.at == crate::At::UserTask(*k)));
                     p.timers.retain(|(k, _)| e.state().waits.contains_key(&k.wait));
+                    for a in &actions {
+                        if let Action::DispatchTask { task, .. } | Action::OpenUserTask { task, .. } = a {
+                            given.insert(*task, a.clone());
+                        }
+                    }
+                    // What a restart would command again is what the engine gave, for every
+                    // task still out.
+                    let again: Vec<Action> = e.in_flight().into_iter().filter(|a| !matches!(a, Action::StartTimer { .. })).collect();
+                    for a in &again {
+                        let (Action::DispatchTask { task, .. } | Action::OpenUserTask { task, .. }) = a else {
+                            prop_assert!(false, "not a command: {:?}", a);
+                            continue;
+                        };
+                        prop_assert_eq!(given.get(task), Some(a), "in flight again, not as given");
+                    }
+                    for k in p.tasks.iter().chain(&p.user) {
+                        prop_assert!(again.iter().any(|a| matches!(a, Action::DispatchTask { task, .. } | Action::OpenUserTask { task, .. } if task == k)), "{:?} is out, and not in flight", k);
+                    }
                     accepted.push((input.clone(), actions));
                     last = Some(input);
                 }
@@ -302,5 +322,6 @@ proptest! {
         let json = serde_json::to_string(e.state()).expect("serializes");
         let back: State = serde_json::from_str(&json).expect("deserializes");
         prop_assert_eq!(&back, e.state());
+        prop_assert_eq!(Engine::restore(Arc::clone(replay.graph()), back).in_flight(), e.in_flight());
     }
 }

@@ -22,7 +22,8 @@ pub(crate) struct Run<'a> {
     pub(crate) g: &'a ProcessGraph,
     pub(crate) s: &'a mut State,
     pub(crate) now: Millis,
-    pub(crate) out: Vec<Action>,
+    /// The step's actions, appended to the caller's buffer.
+    pub(crate) out: &'a mut Vec<Action>,
     /// The tokens ready to arrive, each with its wave: one more than the wave of the arrival
     /// that made it ready (the step's first tokens are wave 1).
     pub(crate) ready: VecDeque<(TokenId, u32)>,
@@ -55,11 +56,19 @@ impl<'a> Run<'a> {
         self.s.next_id
     }
 
-    pub(crate) fn record(&mut self, instance: InstanceId, entry: Entry) {
-        self.out.push(Action::Record(Record {
-            instance,
-            at: self.now,
-            entry,
+    /// Appends a record entry, made by `entry` where it is written: an entry made first and
+    /// moved in was copied through the stack, and reading back what was just written cost a
+    /// store-forwarding stall per entry (`docs/benchmarks.md`, 2026-12-05).
+    #[inline(always)]
+    pub(crate) fn record(&mut self, instance: InstanceId, entry: impl FnOnce() -> Entry) {
+        let at = self.now;
+        self.out.reserve(1);
+        self.out.extend(std::iter::once_with(|| {
+            Action::Record(Record {
+                instance,
+                at,
+                entry: entry(),
+            })
         }));
     }
 
@@ -78,7 +87,8 @@ impl<'a> Run<'a> {
                 attempts: 0,
                 body: false,
                 compensating: None,
-                waits: Vec::new(),
+                waits: thin_vec::ThinVec::new(),
+                goal: None,
                 command: None,
             },
         );
@@ -182,7 +192,7 @@ impl<'a> Run<'a> {
         if let Some(i) = self.s.instances.get_mut(&instance) {
             i.incidents.push((node, message.clone()));
         }
-        self.record(instance, Entry::Incident { node, message });
+        self.record(instance, || Entry::Incident { node, message });
     }
 
     /// A token arrives at its node.
@@ -192,13 +202,10 @@ impl<'a> Run<'a> {
         let (node_id, instance, body) = (tok.node, tok.instance, tok.body);
         let node = g.node(node_id);
         if self.trace_moves && !self.throw_now.contains(&t) {
-            self.record(
-                instance,
-                Entry::Entered {
-                    node: node_id,
-                    token: t,
-                },
-            );
+            self.record(instance, || Entry::Entered {
+                node: node_id,
+                token: t,
+            });
         }
         match &node.kind {
             NodeKind::Start(_) | NodeKind::Boundary(_) => self.leave(t),
@@ -359,7 +366,7 @@ impl<'a> Run<'a> {
             if self.game.is_some_and(|g| !g.hold.contains(&node)) {
                 return self.complete_activity(t);
             }
-            let resource = self.g.node(node).id.clone();
+            let resource = self.g.node(node).id.as_str().into();
             return self.dispatch(t, resource, None);
         }
         match task.kind {
@@ -380,16 +387,15 @@ impl<'a> Run<'a> {
                 if let Some(tok) = self.s.tokens.get_mut(&t) {
                     tok.at = At::UserTask(key);
                 }
-                self.record(instance, Entry::Opened { task: key, node });
-                let command = Action::OpenUserTask {
+                self.record(instance, || Entry::Opened { task: key, node });
+                if let Some(tok) = self.s.tokens.get_mut(&t) {
+                    tok.goal = crate::state::goal(&context);
+                }
+                self.out.push(Action::OpenUserTask {
                     task: key,
                     node,
                     context,
-                };
-                if let Some(tok) = self.s.tokens.get_mut(&t) {
-                    tok.command = Some(Box::new(command.clone()));
-                }
-                self.out.push(command);
+                });
             }
             TaskKind::Receive => {
                 let name = self.message_name(task.message);
@@ -423,11 +429,7 @@ impl<'a> Run<'a> {
                     || task.kind == TaskKind::Script
                     || (task.kind != TaskKind::Send && task.binding.is_some()) =>
             {
-                let resource = match (&task.binding, &task.script) {
-                    (Some(b), _) if b.resource.is_some() => b.resource.clone().unwrap_or_default(),
-                    (_, Some(s)) => s.text.clone(),
-                    _ => self.g.node(node).id.clone(),
-                };
+                let resource = task_resource(Some(task), &self.g.node(node).id);
                 self.dispatch(t, resource, task.binding.as_ref());
             }
             TaskKind::Send => {
@@ -437,7 +439,7 @@ impl<'a> Run<'a> {
                 self.complete_activity(t);
             }
             TaskKind::Service | TaskKind::BusinessRule => {
-                let resource = self.g.node(node).id.clone();
+                let resource = task_resource(Some(task), &self.g.node(node).id);
                 self.dispatch(t, resource, None);
             }
             TaskKind::Script | TaskKind::Manual | TaskKind::Plain => self.complete_activity(t),
@@ -495,7 +497,7 @@ impl<'a> Run<'a> {
     fn dispatch(
         &mut self,
         t: TokenId,
-        resource: String,
+        resource: std::sync::Arc<str>,
         binding: Option<&executive_model::binding::TaskBinding>,
     ) {
         let tok = &self.s.tokens[&t];
@@ -524,25 +526,21 @@ impl<'a> Run<'a> {
         if let Some(tok) = self.s.tokens.get_mut(&t) {
             tok.at = At::Task(key);
         }
-        self.record(
-            instance,
-            Entry::Dispatched {
-                task: key,
-                node,
-                resource: resource.clone(),
-                request: request.clone(),
-            },
-        );
-        let command = Action::DispatchTask {
+        self.record(instance, || Entry::Dispatched {
+            task: key,
+            node,
+            resource: resource.clone(),
+            request: request.clone(),
+        });
+        if let Some(tok) = self.s.tokens.get_mut(&t) {
+            tok.goal = crate::state::goal(&request);
+        }
+        self.out.push(Action::DispatchTask {
             task: key,
             node,
             resource,
             request,
-        };
-        if let Some(tok) = self.s.tokens.get_mut(&t) {
-            tok.command = Some(Box::new(command.clone()));
-        }
-        self.out.push(command);
+        });
     }
 
     /// Every variable visible from a scope (inner ones win), without system data.
@@ -658,7 +656,7 @@ impl<'a> Run<'a> {
         {
             sc.compensable.push(crate::state::Compensable {
                 node,
-                inner: Vec::new(),
+                inner: thin_vec::ThinVec::new(),
             });
         }
         self.drop_waits(t);
@@ -678,13 +676,10 @@ impl<'a> Run<'a> {
         let (node_id, scope, instance) = (tok.node, tok.scope, tok.instance);
         let node = g.node(node_id);
         if self.trace_moves {
-            self.record(
-                instance,
-                Entry::Left {
-                    node: node_id,
-                    token: t,
-                },
-            );
+            self.record(instance, || Entry::Left {
+                node: node_id,
+                token: t,
+            });
         }
         // A token game passes a message along every message flow drawn from an element
         // without a message definition of its own (message throwers send when they throw).
@@ -714,7 +709,7 @@ impl<'a> Run<'a> {
         for &f in flows {
             for _ in 0..quantity.max(1) {
                 if self.trace_moves {
-                    self.record(instance, Entry::Took { flow: f });
+                    self.record(instance, || Entry::Took { flow: f });
                 }
                 let target = g.flow(f).target;
                 if first {
@@ -724,7 +719,7 @@ impl<'a> Run<'a> {
                         tok.via = Some(f);
                         tok.at = At::Ready;
                         tok.body = false;
-                        tok.command = None;
+                        tok.goal = None;
                     }
                     self.ready.push_back((t, self.wave + 1));
                 } else {
@@ -768,14 +763,11 @@ impl<'a> Run<'a> {
             taken.push(d);
         }
         let instance = self.s.tokens[&t].instance;
-        self.record(
-            instance,
-            Entry::Decided {
-                node: node_id,
-                flows: taken.clone(),
-                read,
-            },
-        );
+        self.record(instance, || Entry::Decided {
+            node: node_id,
+            flows: taken.clone(),
+            read,
+        });
         if taken.is_empty() {
             return Err(format!(
                 "no outgoing flow of `{}` could be taken",
@@ -1013,6 +1005,31 @@ fn sends_message(kind: &NodeKind) -> bool {
             .iter()
             .any(|d| matches!(d, EventDefinition::Message(_))),
         _ => false,
+    }
+}
+
+/// The resource a task is dispatched to: its binding's resource, else a script task's script
+/// (run by a connector), else its element id. A call activity that calls a global task is
+/// dispatched as that task. (In a token game, always its element id.)
+pub fn resource(g: &ProcessGraph, node: NodeId) -> std::sync::Arc<str> {
+    let n = g.node(node);
+    let task = match &n.kind {
+        NodeKind::Task(task) => Some(task),
+        NodeKind::CallActivity(call) => match &call.called {
+            Some(executive_model::Called::GlobalTask(id)) => g.global_tasks.get(id),
+            _ => None,
+        },
+        _ => None,
+    };
+    task_resource(task, &n.id)
+}
+
+/// [`resource`] of `task`, run at the element `id`.
+fn task_resource(task: Option<&executive_model::Task>, id: &str) -> std::sync::Arc<str> {
+    match task.map(|t| (&t.binding, &t.script)) {
+        Some((Some(b), _)) if b.resource.is_some() => b.resource.clone().unwrap_or_default(),
+        Some((_, Some(s))) => s.text.as_str().into(),
+        _ => id.into(),
     }
 }
 

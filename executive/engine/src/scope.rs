@@ -21,10 +21,10 @@ impl Run<'_> {
                 owner: Some(owner),
                 kind,
                 vars,
-                compensable: Vec::new(),
+                compensable: thin_vec::ThinVec::new(),
                 ending: false,
                 tokens: Default::default(),
-                waits: Vec::new(),
+                waits: thin_vec::ThinVec::new(),
             },
         );
         if let Some(tok) = self.s.tokens.get_mut(&owner) {
@@ -33,11 +33,13 @@ impl Run<'_> {
         id
     }
 
-    /// Opens the root scope of a new instance of `process`.
+    /// Opens the root scope of a new instance of `process`. `id` is the process's id as an
+    /// input named it, if one did (recorded as it is, instead of a copy of the model's).
     pub(crate) fn open_instance(
         &mut self,
         process: ProcessId,
         vars: Vars,
+        id: Option<String>,
     ) -> (InstanceId, ScopeId) {
         let instance = InstanceId(self.mint());
         let root = ScopeId(self.mint());
@@ -59,20 +61,17 @@ impl Run<'_> {
                 owner: None,
                 kind: ScopeKind::Process(process),
                 vars: vars.clone(),
-                compensable: Vec::new(),
+                compensable: thin_vec::ThinVec::new(),
                 ending: false,
                 tokens: Default::default(),
-                waits: Vec::new(),
+                waits: thin_vec::ThinVec::new(),
             },
         );
-        let name = self.g.process(process).id.clone();
-        self.record(
-            instance,
-            Entry::InstanceStarted {
-                process: name,
-                vars,
-            },
-        );
+        let name = id.unwrap_or_else(|| self.g.process(process).id.clone());
+        self.record(instance, || Entry::InstanceStarted {
+            process: name,
+            vars,
+        });
         (instance, root)
     }
 
@@ -91,32 +90,30 @@ impl Run<'_> {
                 |n| matches!(&self.g.node(*n).kind, NodeKind::Start(s) if s.triggers.is_empty()),
             )
         };
-        let mut starts: Vec<NodeId> = start.or_else(first_none_start).into_iter().collect();
-        starts.retain(|s| {
+        let first = start.or_else(first_none_start).filter(|s| {
             self.g.node(*s).incoming.is_empty()
                 && matches!(self.g.node(*s).kind, NodeKind::Start(_))
         });
-        starts.extend(self.implicit_starts(element));
-        if let Some(s) = start
-            && !starts.contains(&s)
-        {
-            starts.insert(0, s);
-        }
-        self.start_at(scope, &starts);
+        let implicit = self.implicit_starts(element);
+        // A named start that is neither goes first.
+        let named = start.filter(|s| Some(*s) != first && !implicit.contains(s));
+        self.start_at(scope, named.into_iter().chain(first).chain(implicit));
     }
 
     /// Starts a sub-process scope.
     pub(crate) fn start_scope(&mut self, scope: ScopeId, node: NodeId) {
         self.subscribe_event_subprocesses(scope, Scope::SubProcess(node));
         let starts = self.start_nodes(Scope::SubProcess(node));
-        self.start_at(scope, &starts);
+        self.start_at(scope, starts);
     }
 
-    fn start_at(&mut self, scope: ScopeId, starts: &[NodeId]) {
-        for &n in starts {
+    fn start_at(&mut self, scope: ScopeId, starts: impl IntoIterator<Item = NodeId>) {
+        let mut none = true;
+        for n in starts {
             self.spawn(scope, n, None);
+            none = false;
         }
-        if starts.is_empty() {
+        if none {
             // Nothing to run: the scope is complete at once.
             self.complete_scope(scope);
         }
@@ -175,13 +172,10 @@ impl Run<'_> {
                     // An event sub-process run ends; its token has nowhere to go.
                     if self.trace_moves {
                         let instance = sc.instance;
-                        self.record(
-                            instance,
-                            Entry::Left {
-                                node: n,
-                                token: owner,
-                            },
-                        );
+                        self.record(instance, || Entry::Left {
+                            node: n,
+                            token: owner,
+                        });
                     }
                     self.consume(owner);
                 } else {
@@ -213,7 +207,7 @@ impl Run<'_> {
         let (at, node, instance) = (tok.at.clone(), tok.node, tok.instance);
         match at {
             At::Task(key) => {
-                self.record(instance, Entry::Cancelled { task: key });
+                self.record(instance, || Entry::Cancelled { task: key });
                 self.out.push(Action::CancelTask { task: key });
             }
             At::UserTask(key) => self.out.push(Action::CloseUserTask { task: key }),
@@ -226,7 +220,7 @@ impl Run<'_> {
             _ => {}
         }
         if self.trace_moves {
-            self.record(instance, Entry::Withdrawn { node, token: t });
+            self.record(instance, || Entry::Withdrawn { node, token: t });
         }
         self.drop_waits(t);
         self.unpark(t);
@@ -282,13 +276,10 @@ impl Run<'_> {
             self.cancel_scope(root);
         }
         self.ready.retain(|(t, _)| self.s.tokens.contains_key(t));
-        self.record(
-            instance,
-            Entry::InstanceFinished {
-                outcome: outcome.clone(),
-                uncaught_escalations,
-            },
-        );
+        self.record(instance, || Entry::InstanceFinished {
+            outcome: outcome.clone(),
+            uncaught_escalations,
+        });
         self.out
             .push(Action::InstanceFinished { instance, outcome });
     }

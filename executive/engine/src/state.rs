@@ -4,6 +4,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use serde::{Deserialize, Serialize};
+use thin_vec::ThinVec;
 
 use crate::io::{InstanceId, Millis, Outcome, ScopeId, TaskKey, TimerKey, TokenId, WaitId};
 use crate::value::{Value, Vars};
@@ -76,13 +77,13 @@ pub struct ScopeState {
     /// Local variables.
     pub vars: Vars,
     /// Completed activities that can be compensated, oldest first.
-    pub compensable: Vec<Compensable>,
+    pub compensable: ThinVec<Compensable>,
     /// Set while the scope is being torn down, so completion is not reported twice.
     pub ending: bool,
     /// Tokens in the scope.
     pub tokens: BTreeSet<TokenId>,
     /// Event sub-process start subscriptions of the scope.
-    pub waits: Vec<WaitId>,
+    pub waits: ThinVec<WaitId>,
 }
 
 /// What a scope executes.
@@ -116,10 +117,36 @@ pub struct Token {
     /// The token runs a compensation handler for this thrower (waiting throw token, if any).
     pub compensating: Option<Box<CompensationRun>>,
     /// Its subscriptions (catch events, boundaries).
-    pub waits: Vec<WaitId>,
-    /// The command in flight for this token (dispatch or open user task), to re-command it
-    /// after a restart.
-    pub command: Option<Box<crate::io::Action>>,
+    pub waits: ThinVec<WaitId>,
+    /// The goal of the command in flight for this token: its dispatch's request, or its open
+    /// user task's context (none when empty). With `at` and `node` it gives the command again
+    /// after a restart ([`crate::Engine::in_flight`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub goal: Option<Box<Vars>>,
+    /// The whole command, as snapshots written before `goal` kept it: read, and moved into
+    /// `goal` when an engine is restored; never written.
+    #[serde(default, skip_serializing)]
+    pub(crate) command: Option<Box<crate::io::Action>>,
+}
+
+impl Token {
+    /// Moves a command read from an older snapshot into `goal`.
+    pub(crate) fn upgrade(&mut self) {
+        if let Some(c) = self.command.take() {
+            self.goal = match *c {
+                crate::io::Action::DispatchTask { request: g, .. }
+                | crate::io::Action::OpenUserTask { context: g, .. } => {
+                    (!g.is_empty()).then(|| Box::new(g))
+                }
+                _ => None,
+            };
+        }
+    }
+}
+
+/// A command's goal as a token keeps it: none when empty.
+pub(crate) fn goal(vars: &Vars) -> Option<Box<Vars>> {
+    (!vars.is_empty()).then(|| Box::new(vars.clone()))
 }
 
 /// A completed activity that can be compensated.
@@ -128,7 +155,7 @@ pub struct Compensable {
     /// The activity.
     pub node: NodeId,
     /// A completed sub-process: its own completed activities, oldest first.
-    pub inner: Vec<Compensable>,
+    pub inner: ThinVec<Compensable>,
 }
 
 /// One compensation handler to run.
@@ -138,7 +165,7 @@ pub enum Handler {
     Activity(NodeId),
     /// A compensation event sub-process (its start event) of a completed sub-process, with
     /// that sub-process's completed activities.
-    EventSub(NodeId, Vec<Compensable>),
+    EventSub(NodeId, ThinVec<Compensable>),
     /// The compensation of this completed sub-process is over (recorded as leaving it).
     Done(NodeId),
 }

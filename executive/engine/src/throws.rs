@@ -263,38 +263,29 @@ impl Run<'_> {
             return;
         };
         let (instance, node) = (tok.instance, tok.node);
-        self.record(
-            instance,
-            Entry::Thrown {
-                what: Trigger::Error,
-                name: code.to_owned(),
-                node: Some(node),
-            },
-        );
+        self.record(instance, || Entry::Thrown {
+            what: Trigger::Error,
+            name: code.to_owned(),
+            node: Some(node),
+        });
         match self.find_catcher(t, Trigger::Error, code, own) {
             Some(Catcher::Boundary(owner, b)) => {
                 let scope = self.s.tokens[&owner].scope;
-                self.record(
-                    instance,
-                    Entry::Caught {
-                        what: Trigger::Error,
-                        name: code.to_owned(),
-                        node: b,
-                    },
-                );
+                self.record(instance, || Entry::Caught {
+                    what: Trigger::Error,
+                    name: code.to_owned(),
+                    node: b,
+                });
                 self.error_variables(scope, b, code, message);
                 self.withdraw(owner);
                 self.spawn(scope, b, None);
             }
             Some(Catcher::EventSub(scope, start)) => {
-                self.record(
-                    instance,
-                    Entry::Caught {
-                        what: Trigger::Error,
-                        name: code.to_owned(),
-                        node: start,
-                    },
-                );
+                self.record(instance, || Entry::Caught {
+                    what: Trigger::Error,
+                    name: code.to_owned(),
+                    node: start,
+                });
                 self.clear_scope(scope, false);
                 let mut vars = Vars::new();
                 self.error_vars_into(&mut vars, start, code, message);
@@ -362,25 +353,19 @@ impl Run<'_> {
         let g = self.g;
         let tok = &self.s.tokens[&t];
         let (instance, node) = (tok.instance, tok.node);
-        self.record(
-            instance,
-            Entry::Thrown {
-                what,
-                name: code.to_owned(),
-                node: Some(node),
-            },
-        );
+        self.record(instance, || Entry::Thrown {
+            what,
+            name: code.to_owned(),
+            node: Some(node),
+        });
         match self.find_catcher(t, what, code, false) {
             Some(Catcher::Boundary(owner, b)) => {
                 let scope = self.s.tokens[&owner].scope;
-                self.record(
-                    instance,
-                    Entry::Caught {
-                        what,
-                        name: code.to_owned(),
-                        node: b,
-                    },
-                );
+                self.record(instance, || Entry::Caught {
+                    what,
+                    name: code.to_owned(),
+                    node: b,
+                });
                 let interrupting =
                     matches!(&g.node(b).kind, NodeKind::Boundary(x) if x.interrupting);
                 if interrupting {
@@ -389,14 +374,11 @@ impl Run<'_> {
                 self.spawn(scope, b, None);
             }
             Some(Catcher::EventSub(scope, start)) => {
-                self.record(
-                    instance,
-                    Entry::Caught {
-                        what,
-                        name: code.to_owned(),
-                        node: start,
-                    },
-                );
+                self.record(instance, || Entry::Caught {
+                    what,
+                    name: code.to_owned(),
+                    node: start,
+                });
                 let interrupting =
                     matches!(&g.node(start).kind, NodeKind::Start(s) if s.interrupting);
                 if interrupting {
@@ -460,15 +442,12 @@ impl Run<'_> {
         what: Trigger,
         name: &str,
     ) -> InstanceId {
-        let (instance, root) = self.open_instance(process, vars);
-        self.record(
-            instance,
-            Entry::Caught {
-                what,
-                name: name.to_owned(),
-                node: start,
-            },
-        );
+        let (instance, root) = self.open_instance(process, vars, None);
+        self.record(instance, || Entry::Caught {
+            what,
+            name: name.to_owned(),
+            node: start,
+        });
         self.subscribe_event_subprocesses(root, Scope::Process(process));
         let t = self.spawn(root, start, None);
         for n in self.implicit_starts(Scope::Process(process)) {
@@ -482,13 +461,10 @@ impl Run<'_> {
                 tok.at = At::Catching;
             }
             if self.trace_moves {
-                self.record(
-                    instance,
-                    Entry::Entered {
-                        node: start,
-                        token: t,
-                    },
-                );
+                self.record(instance, || Entry::Entered {
+                    node: start,
+                    token: t,
+                });
             }
             self.subscribe_boundaries(t);
             self.complete_activity(t);
@@ -499,14 +475,11 @@ impl Run<'_> {
     /// Broadcasts a signal to every waiting catcher and every process that starts on it.
     pub(crate) fn broadcast(&mut self, instance: InstanceId, node: Option<NodeId>, name: &str) {
         if let Some(_i) = self.s.instances.get(&instance) {
-            self.record(
-                instance,
-                Entry::Thrown {
-                    what: Trigger::Signal,
-                    name: name.to_owned(),
-                    node,
-                },
-            );
+            self.record(instance, || Entry::Thrown {
+                what: Trigger::Signal,
+                name: name.to_owned(),
+                node,
+            });
         }
         // Inner scopes first (an event sub-process hears the signal before a boundary event
         // of its enclosing sub-process interrupts it); within a scope the non-interrupting
@@ -561,20 +534,17 @@ impl Run<'_> {
             );
         };
         if self.trace_moves {
-            self.record(instance, Entry::Left { node, token: t });
+            self.record(instance, || Entry::Left { node, token: t });
         }
         if let Some(tok) = self.s.tokens.get_mut(&t) {
             tok.node = target;
             tok.via = None;
         }
         if self.trace_moves {
-            self.record(
-                instance,
-                Entry::Entered {
-                    node: target,
-                    token: t,
-                },
-            );
+            self.record(instance, || Entry::Entered {
+                node: target,
+                token: t,
+            });
         }
         self.leave(t);
     }

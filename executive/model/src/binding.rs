@@ -117,8 +117,9 @@ pub struct OutputMapping {
 pub struct TaskBinding {
     /// Vocabulary it was read from.
     pub dialect: Dialect,
-    /// Resource name routed to a connector, e.g. `excavation.excavate` or `ground.approve_site`.
-    pub resource: Option<String>,
+    /// Resource name routed to a connector, e.g. `excavation.excavate` or `ground.approve_site`:
+    /// shared, so each dispatch names it without a copy of its own.
+    pub resource: Option<std::sync::Arc<str>>,
     /// Inputs, in document order.
     pub inputs: Vec<InputMapping>,
     /// Outputs, in document order.
@@ -219,7 +220,7 @@ impl Reader<'_> {
             .extensions()
             .find(|e| e.ns == Ns::Trace && e.name == "task")?;
         let mut b = TaskBinding::new(Dialect::Trace);
-        b.resource = task.attr("resource").map(str::to_owned);
+        b.resource = task.attr("resource").map(Into::into);
         if let Some(r) = task.attr("retries") {
             match r.parse() {
                 Ok(n) => b.retries = Some(n),
@@ -285,7 +286,7 @@ impl Reader<'_> {
             match z.name {
                 "taskDefinition" => {
                     relevant = true;
-                    b.resource = self.constant(z, "type");
+                    b.resource = self.constant(z, "type").map(Into::into);
                     b.retries = self.constant(z, "retries").and_then(|r| r.parse().ok());
                 }
                 "ioMapping" => {
@@ -329,7 +330,7 @@ impl Reader<'_> {
                 // resource a connector serves, as `camunda:decisionRef` is for Camunda 7.
                 "calledDecision" => {
                     relevant = true;
-                    b.resource = self.constant(z, "decisionId");
+                    b.resource = self.constant(z, "decisionId").map(Into::into);
                 }
                 // What a Camunda 8 user task says about people and dates: TRACE's ground
                 // stations do not use it, but a FEEL error in it is still named.
@@ -411,7 +412,7 @@ impl Reader<'_> {
             match ext.name {
                 "serviceTaskOperator" => {
                     relevant = true;
-                    b.resource = ext.attr("id").map(str::to_owned);
+                    b.resource = ext.attr("id").map(Into::into);
                     let params = ext
                         .children
                         .iter()
@@ -439,7 +440,7 @@ impl Reader<'_> {
                 }
                 "calledDecisionId" => {
                     relevant = true;
-                    b.resource = Some(ext.trimmed_text().to_owned());
+                    b.resource = Some(ext.trimmed_text().into());
                 }
                 _ => {}
             }
@@ -458,7 +459,7 @@ impl Reader<'_> {
             "decisionRef",
         ] {
             if let Some(v) = el.attr_ns(&Ns::Camunda, attr) {
-                b.resource = Some(v.to_owned());
+                b.resource = Some(v.into());
                 relevant = true;
                 break;
             }
@@ -473,7 +474,7 @@ impl Reader<'_> {
                 .iter()
                 .find(|e| e.ns == Ns::Camunda && e.name == "connectorId")
         }) {
-            b.resource = Some(id.trimmed_text().to_owned());
+            b.resource = Some(id.trimmed_text().into());
             relevant = true;
         }
         let inner = connector
@@ -693,6 +694,6 @@ fn implementation(el: &Element) -> Option<TaskBinding> {
         .unwrap_or(raw)
         .trim();
     let mut b = TaskBinding::new(Dialect::Bpmn);
-    b.resource = Some(name.to_owned());
+    b.resource = Some(name.into());
     Some(b)
 }

@@ -116,13 +116,14 @@ fn send_some(a: &mut Side, n: usize, fleet: &Fleet, unsent: &mut BTreeMap<String
         .collect();
     for (seq, actions) in a.step(starts) {
         for (i, action) in actions.into_iter().enumerate() {
-            if let Action::SendMessage {
-                name,
-                to: Some(to),
-                flow: Some(flow),
-                number: Some(number),
-                ..
-            } = action
+            if let Action::SendMessage(m) = action
+                && let executive_engine::Outgoing {
+                    name,
+                    to: Some(to),
+                    flow: Some(flow),
+                    number: Some(number),
+                    ..
+                } = *m
             {
                 let key = format!("bench.m{number}");
                 unsent.insert(key.clone(), (seq, i as u32));

@@ -21,7 +21,8 @@ use std::time::Duration;
 use connector_api::{Command, Report, Verdict};
 use connector_zenoh::ZenohArgs;
 use executive_engine::{
-    Action, Engine, Event, Input, Millis, Outcome, Rejected, TaskKey, TimerKey, Value, Vars,
+    Action, Engine, Event, Input, Millis, Outcome, Outgoing, Rejected, TaskKey, TimerKey, Value,
+    Vars,
 };
 use executive_model::ProcessGraph;
 use executive_store::{SledStore, Store, StoreError};

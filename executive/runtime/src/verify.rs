@@ -524,10 +524,10 @@ pub fn as_record(
             "type": node.kind.element_name()});
         let key = format!("{}{}", st.path, st.element);
         let resource = match &node.kind {
-            NodeKind::Task(t) => t.binding.as_ref().and_then(|b| b.resource.clone()),
+            NodeKind::Task(t) => t.binding.as_ref().and_then(|b| b.resource.as_deref()),
             _ => None,
         }
-        .unwrap_or_else(|| format!("model.{}", st.element));
+        .map_or_else(|| format!("model.{}", st.element), str::to_owned);
         let scope = matches!(
             node.kind,
             NodeKind::SubProcess(_) | NodeKind::CallActivity(_)

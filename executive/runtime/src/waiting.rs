@@ -228,12 +228,7 @@ pub fn assess(
                 let what = match &t.at {
                     At::Task(_) => What::Task {
                         task: *k,
-                        resource: match t.command.as_deref() {
-                            Some(executive_engine::Action::DispatchTask { resource, .. }) => {
-                                resource.clone()
-                            }
-                            _ => String::new(),
-                        },
+                        resource: executive_engine::resource(g, t.node).to_string(),
                     },
                     _ => What::UserTask { task: *k },
                 };

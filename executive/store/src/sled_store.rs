@@ -17,8 +17,10 @@ use crate::{FORMAT, KEEP_SNAPSHOTS, Recovered, Step, Store, StoreError};
 const EPOCH: &str = "wal-epoch";
 
 /// Earlier store formats this version opens, and rewrites as [`FORMAT`]: `trace-store/1` is
-/// the same trees without a write-ahead log.
-const EARLIER: &[&str] = &["trace-store/1"];
+/// the same trees without a write-ahead log; in `trace-store/2` and before, a snapshot's tokens
+/// keep their whole command (the engine reads it as the command's goal when it restores). An
+/// older `trace` refuses a store it would misread.
+const EARLIER: &[&str] = &["trace-store/1", "trace-store/2"];
 
 /// A store in a directory on disk.
 pub struct SledStore {

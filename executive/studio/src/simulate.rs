@@ -904,7 +904,10 @@ fn start_events(g: &ProcessGraph, p: ProcessId) -> Vec<NodeId> {
 fn task_view(g: &ProcessGraph, n: NodeId) -> TaskView {
     let node = g.node(n);
     let resource = match &node.kind {
-        NodeKind::Task(t) => t.binding.as_ref().and_then(|b| b.resource.clone()),
+        NodeKind::Task(t) => t
+            .binding
+            .as_ref()
+            .and_then(|b| b.resource.as_deref().map(str::to_owned)),
         _ => None,
     };
     let mut catches: Vec<String> = Vec::new();

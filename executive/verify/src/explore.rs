@@ -376,12 +376,13 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
             let mut rejected = None;
             for event in events {
                 let seq = e.state().last_seq + 1;
-                match e.step(Input {
+                let input = Input {
                     seq,
                     at: 0,
                     event: event.clone(),
-                }) {
-                    Ok(a) => actions.extend(a),
+                };
+                match e.step_into(input, &mut actions) {
+                    Ok(()) => {}
                     Err(r) => {
                         rejected = Some(r);
                         break;

@@ -214,8 +214,8 @@ pub fn costs(g: &ProcessGraph, sources: &[Source]) -> Result<Costs, Vec<String>>
             }
             continue;
         };
-        let resource = binding.resource.clone().unwrap_or_else(|| node.id.clone());
-        let Some(route) = config.route(&resource) else {
+        let resource = binding.resource.as_deref().unwrap_or(&node.id);
+        let Some(route) = config.route(resource) else {
             problem(format!(
                 "task `{}`: no connector serves resource `{resource}`",
                 node.id

@@ -4,7 +4,7 @@
 
 use std::collections::{BTreeMap, VecDeque};
 
-use executive_engine::{Action, Engine, Entry, Event, Input, Value, Vars};
+use executive_engine::{Action, Engine, Entry, Event, Input, TaskKey, Value, Vars};
 
 /// Service operation of each service task, from `implementation="${environment.services.op}"`.
 pub(crate) fn operations(xml: &str) -> BTreeMap<String, String> {
@@ -39,62 +39,90 @@ pub(crate) fn bind(
         .collect()
 }
 
+/// What a task's connector answers: the harness's queue holds these, small and plain, and
+/// makes each event only as it is stepped.
+#[derive(Clone, Copy)]
+enum Reply {
+    /// The instance starts.
+    Start,
+    /// The task fails with `SVC_FAIL`.
+    Fail(TaskKey),
+    /// The task completes; `inc` returns the goal's count plus one.
+    Complete(TaskKey, Option<i64>),
+}
+
+/// The queue of replies and the buffer of actions, kept from one instance to the next (as a
+/// driver keeps its own).
+#[derive(Default)]
+pub(crate) struct Buffers {
+    queue: VecDeque<Reply>,
+    actions: Vec<Action>,
+}
+
 /// Runs one instance to its end; returns the completed flow nodes (if counted).
 pub(crate) fn instance(
     e: &mut Engine,
     seq: &mut u64,
     process: &str,
     ops: &[&'static str],
+    b: &mut Buffers,
 ) -> usize {
-    let mut queue = VecDeque::from([Event::InstanceStarted {
-        process: process.to_owned(),
-        vars: Vars::new(),
-        start: None,
-    }]);
+    let Buffers { queue, actions } = b;
+    queue.push_back(Reply::Start);
     let mut completed = 0;
-    while let Some(event) = queue.pop_front() {
+    while let Some(reply) = queue.pop_front() {
         *seq += 1;
-        let actions = e
-            .step(Input {
+        let event = match reply {
+            Reply::Start => Event::InstanceStarted {
+                process: process.to_owned(),
+                vars: Vars::new(),
+                start: None,
+            },
+            Reply::Fail(task) => Event::TaskFailed {
+                task,
+                code: "SVC_FAIL".into(),
+                message: String::new(),
+            },
+            Reply::Complete(task, count) => Event::TaskCompleted {
+                task,
+                output: count
+                    .map(|c| [("count".to_owned(), Value::Int(c))].into())
+                    .unwrap_or_default(),
+            },
+        };
+        e.step_into(
+            Input {
                 seq: *seq,
                 at: 0,
                 event,
-            })
-            .expect("accepted");
-        for a in actions {
+            },
+            actions,
+        )
+        .expect("accepted");
+        // Read in place, then dropped in place (as a driver writes each action to its store).
+        for a in actions.iter() {
             match a {
                 Action::DispatchTask {
                     task,
                     node,
                     request,
                     ..
-                } => {
-                    queue.push_back(match ops[node.index()] {
-                        "fail" => Event::TaskFailed {
-                            task,
-                            code: "SVC_FAIL".into(),
-                            message: String::new(),
-                        },
-                        "inc" => {
-                            let count = match request.get("count") {
-                                Some(Value::Int(c)) => *c,
-                                _ => 0,
-                            };
-                            Event::TaskCompleted {
-                                task,
-                                output: [("count".to_owned(), Value::Int(count + 1))].into(),
-                            }
-                        }
-                        _ => Event::TaskCompleted {
-                            task,
-                            output: Vars::new(),
-                        },
-                    });
-                }
+                } => queue.push_back(match ops[node.index()] {
+                    "fail" => Reply::Fail(*task),
+                    "inc" => {
+                        let count = match request.get("count") {
+                            Some(Value::Int(c)) => *c,
+                            _ => 0,
+                        };
+                        Reply::Complete(*task, Some(count + 1))
+                    }
+                    _ => Reply::Complete(*task, None),
+                }),
                 Action::Record(r) if matches!(r.entry, Entry::Left { .. }) => completed += 1,
                 _ => {}
             }
         }
+        actions.clear();
     }
     completed
 }

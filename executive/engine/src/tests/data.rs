@@ -10,13 +10,15 @@ fn int(i: i64) -> Value {
 
 /// The goals of every dispatch of `node` still running, in dispatch order.
 fn requests(d: &Driver, node: &str) -> Vec<Vars> {
+    let flying = d.e.in_flight();
     d.tasks
         .iter()
         .filter(|(n, _)| n == node)
-        .filter_map(|(_, k)| d.e.state().tokens.get(&k.token))
-        .filter_map(|t| match t.command.as_deref() {
-            Some(Action::DispatchTask { request, .. }) => Some(request.clone()),
-            _ => None,
+        .filter_map(|(_, k)| {
+            flying.iter().find_map(|a| match a {
+                Action::DispatchTask { task, request, .. } if task == k => Some(request.clone()),
+                _ => None,
+            })
         })
         .collect()
 }

@@ -83,23 +83,26 @@ fn letters(actions: &[Action], mission: &str) -> Vec<(String, Event)> {
     actions
         .iter()
         .filter_map(|a| match a {
-            Action::SendMessage {
-                name,
-                payload,
-                to: Some(to),
-                flow: Some(flow),
-                correlation,
-                number: Some(n),
-            } => Some((
-                to.clone(),
-                Event::MessageReceived {
-                    name: name.clone(),
-                    correlation: correlation.clone(),
-                    payload: payload.clone(),
-                    flow: Some(flow.clone()),
-                    key: Some(format!("{mission}.m{n}")),
-                },
-            )),
+            Action::SendMessage(m) => match &**m {
+                crate::Outgoing {
+                    name,
+                    payload,
+                    to: Some(to),
+                    flow: Some(flow),
+                    correlation,
+                    number: Some(n),
+                } => Some((
+                    to.clone(),
+                    Event::MessageReceived {
+                        name: name.clone(),
+                        correlation: correlation.clone(),
+                        payload: payload.clone(),
+                        flow: Some(flow.clone()),
+                        key: Some(format!("{mission}.m{n}")),
+                    },
+                )),
+                _ => None,
+            },
             _ => None,
         })
         .collect()
@@ -307,4 +310,25 @@ fn a_fleet_of_engines_ends_as_one_engine_running_the_collaboration() {
     let mut all = outcomes(&whole);
     all.sort_by(|a, b| a.0.cmp(&b.0));
     assert_eq!(all, [done("p"), done("q")]);
+}
+
+/// A message sent out is written to the store's outbox as it always was: its fields beside its
+/// type, none nested (the command is boxed in memory only).
+#[test]
+fn a_sent_message_is_written_as_before() {
+    let sent = Action::SendMessage(Box::new(crate::Outgoing {
+        name: "site".into(),
+        payload: [("x".to_owned(), crate::Value::Int(3))].into(),
+        to: Some("rover".into()),
+        flow: Some("mf1".into()),
+        correlation: None,
+        number: Some(2),
+    }));
+    let json = serde_json::to_string(&sent).expect("serializes");
+    assert_eq!(
+        json,
+        r#"{"type":"send_message","name":"site","payload":{"x":3},"to":"rover","flow":"mf1","number":2}"#
+    );
+    let back: Action = serde_json::from_str(&json).expect("deserializes");
+    assert_eq!(back, sent);
 }

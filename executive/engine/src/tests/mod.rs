@@ -88,7 +88,7 @@ impl Driver {
                     self.timers.push(timer);
                 }
                 Action::CancelTimer { .. } => out.push("untimer".to_owned()),
-                Action::SendMessage { name, .. } => out.push(format!("send {name}")),
+                Action::SendMessage(m) => out.push(format!("send {}", m.name)),
                 Action::InstanceFinished { outcome, .. } => out.push(match outcome {
                     Outcome::Failed { code, .. } => format!("failed {code}"),
                     o => format!("{o:?}").to_lowercase(),
@@ -319,16 +319,11 @@ impl Driver {
     /// The goal of the latest dispatch of `node` (while it runs).
     fn request(&self, node: &str) -> Vars {
         let key = self.key(node);
-        match self
-            .e
-            .state()
-            .tokens
-            .get(&key.token)
-            .and_then(|t| t.command.as_deref())
-        {
-            Some(Action::DispatchTask { request, .. }) => request.clone(),
-            other => panic!("{node} is not dispatched: {other:?}"),
-        }
+        let given = self.e.in_flight().into_iter().find_map(|a| match a {
+            Action::DispatchTask { task, request, .. } if task == key => Some(request),
+            _ => None,
+        });
+        given.unwrap_or_else(|| panic!("{node} is not dispatched"))
     }
 
     /// The `i`-th timer fires (again) without time passing.
@@ -772,4 +767,91 @@ fn a_parallel_multi_instance_beyond_the_bound_is_an_incident_and_a_sequential_on
     );
     let at_bound = Driver::new(&model(false)).start(&[("n", Value::Int(10_000))]);
     assert_eq!(at_bound.len(), 10_000);
+}
+
+/// After a restart the engine commands again what it commanded, from its state alone: the
+/// same key, resource and goal (a call activity's, its global task's). A state saved before
+/// tokens kept only the goal (they kept the whole command) gives the same commands.
+#[test]
+fn a_restored_state_gives_its_commands_again_even_from_an_older_snapshot() {
+    let body = format!(
+        r#"<globalBusinessRuleTask id="g"><extensionElements><trace:task resource="sys.rule"/></extensionElements></globalBusinessRuleTask>
+        <process id="p" isExecutable="true"><startEvent id="s"/>{fork}
+        <callActivity id="c" calledElement="g"/>
+        <serviceTask id="a"><extensionElements><trace:task resource="sys.a"><trace:input target="n" source="n"/></trace:task></extensionElements></serviceTask>
+        <serviceTask id="b" camunda:type="external" camunda:topic="lab.b"/>
+        <userTask id="u"/>
+        {ends}{f1}{f2}{f3}{f4}{f5}{f6}{f7}{f8}{f9}</process>"#,
+        fork = parallel("fork"),
+        ends = ends(&["ea", "eb", "eu", "ec"]),
+        f8 = flow("f8", "fork", "c"),
+        f9 = flow("f9", "c", "ec"),
+        f5 = flow("f5", "a", "ea"),
+        f6 = flow("f6", "b", "eb"),
+        f7 = flow("f7", "u", "eu"),
+        f1 = flow("f1", "s", "fork"),
+        f2 = flow("f2", "fork", "a"),
+        f3 = flow("f3", "fork", "b"),
+        f4 = flow("f4", "fork", "u"),
+    );
+    let mut d = Driver::new(&body);
+    let given: Vec<Action> =
+        d.e.step(Input {
+            seq: 1,
+            at: 0,
+            event: Event::InstanceStarted {
+                process: "p".into(),
+                vars: vars(&[("n", Value::Int(7))]),
+                start: None,
+            },
+        })
+        .expect("starts")
+        .into_iter()
+        .filter(|a| matches!(a, Action::DispatchTask { .. } | Action::OpenUserTask { .. }))
+        .collect();
+    assert_eq!(given.len(), 4, "{given:#?}");
+    assert!(
+        given.iter().any(
+            |a| matches!(a, Action::DispatchTask { resource, .. } if &**resource == "sys.rule")
+        ),
+        "{given:#?}"
+    );
+    assert_eq!(d.e.in_flight(), given);
+    let graph = Arc::clone(d.e.graph());
+    let saved = serde_json::to_value(d.e.state()).expect("serializes");
+    let restored: State = serde_json::from_value(saved.clone()).expect("deserializes");
+    assert_eq!(
+        Engine::restore(Arc::clone(&graph), restored).in_flight(),
+        given
+    );
+    // The older form: each token held its whole command, and no goal.
+    let mut older = saved;
+    let mut commands = 0;
+    for token in older["tokens"]
+        .as_object_mut()
+        .expect("tokens")
+        .values_mut()
+    {
+        let token = token.as_object_mut().expect("a token");
+        token.remove("goal");
+        // `at` is `{"Task": key}` or `{"UserTask": key}` for a token with a command.
+        let key = match &token["at"] {
+            serde_json::Value::Object(at) => at.values().next().cloned(),
+            _ => None,
+        };
+        let command = given.iter().find(|a| {
+            matches!(a, Action::DispatchTask { task, .. } | Action::OpenUserTask { task, .. }
+                if serde_json::to_value(task).ok() == key)
+        });
+        if let Some(c) = command {
+            token.insert(
+                "command".into(),
+                serde_json::to_value(c).expect("serializes"),
+            );
+            commands += 1;
+        }
+    }
+    assert_eq!(commands, 4);
+    let older: State = serde_json::from_value(older).expect("an older snapshot deserializes");
+    assert_eq!(Engine::restore(graph, older).in_flight(), given);
 }

@@ -33,15 +33,25 @@ impl Driver {
                 .record
                 .write(seq, index, wall_ms(), &r)
                 .map_err(|e| RunError::Io(e.to_string()))?,
-            Action::SendMessage {
-                name,
-                payload,
-                to: Some(to),
-                flow: Some(flow),
-                correlation,
-                number: Some(number),
-            } if self.post.as_ref().is_some_and(|p| p.peers.contains(&to)) => {
-                let Some(post) = self.post.as_mut() else {
+            Action::SendMessage(m)
+                if m.flow.is_some()
+                    && m.number.is_some()
+                    && m.to.as_ref().is_some_and(|to| {
+                        self.post.as_ref().is_some_and(|p| p.peers.contains(to))
+                    }) =>
+            {
+                let Outgoing {
+                    name,
+                    payload,
+                    to,
+                    flow,
+                    correlation,
+                    number,
+                } = *m;
+                // All there: the guard checked.
+                let (Some(to), Some(flow), Some(number), Some(post)) =
+                    (to, flow, number, self.post.as_mut())
+                else {
                     return Ok(());
                 };
                 let letter =
@@ -55,7 +65,8 @@ impl Driver {
                 // Done once its receiver gives a verdict.
                 return Ok(());
             }
-            Action::SendMessage { name, payload, .. } => {
+            Action::SendMessage(m) => {
+                let Outgoing { name, payload, .. } = *m;
                 match self.connectors.config.route(&name) {
                     Some(route) => {
                         let payload = serde_json::to_value(&payload).unwrap_or_default();
@@ -191,11 +202,12 @@ impl Driver {
     pub(super) fn user_resource(&self, node: executive_model::NodeId) -> String {
         match &self.g.node(node).kind {
             executive_model::NodeKind::Task(t) => {
-                t.binding.as_ref().and_then(|b| b.resource.clone())
+                t.binding.as_ref().and_then(|b| b.resource.as_deref())
             }
             _ => None,
         }
-        .unwrap_or_else(|| self.g.node(node).id.clone())
+        .unwrap_or(&self.g.node(node).id)
+        .to_owned()
     }
 
     /// After a restart: asks the system about a command performed before the crash.
