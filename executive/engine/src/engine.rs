@@ -163,16 +163,7 @@ impl Engine {
                 last: self.state.last_seq,
             });
         }
-        // The process an instance starts is found once, by its id.
-        let started = match &input.event {
-            Event::InstanceStarted { process, start, .. } => {
-                Some(self.check_start(process, start.as_deref())?)
-            }
-            other => {
-                self.check(other)?;
-                None
-            }
-        };
+        self.check(&input.event)?;
         let mut ready = std::mem::take(&mut self.ready);
         ready.clear();
         let mut run = Run {
@@ -212,7 +203,7 @@ impl Engine {
         }
         run.s.last_seq = input.seq;
         run.s.now = run.s.now.max(input.at);
-        apply(&mut run, input.event, started);
+        apply(&mut run, input.event);
         run.quiesce();
         self.ready = run.ready;
         Ok(())
@@ -368,15 +359,14 @@ fn check_answer(
     Ok(())
 }
 
-/// Applies a checked event; `started` is the process an `InstanceStarted` starts.
-fn apply(run: &mut Run<'_>, event: Event, started: Option<ProcessId>) {
+fn apply(run: &mut Run<'_>, event: Event) {
     match event {
         Event::InstanceStarted {
             process,
             vars,
             start,
         } => {
-            let Some(p) = started else {
+            let Some(p) = run.g.process_by_id(&process) else {
                 return;
             };
             let (_, root) = run.open_instance(p, vars, Some(process));
