@@ -80,7 +80,6 @@ fn flight(
                 Action::DispatchTask {
                     task,
                     node,
-                    resource,
                     request,
                 } => {
                     nodes.insert(task, node);
@@ -90,7 +89,12 @@ fn flight(
                         .and_then(|v| v.as_object().cloned())
                         .unwrap_or_default();
                     let r = sim
-                        .begin(&task.to_string(), &resource, &goal, now)
+                        .begin(
+                            &task.to_string(),
+                            executive_engine::resource(g, node),
+                            &goal,
+                            now,
+                        )
                         .expect("served");
                     due.insert((now + r.plan.duration_ms, order), Due::Done(task));
                 }

@@ -7,6 +7,7 @@ use crate::io::{Entry, ScopeId, TokenId, Trigger};
 use crate::run::{Run, triggers_of};
 use crate::state::{At, Compensable, CompensationRun, Handler, ScopeKind};
 use crate::value::Vars;
+use compact_str::CompactString;
 
 impl Run<'_> {
     /// A cancel end event inside a transaction: the transaction is cancelled, its completed
@@ -51,14 +52,14 @@ impl Run<'_> {
         let node = Some(self.s.tokens[&t].node);
         self.record(instance, || Entry::Thrown {
             what: Trigger::Cancel,
-            name: String::new(),
+            name: CompactString::default(),
             node,
         });
         self.cancel_scope(scope);
         if let Some(b) = boundary {
             self.record(instance, || Entry::Caught {
                 what: Trigger::Cancel,
-                name: String::new(),
+                name: CompactString::default(),
                 node: b,
             });
         }
@@ -104,7 +105,7 @@ impl Run<'_> {
         self.record(instance, || Entry::Thrown {
             what: Trigger::Compensation,
             name: activity
-                .map(|a| self.g.node(a).id.clone())
+                .map(|a| CompactString::from(self.g.node(a).id.as_str()))
                 .unwrap_or_default(),
             node: Some(node),
         });

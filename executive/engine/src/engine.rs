@@ -93,18 +93,12 @@ impl Engine {
     /// armed timer at its absolute deadline (an overdue one fires at once).
     pub fn in_flight(&self) -> Vec<Action> {
         let s = &self.state;
-        let game = self.game.is_some();
         let commands = s.tokens.values().filter_map(|t| {
             let goal = || t.goal.as_deref().cloned().unwrap_or_default();
             match t.at {
                 At::Task(task) => Some(Action::DispatchTask {
                     task,
                     node: t.node,
-                    resource: if game {
-                        self.graph.node(t.node).id.as_str().into()
-                    } else {
-                        crate::run::resource(&self.graph, t.node)
-                    },
                     request: goal(),
                 }),
                 At::UserTask(task) => Some(Action::OpenUserTask {

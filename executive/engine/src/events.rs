@@ -250,7 +250,7 @@ impl Run<'_> {
         let node = g.node(wait.node);
         self.record(wait.instance, || Entry::Caught {
             what,
-            name,
+            name: name.into(),
             node: wait.node,
         });
         match &node.kind {

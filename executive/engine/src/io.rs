@@ -1,8 +1,7 @@
 //! What goes into the engine (inputs: things that happened) and what comes out (actions: things
 //! the driver must do, and record entries).
 
-use std::sync::Arc;
-
+use compact_str::CompactString;
 use serde::{Deserialize, Serialize};
 
 use crate::value::{Value, Vars};
@@ -174,15 +173,13 @@ pub enum Event {
 #[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case")]
 pub enum Action {
-    /// Run a task through the connector that serves `resource`.
+    /// Run a task through the connector that serves its resource: [`crate::resource`] of
+    /// `node`, read from the model where the command is given.
     DispatchTask {
         /// Idempotency key.
         task: TaskKey,
         /// The task element.
         node: NodeId,
-        /// The resource name (`excavation.excavate`), or the script text of a script task run
-        /// by a connector: the model's own, shared.
-        resource: Arc<str>,
         /// The goal's fields.
         request: Vars,
     },
@@ -338,14 +335,13 @@ pub enum Entry {
         /// The variable values the conditions read.
         read: Vars,
     },
-    /// A task was dispatched.
+    /// A task was dispatched (to [`crate::resource`] of `node`, which the record's writer
+    /// reads from the model).
     Dispatched {
         /// The attempt.
         task: TaskKey,
         /// The task element.
         node: NodeId,
-        /// The resource (the model's own, shared).
-        resource: Arc<str>,
         /// The goal.
         request: Vars,
     },
@@ -406,8 +402,8 @@ pub enum Entry {
     Thrown {
         /// What kind.
         what: Trigger,
-        /// The name or code.
-        name: String,
+        /// The name or code (kept inline when short, as error codes and signal names are).
+        name: CompactString,
         /// The throwing node, if any.
         node: Option<NodeId>,
     },
@@ -415,8 +411,8 @@ pub enum Entry {
     Caught {
         /// What kind.
         what: Trigger,
-        /// The name or code.
-        name: String,
+        /// The name or code (kept inline when short).
+        name: CompactString,
         /// The catching node.
         node: NodeId,
     },

@@ -17,6 +17,11 @@
 //! - `thin-vec`: a scope's and a token's short lists take one word instead of three, so the
 //!   state's ordered maps move 120-byte scopes and 104-byte tokens with inline copies, where
 //!   152 and 112 bytes went through calls to `memcpy` (`docs/benchmarks.md`, 2026-12-05).
+//! - `smallvec`: a scope's token set keeps its first two tokens inline ([`TokenSet`]), so the
+//!   usual scope allocates nothing for them.
+//! - `compact_str`: a thrown or caught name in the record ([`Entry::Thrown`], [`Entry::Caught`])
+//!   keeps up to 24 bytes inline, where error codes and signal names fit, instead of a copy on
+//!   the heap for each entry. Both are written as the text they are.
 //! - `thiserror`: [`Rejected`] is a typed error.
 //!
 //! Every element the loader reads executes, with BPMN 2.0 chapter 13 token semantics; an
@@ -42,6 +47,7 @@ mod state;
 mod throws;
 mod value;
 
+pub use compact_str::CompactString;
 pub use engine::Engine;
 pub use eval::evaluate;
 pub use game::Game;
@@ -54,7 +60,7 @@ pub use messages::remote_processes;
 pub use run::{implicit_starts, resource};
 pub use state::{
     At, Compensable, CompensationRun, Handler, Instance, Loop, On, ScopeKind, ScopeState, State,
-    Token, Wait,
+    Token, TokenSet, Wait,
 };
 pub use throws::throws;
 pub use value::{F64, Value, Vars};

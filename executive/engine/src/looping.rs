@@ -6,6 +6,7 @@ use crate::io::{Entry, ScopeId, TokenId, Trigger};
 use crate::run::{Run, triggers_of};
 use crate::state::{At, Loop, ScopeKind, ScopeState};
 use crate::value::{Value, Vars};
+use compact_str::CompactString;
 
 /// Bodies a parallel multi-instance activity may start at once: each is a scope and a token
 /// the engine keeps, and a cardinality or collection comes from data (a wrong value of a
@@ -332,7 +333,7 @@ impl Run<'_> {
             {
                 self.record(instance, || Entry::Caught {
                     what: Trigger::Signal,
-                    name: "multi-instance behavior".to_owned(),
+                    name: CompactString::const_new("multi-instance behavior"),
                     node: b,
                 });
                 self.spawn(scope, b, None);

@@ -128,7 +128,7 @@ impl Run<'_> {
     ) -> Option<Value> {
         self.record(instance, || Entry::Thrown {
             what: Trigger::Message,
-            name: name.to_owned(),
+            name: name.into(),
             node,
         });
         let key = self.g.messages.iter().find(|m| m.name == name)?;

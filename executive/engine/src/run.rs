@@ -34,7 +34,7 @@ pub(crate) struct Run<'a> {
     /// Token-game settings, if the engine plays a token game.
     pub(crate) game: Option<&'a crate::game::Game>,
     /// Throwers put back behind the other tokens of their wave, now due to throw.
-    pub(crate) throw_now: std::collections::BTreeSet<TokenId>,
+    pub(crate) throw_now: crate::state::TokenSet,
     /// The incoming flows of a join reachable from a node, memoised (derived from the graph
     /// only, not state).
     pub(crate) reach: &'a mut std::collections::BTreeMap<(NodeId, NodeId, bool), Vec<FlowId>>,
@@ -366,8 +366,7 @@ impl<'a> Run<'a> {
             if self.game.is_some_and(|g| !g.hold.contains(&node)) {
                 return self.complete_activity(t);
             }
-            let resource = self.g.node(node).id.as_str().into();
-            return self.dispatch(t, resource, None);
+            return self.dispatch(t, None);
         }
         match task.kind {
             TaskKind::User => {
@@ -429,8 +428,7 @@ impl<'a> Run<'a> {
                     || task.kind == TaskKind::Script
                     || (task.kind != TaskKind::Send && task.binding.is_some()) =>
             {
-                let resource = task_resource(Some(task), &self.g.node(node).id);
-                self.dispatch(t, resource, task.binding.as_ref());
+                self.dispatch(t, task.binding.as_ref());
             }
             TaskKind::Send => {
                 let name = self.message_name(task.message);
@@ -438,10 +436,7 @@ impl<'a> Run<'a> {
                 self.send_message(instance, Some(node), scope, name, payload);
                 self.complete_activity(t);
             }
-            TaskKind::Service | TaskKind::BusinessRule => {
-                let resource = task_resource(Some(task), &self.g.node(node).id);
-                self.dispatch(t, resource, None);
-            }
+            TaskKind::Service | TaskKind::BusinessRule => self.dispatch(t, None),
             TaskKind::Script | TaskKind::Manual | TaskKind::Plain => self.complete_activity(t),
         }
     }
@@ -494,12 +489,7 @@ impl<'a> Run<'a> {
         Some(into)
     }
 
-    fn dispatch(
-        &mut self,
-        t: TokenId,
-        resource: std::sync::Arc<str>,
-        binding: Option<&executive_model::binding::TaskBinding>,
-    ) {
+    fn dispatch(&mut self, t: TokenId, binding: Option<&executive_model::binding::TaskBinding>) {
         let tok = &self.s.tokens[&t];
         let (scope, node, instance) = (tok.scope, tok.node, tok.instance);
         // A `trace:task` declares its goal exactly (no inputs: an empty goal); the other
@@ -529,7 +519,6 @@ impl<'a> Run<'a> {
         self.record(instance, || Entry::Dispatched {
             task: key,
             node,
-            resource: resource.clone(),
             request: request.clone(),
         });
         if let Some(tok) = self.s.tokens.get_mut(&t) {
@@ -538,7 +527,6 @@ impl<'a> Run<'a> {
         self.out.push(Action::DispatchTask {
             task: key,
             node,
-            resource,
             request,
         });
     }
@@ -552,7 +540,9 @@ impl<'a> Run<'a> {
             let Some(sc) = self.s.scopes.get(&id) else {
                 break;
             };
-            if out.is_empty() {
+            if sc.vars.is_empty() {
+                // Nothing to add (and nothing to drop or clone).
+            } else if out.is_empty() {
                 out.clone_from(&sc.vars);
             } else {
                 for (k, v) in &sc.vars {
@@ -1010,8 +1000,9 @@ fn sends_message(kind: &NodeKind) -> bool {
 
 /// The resource a task is dispatched to: its binding's resource, else a script task's script
 /// (run by a connector), else its element id. A call activity that calls a global task is
-/// dispatched as that task. (In a token game, always its element id.)
-pub fn resource(g: &ProcessGraph, node: NodeId) -> std::sync::Arc<str> {
+/// dispatched as that task. The engine's dispatches name the node only; the adapters that give
+/// the command or write the record read its resource here, from the model.
+pub fn resource(g: &ProcessGraph, node: NodeId) -> &str {
     let n = g.node(node);
     let task = match &n.kind {
         NodeKind::Task(task) => Some(task),
@@ -1021,15 +1012,15 @@ pub fn resource(g: &ProcessGraph, node: NodeId) -> std::sync::Arc<str> {
         },
         _ => None,
     };
-    task_resource(task, &n.id)
-}
-
-/// [`resource`] of `task`, run at the element `id`.
-fn task_resource(task: Option<&executive_model::Task>, id: &str) -> std::sync::Arc<str> {
-    match task.map(|t| (&t.binding, &t.script)) {
-        Some((Some(b), _)) if b.resource.is_some() => b.resource.clone().unwrap_or_default(),
-        Some((_, Some(s))) => s.text.as_str().into(),
-        _ => id.into(),
+    match task.map(|t| {
+        (
+            t.binding.as_ref().and_then(|b| b.resource.as_deref()),
+            &t.script,
+        )
+    }) {
+        Some((Some(r), _)) => r,
+        Some((None, Some(s))) => &s.text,
+        _ => &n.id,
     }
 }
 

@@ -4,6 +4,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use serde::{Deserialize, Serialize};
+use smallvec::SmallVec;
 use thin_vec::ThinVec;
 
 use crate::io::{InstanceId, Millis, Outcome, ScopeId, TaskKey, TimerKey, TokenId, WaitId};
@@ -81,9 +82,77 @@ pub struct ScopeState {
     /// Set while the scope is being torn down, so completion is not reported twice.
     pub ending: bool,
     /// Tokens in the scope.
-    pub tokens: BTreeSet<TokenId>,
+    pub tokens: TokenSet,
     /// Event sub-process start subscriptions of the scope.
     pub waits: ThinVec<WaitId>,
+}
+
+/// A set of tokens in id order: the tokens of a scope, the throwers a step put back. Most such
+/// sets hold one or two tokens at a time, so the set is a sorted list that keeps two inline: a
+/// `BTreeSet` allocates a node for its first token and walks it to drop. It is written as the
+/// list it is, as a `BTreeSet` was, and read back sorted and without repeats whatever order a
+/// snapshot gives.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub struct TokenSet(SmallVec<[TokenId; 2]>);
+
+impl TokenSet {
+    /// Adds `t`; false if it was there. Tokens are minted in increasing order, so this
+    /// appends, in the usual case.
+    pub fn insert(&mut self, t: TokenId) -> bool {
+        match self.0.binary_search(&t) {
+            Ok(_) => false,
+            Err(i) => {
+                self.0.insert(i, t);
+                true
+            }
+        }
+    }
+
+    /// Removes `t`; false if it was not there.
+    pub fn remove(&mut self, t: &TokenId) -> bool {
+        match self.0.binary_search(t) {
+            Ok(i) => {
+                self.0.remove(i);
+                true
+            }
+            Err(_) => false,
+        }
+    }
+
+    /// Whether `t` is in the set.
+    pub fn contains(&self, t: &TokenId) -> bool {
+        self.0.binary_search(t).is_ok()
+    }
+
+    /// How many tokens.
+    pub fn len(&self) -> usize {
+        self.0.len()
+    }
+
+    /// Whether the scope holds no token.
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+
+    /// The tokens, in id order.
+    pub fn iter(&self) -> impl Iterator<Item = &TokenId> {
+        self.0.iter()
+    }
+}
+
+impl Serialize for TokenSet {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_seq(self.0.iter())
+    }
+}
+
+impl<'de> Deserialize<'de> for TokenSet {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let mut ids = Vec::<TokenId>::deserialize(d)?;
+        ids.sort_unstable();
+        ids.dedup();
+        Ok(Self(SmallVec::from_vec(ids)))
+    }
 }
 
 /// What a scope executes.

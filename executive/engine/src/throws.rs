@@ -265,7 +265,7 @@ impl Run<'_> {
         let (instance, node) = (tok.instance, tok.node);
         self.record(instance, || Entry::Thrown {
             what: Trigger::Error,
-            name: code.to_owned(),
+            name: code.into(),
             node: Some(node),
         });
         match self.find_catcher(t, Trigger::Error, code, own) {
@@ -273,7 +273,7 @@ impl Run<'_> {
                 let scope = self.s.tokens[&owner].scope;
                 self.record(instance, || Entry::Caught {
                     what: Trigger::Error,
-                    name: code.to_owned(),
+                    name: code.into(),
                     node: b,
                 });
                 self.error_variables(scope, b, code, message);
@@ -283,7 +283,7 @@ impl Run<'_> {
             Some(Catcher::EventSub(scope, start)) => {
                 self.record(instance, || Entry::Caught {
                     what: Trigger::Error,
-                    name: code.to_owned(),
+                    name: code.into(),
                     node: start,
                 });
                 self.clear_scope(scope, false);
@@ -355,7 +355,7 @@ impl Run<'_> {
         let (instance, node) = (tok.instance, tok.node);
         self.record(instance, || Entry::Thrown {
             what,
-            name: code.to_owned(),
+            name: code.into(),
             node: Some(node),
         });
         match self.find_catcher(t, what, code, false) {
@@ -363,7 +363,7 @@ impl Run<'_> {
                 let scope = self.s.tokens[&owner].scope;
                 self.record(instance, || Entry::Caught {
                     what,
-                    name: code.to_owned(),
+                    name: code.into(),
                     node: b,
                 });
                 let interrupting =
@@ -376,7 +376,7 @@ impl Run<'_> {
             Some(Catcher::EventSub(scope, start)) => {
                 self.record(instance, || Entry::Caught {
                     what,
-                    name: code.to_owned(),
+                    name: code.into(),
                     node: start,
                 });
                 let interrupting =
@@ -445,7 +445,7 @@ impl Run<'_> {
         let (instance, root) = self.open_instance(process, vars, None);
         self.record(instance, || Entry::Caught {
             what,
-            name: name.to_owned(),
+            name: name.into(),
             node: start,
         });
         self.subscribe_event_subprocesses(root, Scope::Process(process));
@@ -477,7 +477,7 @@ impl Run<'_> {
         if let Some(_i) = self.s.instances.get(&instance) {
             self.record(instance, || Entry::Thrown {
                 what: Trigger::Signal,
-                name: name.to_owned(),
+                name: name.into(),
                 node,
             });
         }

@@ -237,12 +237,11 @@ pub fn to_json(g: &ProcessGraph, seq: u64, wall_ms: i64, r: &Record) -> Value {
         Entry::Dispatched {
             task,
             node,
-            resource,
             request,
         } => {
             put("task", json!(task.to_string()));
             put("element", element(g, *node));
-            put("resource", json!(resource));
+            put("resource", json!(executive_engine::resource(g, *node)));
             put("request", json!(request));
             "dispatched"
         }

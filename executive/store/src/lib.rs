@@ -36,7 +36,7 @@ use executive_engine::{Action, Input, State};
 use serde::{Deserialize, Serialize};
 
 /// The store format written by this version; a store of another format is refused.
-pub const FORMAT: &str = "trace-store/3";
+pub const FORMAT: &str = "trace-store/4";
 
 /// Snapshots kept; steps up to the oldest kept one are pruned when a new one is written.
 pub const KEEP_SNAPSHOTS: usize = 2;

@@ -18,9 +18,11 @@ const EPOCH: &str = "wal-epoch";
 
 /// Earlier store formats this version opens, and rewrites as [`FORMAT`]: `trace-store/1` is
 /// the same trees without a write-ahead log; in `trace-store/2` and before, a snapshot's tokens
-/// keep their whole command (the engine reads it as the command's goal when it restores). An
-/// older `trace` refuses a store it would misread.
-const EARLIER: &[&str] = &["trace-store/1", "trace-store/2"];
+/// keep their whole command (the engine reads it as the command's goal when it restores); in
+/// `trace-store/3` and before, a dispatch in the outbox names its resource (read and ignored: the
+/// resource is the model's, [`executive_engine::resource`]). An older `trace` refuses a store it
+/// would misread.
+const EARLIER: &[&str] = &["trace-store/1", "trace-store/2", "trace-store/3"];
 
 /// A store in a directory on disk.
 pub struct SledStore {

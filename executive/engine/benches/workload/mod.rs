@@ -23,18 +23,26 @@ pub(crate) fn operations(xml: &str) -> BTreeMap<String, String> {
     ops
 }
 
+/// A service operation of the peer harness.
+#[derive(Clone, Copy)]
+pub(crate) enum Op {
+    /// Completes with no output.
+    Noop,
+    /// Completes with the goal's `count` plus one.
+    Inc,
+    /// Fails with `SVC_FAIL`.
+    Fail,
+}
+
 /// The service operation of each node, bound once before running (as the peers bind their
 /// service functions once).
-pub(crate) fn bind(
-    g: &executive_model::ProcessGraph,
-    ops: &BTreeMap<String, String>,
-) -> Vec<&'static str> {
+pub(crate) fn bind(g: &executive_model::ProcessGraph, ops: &BTreeMap<String, String>) -> Vec<Op> {
     g.nodes
         .iter()
         .map(|n| match ops.get(&n.id).map(String::as_str) {
-            Some("fail") => "fail",
-            Some("inc") => "inc",
-            _ => "noop",
+            Some("fail") => Op::Fail,
+            Some("inc") => Op::Inc,
+            _ => Op::Noop,
         })
         .collect()
 }
@@ -64,7 +72,7 @@ pub(crate) fn instance(
     e: &mut Engine,
     seq: &mut u64,
     process: &str,
-    ops: &[&'static str],
+    ops: &[Op],
     b: &mut Buffers,
 ) -> usize {
     let Buffers { queue, actions } = b;
@@ -108,15 +116,15 @@ pub(crate) fn instance(
                     request,
                     ..
                 } => queue.push_back(match ops[node.index()] {
-                    "fail" => Reply::Fail(*task),
-                    "inc" => {
+                    Op::Fail => Reply::Fail(*task),
+                    Op::Inc => {
                         let count = match request.get("count") {
                             Some(Value::Int(c)) => *c,
                             _ => 0,
                         };
                         Reply::Complete(*task, Some(count + 1))
                     }
-                    _ => Reply::Complete(*task, None),
+                    Op::Noop => Reply::Complete(*task, None),
                 }),
                 Action::Record(r) if matches!(r.entry, Entry::Left { .. }) => completed += 1,
                 _ => {}

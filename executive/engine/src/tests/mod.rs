@@ -812,7 +812,7 @@ fn a_restored_state_gives_its_commands_again_even_from_an_older_snapshot() {
     assert_eq!(given.len(), 4, "{given:#?}");
     assert!(
         given.iter().any(
-            |a| matches!(a, Action::DispatchTask { resource, .. } if &**resource == "sys.rule")
+            |a| matches!(a, Action::DispatchTask { node, .. } if crate::resource(d.e.graph(), *node) == "sys.rule")
         ),
         "{given:#?}"
     );
@@ -844,14 +844,56 @@ fn a_restored_state_gives_its_commands_again_even_from_an_older_snapshot() {
                 if serde_json::to_value(task).ok() == key)
         });
         if let Some(c) = command {
-            token.insert(
-                "command".into(),
-                serde_json::to_value(c).expect("serializes"),
-            );
+            let mut c = serde_json::to_value(c).expect("serializes");
+            // An older dispatch named its resource too.
+            if let Action::DispatchTask { node, .. } =
+                serde_json::from_value(c.clone()).expect("reads")
+            {
+                c["resource"] = crate::resource(&graph, node).into();
+            }
+            token.insert("command".into(), c);
             commands += 1;
         }
     }
     assert_eq!(commands, 4);
     let older: State = serde_json::from_value(older).expect("an older snapshot deserializes");
-    assert_eq!(Engine::restore(graph, older).in_flight(), given);
+    assert_eq!(
+        Engine::restore(Arc::clone(&graph), older).in_flight(),
+        given
+    );
+}
+
+#[test]
+fn an_older_dispatch_and_its_record_entry_naming_their_resource_are_read() {
+    let mut e = engine(&format!(
+        r#"<process id="p" isExecutable="true">{}{}</process>"#,
+        tasks(&["a"]),
+        chain(&["a"])
+    ));
+    let actions = e
+        .step(Input {
+            seq: 1,
+            at: 0,
+            event: Event::InstanceStarted {
+                process: "p".into(),
+                vars: Vars::new(),
+                start: None,
+            },
+        })
+        .expect("starts");
+    let mut seen = 0;
+    for a in &actions {
+        let mut json = serde_json::to_value(a).expect("serializes");
+        match a {
+            Action::DispatchTask { .. } => json["resource"] = "sys.a".into(),
+            Action::Record(r) if matches!(r.entry, Entry::Dispatched { .. }) => {
+                json["entry"]["resource"] = "sys.a".into();
+            }
+            _ => continue,
+        }
+        seen += 1;
+        let back: Action = serde_json::from_value(json).expect("an older action deserializes");
+        assert_eq!(&back, a);
+    }
+    assert_eq!(seen, 2, "{actions:#?}");
 }

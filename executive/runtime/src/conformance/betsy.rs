@@ -285,9 +285,16 @@ impl Harness {
             Action::DispatchTask {
                 task,
                 node,
-                resource,
                 request,
-            } => self.script(task, node, resource.trim(), &request),
+            } => {
+                let g = Arc::clone(self.engine.graph());
+                self.script(
+                    task,
+                    node,
+                    executive_engine::resource(&g, node).trim(),
+                    &request,
+                );
+            }
             Action::StartTimer { timer, at } => {
                 let order = self.seq * 1000 + self.later.len() as u64;
                 self.later.insert((at, order), Due::Timer(timer));

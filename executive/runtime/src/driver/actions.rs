@@ -232,11 +232,12 @@ impl Driver {
         match a {
             Action::DispatchTask {
                 task,
-                resource,
+                node,
                 request,
-                ..
             } => {
-                self.command(task, &resource, request, false, reconcile, mark);
+                let g = Arc::clone(&self.g);
+                let resource = executive_engine::resource(&g, node);
+                self.command(task, resource, request, false, reconcile, mark);
                 Some(task)
             }
             Action::OpenUserTask {

@@ -486,15 +486,15 @@ pub(super) fn note(cx: &Ctx, c: &mut Node, actions: &[Action]) {
                 what: Trigger::Signal,
                 name,
                 ..
-            } if cx.signals.contains(name) => {
-                c.signals.insert(name.clone());
+            } if cx.signals.contains(name.as_str()) => {
+                c.signals.insert(name.to_string());
             }
             Entry::Caught {
                 what: Trigger::Error,
                 name,
                 ..
-            } if cx.errors.contains(name) => {
-                c.errors.insert(name.clone());
+            } if cx.errors.contains(name.as_str()) => {
+                c.errors.insert(name.to_string());
             }
             _ => {}
         }
