@@ -12,8 +12,7 @@
 //! - `executive-model`: the validated `ProcessGraph`; the engine never sees XML.
 //! - `cel`: expressions (conditions, mappings, scripts), compiled once at load, evaluated here.
 //! - `chrono`: ISO 8601 timer arithmetic in calendar units.
-//! - `serde`: the state and the journal entries are data (`rc`: a shared resource name is
-//!   written as the text it is).
+//! - `serde`: the state and the journal entries are data.
 //! - `thin-vec`: a scope's and a token's short lists take one word instead of three, so the
 //!   state's ordered maps move 120-byte scopes and 104-byte tokens with inline copies, where
 //!   152 and 112 bytes went through calls to `memcpy` (`docs/benchmarks.md`, 2026-12-05).

@@ -192,6 +192,35 @@ fn check_invariants(s: &State) -> Result<(), String> {
 proptest! {
     #![proptest_config(ProptestConfig { cases: 200, ..ProptestConfig::default() })]
 
+    /// A `TokenSet` answers as the `BTreeSet` it replaced did, after any inserts and removes in
+    /// any order, is written as the same JSON, and reads back the same from a list in any order
+    /// and with repeats.
+    #[test]
+    fn a_token_set_behaves_and_is_written_as_a_btree_set(
+        ops in prop::collection::vec((any::<bool>(), 0u64..12), 0..40),
+        listed in prop::collection::vec(0u64..12, 0..12),
+    ) {
+        let mut set = crate::TokenSet::default();
+        let mut model = BTreeSet::new();
+        for (add, id) in ops {
+            let t = crate::TokenId(id);
+            if add {
+                prop_assert_eq!(set.insert(t), model.insert(t));
+            } else {
+                prop_assert_eq!(set.remove(&t), model.remove(&t));
+            }
+            prop_assert_eq!(set.len(), model.len());
+            prop_assert_eq!(set.is_empty(), model.is_empty());
+            prop_assert!(set.iter().eq(model.iter()));
+            prop_assert!((0..12).all(|i| set.contains(&crate::TokenId(i)) == model.contains(&crate::TokenId(i))));
+        }
+        prop_assert_eq!(serde_json::to_string(&set).unwrap(), serde_json::to_string(&model).unwrap());
+        let json = serde_json::to_string(&listed).unwrap();
+        let read: crate::TokenSet = serde_json::from_str(&json).unwrap();
+        let expected: BTreeSet<crate::TokenId> = serde_json::from_str(&json).unwrap();
+        prop_assert!(read.iter().eq(expected.iter()));
+    }
+
     #[test]
     fn random_interleavings_keep_every_invariant(ops in prop::collection::vec(op(), 1..60)) {
         let loaded = executive_model::load(MODEL.as_bytes());

@@ -129,7 +129,7 @@ impl TokenSet {
         self.0.len()
     }
 
-    /// Whether the scope holds no token.
+    /// Whether the set is empty.
     pub fn is_empty(&self) -> bool {
         self.0.is_empty()
     }

@@ -117,9 +117,8 @@ pub struct OutputMapping {
 pub struct TaskBinding {
     /// Vocabulary it was read from.
     pub dialect: Dialect,
-    /// Resource name routed to a connector, e.g. `excavation.excavate` or `ground.approve_site`:
-    /// shared, so each dispatch names it without a copy of its own.
-    pub resource: Option<std::sync::Arc<str>>,
+    /// Resource name routed to a connector, e.g. `excavation.excavate` or `ground.approve_site`.
+    pub resource: Option<String>,
     /// Inputs, in document order.
     pub inputs: Vec<InputMapping>,
     /// Outputs, in document order.
@@ -286,7 +285,7 @@ impl Reader<'_> {
             match z.name {
                 "taskDefinition" => {
                     relevant = true;
-                    b.resource = self.constant(z, "type").map(Into::into);
+                    b.resource = self.constant(z, "type");
                     b.retries = self.constant(z, "retries").and_then(|r| r.parse().ok());
                 }
                 "ioMapping" => {
@@ -330,7 +329,7 @@ impl Reader<'_> {
                 // resource a connector serves, as `camunda:decisionRef` is for Camunda 7.
                 "calledDecision" => {
                     relevant = true;
-                    b.resource = self.constant(z, "decisionId").map(Into::into);
+                    b.resource = self.constant(z, "decisionId");
                 }
                 // What a Camunda 8 user task says about people and dates: TRACE's ground
                 // stations do not use it, but a FEEL error in it is still named.

@@ -366,7 +366,7 @@ pub fn task_uses(g: &ProcessGraph) -> Vec<TaskUse> {
             timed,
             task: node.id.clone(),
             name: node.label().to_owned(),
-            resource: resource.map_or_else(|| node.id.clone(), |r| r.to_string()),
+            resource: resource.unwrap_or_else(|| node.id.clone()),
             inputs,
             constants,
             outputs,
