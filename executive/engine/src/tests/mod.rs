@@ -32,6 +32,20 @@ fn engine(body: &str) -> Engine {
     Engine::new(Arc::new(graph))
 }
 
+/// The actions of the first input an engine takes: process `p` started, without variables.
+fn first_start(e: &mut Engine) -> Vec<Action> {
+    e.step(Input {
+        seq: 1,
+        at: 0,
+        event: Event::InstanceStarted {
+            process: "p".into(),
+            vars: Vars::new(),
+            start: None,
+        },
+    })
+    .expect("starts")
+}
+
 /// Drives an engine and renders its actions compactly: `dispatch <node>`, `timer <ms>`, ….
 struct Driver {
     e: Engine,
@@ -870,17 +884,7 @@ fn an_older_dispatch_and_its_record_entry_naming_their_resource_are_read() {
         tasks(&["a"]),
         chain(&["a"])
     ));
-    let actions = e
-        .step(Input {
-            seq: 1,
-            at: 0,
-            event: Event::InstanceStarted {
-                process: "p".into(),
-                vars: Vars::new(),
-                start: None,
-            },
-        })
-        .expect("starts");
+    let actions = first_start(&mut e);
     let mut seen = 0;
     for a in &actions {
         let mut json = serde_json::to_value(a).expect("serializes");

@@ -133,17 +133,7 @@ fn model(t: &Throw, s: &Sibling) -> String {
 /// The entries the first step writes, as `entered:ID`, `withdrawn:ID`, `caught:ID`.
 fn first_step(body: &str) -> Vec<String> {
     let mut e = engine(body);
-    let actions = e
-        .step(Input {
-            seq: 1,
-            at: 0,
-            event: Event::InstanceStarted {
-                process: "p".into(),
-                vars: Vars::new(),
-                start: None,
-            },
-        })
-        .expect("starts");
+    let actions = first_start(&mut e);
     let g = Arc::clone(e.graph());
     actions
         .into_iter()
