@@ -554,6 +554,7 @@ impl<'d> Builder<'d, '_> {
             let name = child.name;
             if FLOW_NODES.contains(&name) {
                 let nid = NodeId(self.g.nodes.len() as u32);
+                let activity = ACTIVITIES.contains(&name);
                 let xml_id = child.attr("id");
                 let id = match xml_id {
                     Some(id) => id.to_owned(),
@@ -584,9 +585,13 @@ impl<'d> Builder<'d, '_> {
                     default_flow: None,
                     boundaries: Vec::new(),
                     looping: None,
-                    for_compensation: child.attr("isForCompensation") == Some("true"),
-                    start_quantity: quantity(child.attr("startQuantity")),
-                    completion_quantity: quantity(child.attr("completionQuantity")),
+                    // Attributes of activities only (`constraints::defines`): on another
+                    // element they are reported and ignored.
+                    for_compensation: activity && child.attr("isForCompensation") == Some("true"),
+                    start_quantity: quantity(child.attr("startQuantity").filter(|_| activity)),
+                    completion_quantity: quantity(
+                        child.attr("completionQuantity").filter(|_| activity),
+                    ),
                     compensation_handler: None,
                     data: None,
                     offset: child.offset,

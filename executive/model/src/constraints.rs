@@ -78,6 +78,89 @@ pub(crate) const ITEM_AWARE: &[&str] = &[
     "outputDataItem",
 ];
 
+/// Whether the schema type of `element` defines `attr`, for the attributes only some types have
+/// (BPMN 2.0.2 `Semantic.xsd`), with the types that have it as a reader would say them; `None`
+/// for the other attributes (`id` and `name` are on nearly every type, and `messageRef`,
+/// `operationRef` and `implementation` on too many to check here). What the schema does not give
+/// an element, TRACE does not read on it (`build.rs`, `build/looping.rs`).
+pub(crate) fn defines(element: &str, attr: &str) -> Option<(bool, &'static str)> {
+    let activity = ACTIVITIES.contains(&element);
+    Some(match attr {
+        "isForCompensation" | "startQuantity" | "completionQuantity" => (activity, "activities"),
+        "default" => (
+            activity
+                || matches!(
+                    element,
+                    "exclusiveGateway" | "inclusiveGateway" | "complexGateway"
+                ),
+            "activities and exclusive, inclusive and complex gateways",
+        ),
+        "gatewayDirection" => (
+            matches!(
+                element,
+                "exclusiveGateway"
+                    | "inclusiveGateway"
+                    | "parallelGateway"
+                    | "eventBasedGateway"
+                    | "complexGateway"
+            ),
+            "gateways",
+        ),
+        "eventGatewayType" => (element == "eventBasedGateway", "<eventBasedGateway>"),
+        "instantiate" => (
+            matches!(element, "eventBasedGateway" | "receiveTask"),
+            "<eventBasedGateway> and <receiveTask>",
+        ),
+        "parallelMultiple" => (
+            matches!(
+                element,
+                "startEvent" | "intermediateCatchEvent" | "boundaryEvent"
+            ),
+            "catch events",
+        ),
+        "isInterrupting" => (element == "startEvent", "<startEvent>"),
+        "cancelActivity" | "attachedToRef" => (element == "boundaryEvent", "<boundaryEvent>"),
+        "triggeredByEvent" => (
+            matches!(element, "subProcess" | "adHocSubProcess" | "transaction"),
+            "sub-processes",
+        ),
+        "ordering" | "cancelRemainingInstances" => {
+            (element == "adHocSubProcess", "<adHocSubProcess>")
+        }
+        "method" => (element == "transaction", "<transaction>"),
+        "calledElement" => (element == "callActivity", "<callActivity>"),
+        "scriptFormat" => (
+            matches!(element, "scriptTask" | "globalScriptTask"),
+            "<scriptTask> and <globalScriptTask>",
+        ),
+        "isImmediate" => (element == "sequenceFlow", "<sequenceFlow>"),
+        "isSequential" | "behavior" | "oneBehaviorEventRef" | "noneBehaviorEventRef" => (
+            element == "multiInstanceLoopCharacteristics",
+            "<multiInstanceLoopCharacteristics>",
+        ),
+        "testBefore" | "loopMaximum" => (
+            element == "standardLoopCharacteristics",
+            "<standardLoopCharacteristics>",
+        ),
+        "waitForCompletion" | "activityRef" => (
+            element == "compensateEventDefinition",
+            "<compensateEventDefinition>",
+        ),
+        "errorRef" => (element == "errorEventDefinition", "<errorEventDefinition>"),
+        "signalRef" => (
+            element == "signalEventDefinition",
+            "<signalEventDefinition>",
+        ),
+        "escalationRef" => (
+            element == "escalationEventDefinition",
+            "<escalationEventDefinition>",
+        ),
+        "errorCode" => (element == "error", "<error>"),
+        "escalationCode" => (element == "escalation", "<escalation>"),
+        _ => return None,
+    })
+}
+
 /// Every unqualified attribute the BPMN 2.0 schema defines, on any element.
 fn schema_attribute(name: &str) -> bool {
     // A `match` on the names: faster than hashing them, and this is asked of every attribute.
@@ -469,6 +552,19 @@ pub(crate) fn check(doc: &Document<'_>, sink: &mut Sink) {
                     el.name, a.name
                 ),
             );
+        }
+        // Attributes the schema defines, but not on this element's type.
+        for a in el.attrs.iter().filter(|a| a.ns == Ns::None) {
+            if let Some((false, owners)) = defines(el.name, a.name) {
+                err(
+                    "unknown-attribute",
+                    "XSD",
+                    format!(
+                        "<{}> has no attribute `{}` in BPMN 2.0 (the schema gives it to {owners}); it is ignored",
+                        el.name, a.name
+                    ),
+                );
+            }
         }
         // Typed references, in attributes and in child elements; a dangling one that execution
         // never follows is a rule bent harmlessly, reported below.

@@ -1387,3 +1387,127 @@ fn events_and_gateways_get_the_flows_their_kind_needs_when_strict() {
         }
     }
 }
+
+#[test]
+fn an_attribute_the_schema_gives_only_other_elements_is_reported_and_ignored() {
+    // BPMN 2.0.2 Semantic.xsd: each of these attributes belongs to some types only. Each case
+    // is an element `x` between a start and an end, in an executable process.
+    let misplaced = [
+        (r#"<bpmn:parallelGateway id="x" default="f2"/>"#, "default"),
+        (
+            r#"<bpmn:intermediateThrowEvent id="x" default="f2"/>"#,
+            "default",
+        ),
+        (
+            r#"<bpmn:intermediateThrowEvent id="x" completionQuantity="2"/>"#,
+            "completionQuantity",
+        ),
+        (
+            r#"<bpmn:intermediateThrowEvent id="x" startQuantity="2"/>"#,
+            "startQuantity",
+        ),
+        (
+            r#"<bpmn:parallelGateway id="x" isForCompensation="true"/>"#,
+            "isForCompensation",
+        ),
+        (
+            r#"<bpmn:intermediateThrowEvent id="x" parallelMultiple="true"/>"#,
+            "parallelMultiple",
+        ),
+        (
+            r#"<bpmn:task id="x" cancelActivity="false"/>"#,
+            "cancelActivity",
+        ),
+        (
+            r#"<bpmn:task id="x" isInterrupting="false"/>"#,
+            "isInterrupting",
+        ),
+        (
+            r#"<bpmn:task id="x" triggeredByEvent="true"/>"#,
+            "triggeredByEvent",
+        ),
+        (r#"<bpmn:task id="x" calledElement="p"/>"#, "calledElement"),
+        (
+            r#"<bpmn:task id="x" scriptFormat="text/x-cel"/>"#,
+            "scriptFormat",
+        ),
+        (
+            r#"<bpmn:task id="x" eventGatewayType="Parallel"/>"#,
+            "eventGatewayType",
+        ),
+        (r#"<bpmn:task id="x" instantiate="true"/>"#, "instantiate"),
+        (
+            r#"<bpmn:task id="x" gatewayDirection="Unspecified"/>"#,
+            "gatewayDirection",
+        ),
+        (r#"<bpmn:task id="x" isImmediate="true"/>"#, "isImmediate"),
+        (r#"<bpmn:task id="x" ordering="Parallel"/>"#, "ordering"),
+        (
+            "<bpmn:subProcess id=\"x\" method=\"##Compensate\"/>",
+            "method",
+        ),
+        (r#"<bpmn:task id="x" errorCode="E1"/>"#, "errorCode"),
+        (r#"<bpmn:task id="x" testBefore="true"/>"#, "testBefore"),
+    ];
+    for (middle, attr) in misplaced {
+        let xml = around(middle);
+        let loaded = load(xml.as_bytes());
+        assert!(
+            loaded
+                .diagnostics
+                .iter()
+                .any(|d| d.code == "unknown-attribute"
+                    && d.message.contains(&format!("no attribute `{attr}`"))),
+            "{middle}: {:?}",
+            loaded.diagnostics
+        );
+        assert!(
+            strict_errors(&xml).contains(&"unknown-attribute"),
+            "{middle}"
+        );
+        // Ignored: the node reads as if the attribute were not there.
+        let g = loaded
+            .graph
+            .unwrap_or_else(|| panic!("{middle}: {:?}", loaded.diagnostics));
+        let x = g.node(g.node_by_id("x").expect("x"));
+        assert_eq!(
+            (
+                x.default_flow,
+                x.for_compensation,
+                x.start_quantity,
+                x.completion_quantity
+            ),
+            (None, false, 1, 1),
+            "{middle}"
+        );
+    }
+    let placed = [
+        r#"<bpmn:task id="x" isForCompensation="false" startQuantity="1" completionQuantity="1" default="f2"/>"#,
+        r#"<bpmn:exclusiveGateway id="x" default="f2" gatewayDirection="Unspecified"/>"#,
+        r#"<bpmn:inclusiveGateway id="x" default="f2"/>"#,
+        r#"<bpmn:complexGateway id="x" default="f2"/>"#,
+        r#"<bpmn:receiveTask id="x" instantiate="false"/>"#,
+        r#"<bpmn:subProcess id="x" triggeredByEvent="false"/>"#,
+        "<bpmn:transaction id=\"x\" method=\"##Compensate\"/>",
+        r#"<bpmn:adHocSubProcess id="x" ordering="Parallel" cancelRemainingInstances="true"><bpmn:task id="a"/></bpmn:adHocSubProcess>"#,
+        r#"<bpmn:intermediateCatchEvent id="x" parallelMultiple="false"><bpmn:timerEventDefinition><bpmn:timeDuration xsi:type="bpmn:tFormalExpression">PT1S</bpmn:timeDuration></bpmn:timerEventDefinition></bpmn:intermediateCatchEvent>"#,
+    ];
+    for middle in placed {
+        let loaded = load(around(middle).as_bytes());
+        assert!(
+            !loaded
+                .diagnostics
+                .iter()
+                .any(|d| d.code == "unknown-attribute"),
+            "{middle}: {:?}",
+            loaded.diagnostics
+        );
+    }
+    // An activity keeps what its type gives it.
+    let g = load(around(r#"<bpmn:task id="x" completionQuantity="2" default="f2"/>"#).as_bytes())
+        .graph
+        .expect("loads");
+    let x = g.node(g.node_by_id("x").expect("x"));
+    assert_eq!(x.completion_quantity, 2);
+    assert!(x.default_flow.is_some());
+}

@@ -3,8 +3,13 @@
 use super::*;
 
 impl<'d> Builder<'d, '_> {
+    /// A node's default flow: read on the elements whose schema type has `default` (activities
+    /// and exclusive, inclusive and complex gateways); elsewhere it is reported and ignored.
     pub(super) fn default_flow(&mut self, nid: NodeId, el: &Element, owner: &str) {
         let Some(d) = el.attr("default") else { return };
+        if crate::constraints::defines(el.name, "default").is_some_and(|(has, _)| !has) {
+            return;
+        }
         let d = local_ref(d);
         let found = self
             .g
