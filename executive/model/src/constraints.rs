@@ -84,11 +84,12 @@ pub(crate) const ITEM_AWARE: &[&str] = &[
 /// `operationRef` and `implementation` on too many to check here). What the schema does not give
 /// an element, TRACE does not read on it (`build.rs`, `build/looping.rs`).
 pub(crate) fn defines(element: &str, attr: &str) -> Option<(bool, &'static str)> {
-    let activity = ACTIVITIES.contains(&element);
+    // Asked of every attribute of every element: the activity test only where it counts.
+    let activity = || ACTIVITIES.contains(&element);
     Some(match attr {
-        "isForCompensation" | "startQuantity" | "completionQuantity" => (activity, "activities"),
+        "isForCompensation" | "startQuantity" | "completionQuantity" => (activity(), "activities"),
         "default" => (
-            activity
+            activity()
                 || matches!(
                     element,
                     "exclusiveGateway" | "inclusiveGateway" | "complexGateway"
