@@ -1012,16 +1012,11 @@ pub fn resource(g: &ProcessGraph, node: NodeId) -> &str {
         },
         _ => None,
     };
-    match task.map(|t| {
-        (
-            t.binding.as_ref().and_then(|b| b.resource.as_deref()),
-            &t.script,
-        )
-    }) {
-        Some((Some(r), _)) => r,
-        Some((None, Some(s))) => &s.text,
-        _ => &n.id,
-    }
+    task.and_then(|t| {
+        let bound = t.binding.as_ref().and_then(|b| b.resource.as_deref());
+        bound.or(t.script.as_ref().map(|s| s.text.as_str()))
+    })
+    .unwrap_or(&n.id)
 }
 
 /// Nodes of a scope that start with it without a start event: every node without incoming flow

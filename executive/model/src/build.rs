@@ -16,6 +16,7 @@ use std::collections::BTreeMap;
 use foldhash::{HashMap, HashMapExt};
 
 use crate::binding::Reader as BindingReader;
+use crate::constraints::schema_attr;
 use crate::diagnostic::Sink;
 use crate::expr::{Expression, Failure, Language, parse_assignments};
 use crate::graph::*;
@@ -554,7 +555,6 @@ impl<'d> Builder<'d, '_> {
             let name = child.name;
             if FLOW_NODES.contains(&name) {
                 let nid = NodeId(self.g.nodes.len() as u32);
-                let activity = ACTIVITIES.contains(&name);
                 let xml_id = child.attr("id");
                 let id = match xml_id {
                     Some(id) => id.to_owned(),
@@ -585,13 +585,11 @@ impl<'d> Builder<'d, '_> {
                     default_flow: None,
                     boundaries: Vec::new(),
                     looping: None,
-                    // Attributes of activities only (`constraints::defines`): on another
-                    // element they are reported and ignored.
-                    for_compensation: activity && child.attr("isForCompensation") == Some("true"),
-                    start_quantity: quantity(child.attr("startQuantity").filter(|_| activity)),
-                    completion_quantity: quantity(
-                        child.attr("completionQuantity").filter(|_| activity),
-                    ),
+                    // Attributes of activities only: on another element they are reported
+                    // and ignored.
+                    for_compensation: schema_attr(child, "isForCompensation") == Some("true"),
+                    start_quantity: quantity(schema_attr(child, "startQuantity")),
+                    completion_quantity: quantity(schema_attr(child, "completionQuantity")),
                     compensation_handler: None,
                     data: None,
                     offset: child.offset,

@@ -82,7 +82,7 @@ pub(crate) const ITEM_AWARE: &[&str] = &[
 /// (BPMN 2.0.2 `Semantic.xsd`), with the types that have it as a reader would say them; `None`
 /// for the other attributes (`id` and `name` are on nearly every type, and `messageRef`,
 /// `operationRef` and `implementation` on too many to check here). What the schema does not give
-/// an element, TRACE does not read on it (`build.rs`, `build/looping.rs`).
+/// an element, TRACE does not read on it ([`schema_attr`]).
 pub(crate) fn defines(element: &str, attr: &str) -> Option<(bool, &'static str)> {
     // Asked of every attribute of every element: the activity test only where it counts.
     let activity = || ACTIVITIES.contains(&element);
@@ -160,6 +160,13 @@ pub(crate) fn defines(element: &str, attr: &str) -> Option<(bool, &'static str)>
         "escalationCode" => (element == "escalation", "<escalation>"),
         _ => return None,
     })
+}
+
+/// The value of `attr` on `el`, where the schema gives `el`'s type that attribute ([`defines`]):
+/// what the builder reads of the attributes only some types have.
+pub(crate) fn schema_attr<'a>(el: &Element<'a>, attr: &str) -> Option<&'a str> {
+    el.attr(attr)
+        .filter(|_| !matches!(defines(el.name, attr), Some((false, _))))
 }
 
 /// Every unqualified attribute the BPMN 2.0 schema defines, on any element.
@@ -538,34 +545,24 @@ pub(crate) fn check(doc: &Document<'_>, sink: &mut Sink) {
                 sink.error(code, el.offset, id, msg).constraint(constraint);
             }
         };
-        // Attributes the schema does not define, unqualified (vendor ones carry a namespace):
-        // ignored, with a warning (outside executable processes, only when reading strictly).
-        for a in el
-            .attrs
-            .iter()
-            .filter(|a| a.ns == Ns::None && !schema_attribute(a.name))
-        {
-            err(
-                "unknown-attribute",
-                "XSD",
+        // Attributes the schema does not define, unqualified (vendor ones carry a namespace), or
+        // defines only on other types: ignored, with a warning (outside executable processes,
+        // only when reading strictly).
+        for a in el.attrs.iter().filter(|a| a.ns == Ns::None) {
+            let msg = if !schema_attribute(a.name) {
                 format!(
                     "<{}> has no attribute `{}` in BPMN 2.0; it is ignored (tool-specific attributes belong in their own namespace)",
                     el.name, a.name
-                ),
-            );
-        }
-        // Attributes the schema defines, but not on this element's type.
-        for a in el.attrs.iter().filter(|a| a.ns == Ns::None) {
-            if let Some((false, owners)) = defines(el.name, a.name) {
-                err(
-                    "unknown-attribute",
-                    "XSD",
-                    format!(
-                        "<{}> has no attribute `{}` in BPMN 2.0 (the schema gives it to {owners}); it is ignored",
-                        el.name, a.name
-                    ),
-                );
-            }
+                )
+            } else if let Some((false, owners)) = defines(el.name, a.name) {
+                format!(
+                    "<{}> has no attribute `{}` in BPMN 2.0 (the schema gives it to {owners}); it is ignored",
+                    el.name, a.name
+                )
+            } else {
+                continue;
+            };
+            err("unknown-attribute", "XSD", msg);
         }
         // Typed references, in attributes and in child elements; a dangling one that execution
         // never follows is a rule bent harmlessly, reported below.
