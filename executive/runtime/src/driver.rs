@@ -358,8 +358,6 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
         });
     }
     let resumed = rec.snapshot.is_some() || !rec.steps.is_empty();
-    // The mission id prefixes every goal id; minted once, kept in the store.
-    let mission = meta(&rec, "mission").unwrap_or_else(|| mint_mission(&model));
     // One pool of a fleet: the store remembers which.
     let participant = match (&opts.participant, meta(&rec, "participant")) {
         (Some(given), held) => {
@@ -376,6 +374,14 @@ async fn drive(opts: &RunOptions, extras: &RunExtras) -> Result<Summary, RunErro
         .as_ref()
         .map(|(_, r)| r.clone())
         .unwrap_or_default();
+    // The mission id prefixes every goal id and message key; minted once, kept in the store.
+    let mission = meta(&rec, "mission").unwrap_or_else(|| {
+        mint_mission(
+            &model,
+            participant.as_ref().map(|(id, _)| id.as_str()),
+            wall_ms(),
+        )
+    });
     let engine_of = |state: Option<executive_engine::State>| -> Result<Engine, RunError> {
         let e = match state {
             Some(s) => Engine::restore(Arc::clone(&graph), s),
@@ -895,29 +901,54 @@ fn answered_in(record: &Path, mission: &str) -> HashMap<String, (String, Vars)> 
         .collect()
 }
 
-/// A mission id: the model's file stem (key-safe) and the first start's wall time.
-fn mint_mission(model: &Path) -> String {
-    let stem: String = model
+/// A mission id: the model's file stem, the pool this executive runs if it is one of a fleet
+/// (so the executives of one fleet, started in the same millisecond, never share an id), and
+/// the first start's wall time; every part made key-safe (`docs/protocol.md` §1).
+fn mint_mission(model: &Path, pool: Option<&str>, wall_ms: Millis) -> String {
+    let safe = |s: &str| -> String {
+        s.chars()
+            .map(|c| {
+                if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                    c
+                } else {
+                    '_'
+                }
+            })
+            .collect()
+    };
+    let stem = model
         .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default()
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect();
-    format!(
-        "{}-{:x}",
-        if stem.is_empty() { "mission" } else { &stem },
-        wall_ms()
-    )
+        .map(|s| safe(&s.to_string_lossy()))
+        .filter(|s| !s.is_empty())
+        .unwrap_or_else(|| "mission".to_owned());
+    match pool {
+        Some(pool) => format!("{stem}-{}-{wall_ms:x}", safe(pool)),
+        None => format!("{stem}-{wall_ms:x}"),
+    }
 }
 
 /// The store directory's default for a mission file: `<mission>.store` beside it.
 pub fn default_store(model: &Path) -> PathBuf {
     model.with_extension("store")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_executives_of_a_fleet_started_in_one_millisecond_get_different_key_safe_ids() {
+        let model = Path::new("/m/europa fleet.v2.bpmn");
+        let at = 0x1a2_458c_d14b;
+        let lander = mint_mission(model, Some("lander"), at);
+        let scout = mint_mission(model, Some("scout"), at);
+        assert_eq!(lander, "europa_fleet_v2-lander-1a2458cd14b");
+        assert_ne!(lander, scout);
+        assert_eq!(mint_mission(model, None, at), "europa_fleet_v2-1a2458cd14b");
+        // A pool id is made key-safe as the stem is: no dot, slash or wildcard reaches a key.
+        assert_eq!(
+            mint_mission(Path::new(""), Some("a.b/*"), 1),
+            "mission-a_b__-1"
+        );
+    }
 }
