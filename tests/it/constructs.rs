@@ -1,7 +1,7 @@
 //! The Spin translation of event sub-processes, compensation, transactions with cancel, message
-//! flows between pools, processes the outside starts and parallel multi-instance: per construct
-//! a mission model on which Spin and the engine agree exactly, and a flawed variant both find the
-//! flaw in.
+//! flows between pools, processes the outside starts, parallel multi-instance, inclusive joins
+//! behind links and unsafe merges: per construct a mission model on which Spin and the engine
+//! agree exactly, and a flawed variant both find the flaw in.
 
 use crate::protocol::tempdir;
 use crate::verify::{Compared, Comparison, compare};
@@ -469,4 +469,103 @@ fn activities_without_incoming_flow_start_with_their_scope() {
             .collect::<Vec<_>>(),
         ["fork"]
     );
+}
+
+/// A service task run by a system (`r.<id>`).
+fn work(id: &str) -> String {
+    format!(
+        r#"<serviceTask id="{id}"><extensionElements><trace:task resource="r.{id}"/></extensionElements></serviceTask>"#
+    )
+}
+
+/// An inclusive block whose first branch reaches the join through a link (`link`), or along a
+/// flow: the join waits for a token coming through the link as for one on a flow.
+fn linked_join(link: bool) -> String {
+    let (a, b, join) = (work("a"), work("b"), work("after"));
+    let first = if link {
+        r#"<intermediateThrowEvent id="jump"><linkEventDefinition name="L"/></intermediateThrowEvent>
+    <intermediateCatchEvent id="land"><linkEventDefinition name="L"/></intermediateCatchEvent>
+    <sequenceFlow id="f3" sourceRef="a" targetRef="jump"/>
+    <sequenceFlow id="f4" sourceRef="land" targetRef="j"/>"#
+    } else {
+        r#"<sequenceFlow id="f3" sourceRef="a" targetRef="j"/>"#
+    };
+    format!(
+        r#"<process id="p" isExecutable="true">
+    <startEvent id="s"/>
+    <inclusiveGateway id="o" default="f2"/>
+    <inclusiveGateway id="j"/>
+    {a}{b}{join}
+    <endEvent id="e"/>
+    <sequenceFlow id="f0" sourceRef="s" targetRef="o"/>
+    <sequenceFlow id="f1" sourceRef="o" targetRef="a"><conditionExpression xsi:type="tFormalExpression">go == 1</conditionExpression></sequenceFlow>
+    <sequenceFlow id="f2" sourceRef="o" targetRef="b"/>
+    {first}
+    <sequenceFlow id="f5" sourceRef="b" targetRef="j"/>
+    <sequenceFlow id="f6" sourceRef="j" targetRef="after"/>
+    <sequenceFlow id="f7" sourceRef="after" targetRef="e"/>
+  </process>"#
+    )
+}
+
+#[test]
+fn an_inclusive_join_waits_for_a_token_still_coming_through_a_link() {
+    for link in [false, true] {
+        let c = agree(&format!("linked-join-{link}"), &linked_join(link));
+        assert!(!c.deadlock && !c.unsafe_run, "link {link}");
+        assert_eq!(c.ends, set(&["e"]));
+    }
+}
+
+/// Two parallel branches merged without a gateway into `merged`, which runs once per token and
+/// splits again: one branch waits at a parallel join for the other, so the second round's token
+/// waits on the same flow beside the first's (unsafe), and both rounds then pass the join.
+/// `guarded` adds an error event sub-process, so that no task is one step in the translation.
+fn doubled(guarded: bool) -> String {
+    let tasks: String = ["a", "b", "merged", "slow", "last"]
+        .iter()
+        .map(|t| work(t))
+        .collect();
+    let guard = if guarded {
+        r#"<subProcess id="esp" triggeredByEvent="true">
+      <startEvent id="es"><errorEventDefinition errorRef="JAM"/></startEvent>
+      <endEvent id="ee"/>
+      <sequenceFlow id="g1" sourceRef="es" targetRef="ee"/>
+    </subProcess>"#
+    } else {
+        ""
+    };
+    format!(
+        r#"<process id="p" isExecutable="true">
+    <startEvent id="s"/>
+    <parallelGateway id="fork"/>
+    <parallelGateway id="again"/>
+    <parallelGateway id="join"/>
+    {tasks}
+    <endEvent id="e"/>
+    {guard}
+    <sequenceFlow id="f0" sourceRef="s" targetRef="fork"/>
+    <sequenceFlow id="f1" sourceRef="fork" targetRef="a"/>
+    <sequenceFlow id="f2" sourceRef="fork" targetRef="b"/>
+    <sequenceFlow id="f3" sourceRef="a" targetRef="merged"/>
+    <sequenceFlow id="f4" sourceRef="b" targetRef="merged"/>
+    <sequenceFlow id="f5" sourceRef="merged" targetRef="again"/>
+    <sequenceFlow id="f6" sourceRef="again" targetRef="slow"/>
+    <sequenceFlow id="f7" sourceRef="again" targetRef="join"/>
+    <sequenceFlow id="f8" sourceRef="slow" targetRef="join"/>
+    <sequenceFlow id="f9" sourceRef="join" targetRef="last"/>
+    <sequenceFlow id="f10" sourceRef="last" targetRef="e"/>
+  </process>"#
+    )
+}
+
+#[test]
+fn a_second_token_on_a_flow_or_into_a_running_task_is_unsafe_and_kept() {
+    for guarded in [false, true] {
+        let c = agree(&format!("doubled-{guarded}"), &doubled(guarded));
+        // Unsafe, but nothing is lost: both rounds pass the join and end.
+        assert!(c.unsafe_run, "guarded {guarded}");
+        assert!(!c.deadlock, "guarded {guarded}");
+        assert!(c.ends.contains("e"), "guarded {guarded}: {:?}", c.ends);
+    }
 }

@@ -1,6 +1,7 @@
 //! The generated differential test: random small models from a grammar of the constructs Spin and
-//! the engine both take — tasks, timers, signals thrown and caught, parallel and exclusive
-//! blocks, branches that end early in every kind of end event, sub-processes with boundary
+//! the engine both take — tasks, timers, signals thrown and caught, parallel, exclusive and
+//! inclusive blocks, event-based races, loops, branches merged without a gateway, link jumps,
+//! branches that end early in every kind of end event, tasks and sub-processes with boundary
 //! events, event sub-processes — seeded, a few hundred per run. On each, Spin on the PROMELA translation and
 //! the engine's own exploration must agree exactly. Each model is written out first; a
 //! disagreement names its seed and file, to be kept as a test.
@@ -30,6 +31,21 @@ impl Rng {
 struct Draw {
     rng: Rng,
     ids: usize,
+    /// Inside a loop's body: nothing there leaves a token behind, doubles one or throws (a
+    /// signal could start another instance of an event sub-process each round), so each round
+    /// starts from the same marking and the engine's state space stays finite (Spin bounds a
+    /// cycle's rounds, the exploration only converges).
+    looping: bool,
+}
+
+/// A split whose branches [`Draw::branches`] draws.
+struct Split<'a> {
+    id: &'a str,
+    branches: usize,
+    /// Each branch but the default has a condition.
+    guarded: bool,
+    /// The last branch's flow id, the split's default.
+    default: Option<&'a str>,
 }
 
 const TRIGGERS: [&str; 5] = [
@@ -91,14 +107,34 @@ impl Draw {
     fn item(&mut self, out: &mut String, from: &str, depth: u32, inner: bool) -> String {
         // Sub-processes nest one deep, blocks two deep: small enough to explore in full.
         let kind = match depth {
-            0 => self.rng.below(8),
-            1 => self.rng.below(6),
+            0 => self.rng.below(13),
+            1 => self.rng.below(11),
             _ => self.rng.below(3),
         };
         match kind {
+            2 | 3 if self.looping => {
+                let id = self.task(out);
+                self.flow(out, from, &id);
+                id
+            }
             0 => {
                 let id = self.task(out);
                 self.flow(out, from, &id);
+                if depth > 0 || !self.rng.chance(25) {
+                    return id;
+                }
+                // A contingency on the task itself, interrupting or not.
+                let b = self.id("b");
+                let def = TRIGGERS[self.rng.below(5) as usize];
+                let cancel = def.contains("error") || self.rng.chance(50);
+                let _ = write!(
+                    out,
+                    r#"<boundaryEvent id="{b}" attachedToRef="{id}" cancelActivity="{cancel}">{def}</boundaryEvent>"#
+                );
+                let after = self.task(out);
+                self.flow(out, &b, &after);
+                let end = self.end(out, inner);
+                self.flow(out, &after, &end);
                 id
             }
             1 => {
@@ -149,32 +185,38 @@ impl Draw {
                 join
             }
             5 => {
-                // An exclusive block: a condition on one branch (on a name nothing writes:
-                // both Spin and the exploration take either branch), the other the default;
-                // each branch starts with a task, so its first flow is the split's own.
-                let (split, join) = (self.id("x"), self.id("j"));
-                let firsts = [self.id("f"), self.id("f")];
+                // An exclusive block: a condition on one branch, the other the default.
+                let (split, join, default) = (self.id("x"), self.id("j"), self.id("f"));
                 let _ = write!(
                     out,
-                    r#"<exclusiveGateway id="{split}" default="{}"/><exclusiveGateway id="{join}"/>"#,
-                    firsts[1]
+                    r#"<exclusiveGateway id="{split}" default="{default}"/><exclusiveGateway id="{join}"/>"#
                 );
                 self.flow(out, from, &split);
-                for (k, first) in firsts.iter().enumerate() {
-                    let t = self.task(out);
-                    let condition = if k == 0 {
-                        r#"<conditionExpression xsi:type="tFormalExpression">go == 1</conditionExpression>"#
-                    } else {
-                        ""
-                    };
-                    let _ = write!(
-                        out,
-                        r#"<sequenceFlow id="{first}" sourceRef="{split}" targetRef="{t}">{condition}</sequenceFlow>"#
-                    );
-                    let last = self.seq(out, &t, depth + 1, inner);
+                let split = Split {
+                    id: &split,
+                    branches: 2,
+                    guarded: true,
+                    default: Some(&default),
+                };
+                for last in self.branches(out, &split, depth, inner) {
                     self.flow(out, &last, &join);
                 }
                 join
+            }
+            6 => self.inclusive(out, from, depth, inner),
+            7 => self.race(out, from, depth, inner),
+            8 => self.again(out, from, depth, inner),
+            9 => self.merge(out, from, depth, inner),
+            10 => {
+                // A jump: a link thrown here continues at its catch.
+                let (throw, catch) = (self.id("lt"), self.id("lc"));
+                let name = format!("L{}", self.ids);
+                let _ = write!(
+                    out,
+                    r#"<intermediateThrowEvent id="{throw}"><linkEventDefinition name="{name}"/></intermediateThrowEvent><intermediateCatchEvent id="{catch}"><linkEventDefinition name="{name}"/></intermediateCatchEvent>"#
+                );
+                self.flow(out, from, &throw);
+                catch
             }
             _ => {
                 let id = self.id("sp");
@@ -199,6 +241,145 @@ impl Draw {
                 id
             }
         }
+    }
+
+    /// A condition on a name nothing writes: Spin and the exploration take it either way.
+    fn condition(&mut self) -> String {
+        let name = self.id("go");
+        format!(
+            r#"<conditionExpression xsi:type="tFormalExpression">{name} == 1</conditionExpression>"#
+        )
+    }
+
+    /// The branches of `split` (each begins with a task, so its first flow is the split's own,
+    /// conditional or the default); the last element of each.
+    fn branches(
+        &mut self,
+        out: &mut String,
+        split: &Split<'_>,
+        depth: u32,
+        inner: bool,
+    ) -> Vec<String> {
+        let mut lasts = Vec::new();
+        for k in 0..split.branches {
+            let t = self.task(out);
+            let last = k + 1 == split.branches;
+            let (first, condition) = match split.default {
+                Some(d) if last => (d.to_owned(), String::new()),
+                _ if split.guarded => (self.id("f"), self.condition()),
+                _ => (self.id("f"), String::new()),
+            };
+            let _ = write!(
+                out,
+                r#"<sequenceFlow id="{first}" sourceRef="{}" targetRef="{t}">{condition}</sequenceFlow>"#,
+                split.id
+            );
+            lasts.push(self.seq(out, &t, depth + 1, inner));
+        }
+        lasts
+    }
+
+    /// An inclusive block: two or three conditional branches, one of them perhaps the default
+    /// (without one, no branch may be taken), joined by an inclusive gateway (§13.3.3).
+    fn inclusive(&mut self, out: &mut String, from: &str, depth: u32, inner: bool) -> String {
+        let (split, join) = (self.id("o"), self.id("j"));
+        let default = self.rng.chance(60).then(|| self.id("f"));
+        let n = 2 + self.rng.below(2) as usize;
+        let _ = write!(
+            out,
+            r#"<inclusiveGateway id="{split}"{}/><inclusiveGateway id="{join}"/>"#,
+            default
+                .as_ref()
+                .map(|d| format!(r#" default="{d}""#))
+                .unwrap_or_default()
+        );
+        self.flow(out, from, &split);
+        let split = Split {
+            id: &split,
+            branches: n,
+            guarded: true,
+            default: default.as_deref(),
+        };
+        for last in self.branches(out, &split, depth, inner) {
+            self.flow(out, &last, &join);
+        }
+        join
+    }
+
+    /// A race: an event-based gateway before two catch events (a timer, a signal), each
+    /// followed by its own branch, merged by an exclusive gateway.
+    fn race(&mut self, out: &mut String, from: &str, depth: u32, inner: bool) -> String {
+        let (gate, join) = (self.id("eb"), self.id("j"));
+        let _ = write!(
+            out,
+            r#"<eventBasedGateway id="{gate}"/><exclusiveGateway id="{join}"/>"#
+        );
+        self.flow(out, from, &gate);
+        let mut triggers = vec![self.rng.below(2) as usize, 4];
+        if self.rng.chance(30) {
+            triggers[1] = 1 - triggers[0];
+        }
+        for trigger in triggers {
+            let c = self.id("c");
+            let _ = write!(
+                out,
+                r#"<intermediateCatchEvent id="{c}">{}</intermediateCatchEvent>"#,
+                TRIGGERS[trigger]
+            );
+            self.flow(out, &gate, &c);
+            let last = self.seq(out, &c, depth + 1, inner);
+            self.flow(out, &last, &join);
+        }
+        join
+    }
+
+    /// A loop: an exclusive merge, a body, and an exclusive split back to the merge on a
+    /// condition, forward by default to a task.
+    fn again(&mut self, out: &mut String, from: &str, depth: u32, inner: bool) -> String {
+        let (merge, split, forward) = (self.id("lm"), self.id("ls"), self.id("f"));
+        let _ = write!(
+            out,
+            r#"<exclusiveGateway id="{merge}"/><exclusiveGateway id="{split}" default="{forward}"/>"#
+        );
+        self.flow(out, from, &merge);
+        let t = self.task(out);
+        self.flow(out, &merge, &t);
+        let outer = std::mem::replace(&mut self.looping, true);
+        let last = self.seq(out, &t, depth + 1, inner);
+        self.looping = outer;
+        self.flow(out, &last, &split);
+        let (back, condition) = (self.id("f"), self.condition());
+        let next = self.task(out);
+        let _ = write!(
+            out,
+            r#"<sequenceFlow id="{back}" sourceRef="{split}" targetRef="{merge}">{condition}</sequenceFlow><sequenceFlow id="{forward}" sourceRef="{split}" targetRef="{next}"/>"#
+        );
+        next
+    }
+
+    /// Branches merged without a gateway: an exclusive split's (one token arrives) or a
+    /// parallel split's (the task after them runs once per branch).
+    fn merge(&mut self, out: &mut String, from: &str, depth: u32, inner: bool) -> String {
+        let split = self.id("m");
+        let exclusive = self.looping || self.rng.chance(50);
+        let default = exclusive.then(|| self.id("f"));
+        let _ = match &default {
+            Some(d) => write!(out, r#"<exclusiveGateway id="{split}" default="{d}"/>"#),
+            None => write!(out, r#"<parallelGateway id="{split}"/>"#),
+        };
+        self.flow(out, from, &split);
+        let split = Split {
+            id: &split,
+            branches: 2,
+            guarded: exclusive,
+            default: default.as_deref(),
+        };
+        let lasts = self.branches(out, &split, depth, inner);
+        let next = self.task(out);
+        for last in lasts {
+            self.flow(out, &last, &next);
+        }
+        next
     }
 
     /// A scope's content: start, a sequence, an end, perhaps an event sub-process.
@@ -230,6 +411,7 @@ fn model(seed: u64) -> String {
     let mut d = Draw {
         rng: Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1),
         ids: 0,
+        looping: false,
     };
     let mut body = String::new();
     d.scope(&mut body, 0, false);

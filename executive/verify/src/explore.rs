@@ -491,11 +491,13 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
             out.complete = false;
             break;
         }
-        // Two tokens that came by the same flow to the same element of the same scope.
+        // Two tokens that came by the same flow to the same element of the same scope: two on
+        // the flow, as the translation counts them (a gateway's join included; an activity
+        // waiting for its `startQuantity` takes several by design).
         let mut by_flow = BTreeMap::new();
         for t in state.tokens.values() {
             if let Some(f) = t.via
-                && !matches!(t.at, At::Joining)
+                && !(matches!(t.at, At::Joining) && g.node(t.node).is_activity())
                 && by_flow.insert((t.scope, t.node, f), ()).is_some()
                 && out.unsafe_run.is_none()
             {

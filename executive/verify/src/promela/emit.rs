@@ -74,6 +74,8 @@ impl Tr<'_> {
             let _ = writeln!(p, "/*   {i:>4} {a} */");
         }
         let _ = writeln!(p, "byte tok[{nf}];\nbyte act[{na}];\nbyte reps[{nc}];");
+        // The instances of a task running, by the flow each came by (`SAFETY_ENTER`).
+        let _ = writeln!(p, "byte busy[{nf}];");
         // The wave of each token (`docs/engine-semantics.md`, "Within a step"): 2 made ready
         // by the wave now arriving, 1 arrived or arriving now, 0 arrived earlier.
         let _ = writeln!(p, "byte gen[{nf}];\nbyte w;");
@@ -149,6 +151,7 @@ impl Tr<'_> {
             }
         }
         let _ = writeln!(p, "{SAFETY_PUT}");
+        let _ = writeln!(p, "{SAFETY_ENTER}");
         let mut idle: Vec<String> = (0..self.flow_names.len())
             .map(|i| format!("tok[{i}] == 0"))
             .collect();

@@ -91,19 +91,31 @@ pub struct Translation {
     pub atoms: Vec<String>,
 }
 
-/// Marking a flow in the safety model: a second token is an assertion violation (unsafe). The
-/// token is of the next wave (`gen` 2): it arrives once the wave that made it ready is over
-/// (`docs/engine-semantics.md`, "Within a step").
-const SAFETY_PUT: &str = "#define PUT(f) assert(tok[f] == 0); tok[f] = 1; gen[f] = 2";
+/// Marking a flow in the safety model: a second token is an assertion violation (unsafe), and
+/// the search goes on with both tokens, as the engine keeps both (counted up to two: a third
+/// on one flow is where the count stops). The token is of the next wave (`gen` 2): it arrives
+/// once the wave that made it ready is over (`docs/engine-semantics.md`, "Within a step").
+const SAFETY_PUT: &str = "#define PUT(f) assert(tok[f] == 0); if :: tok[f] < 2 -> tok[f]++ :: else -> skip fi; gen[f] = 2";
 /// Marking a flow in the LTL model: a second token only raises `unsafe`, so claims are judged
 /// on their own.
-const LTL_PUT: &str =
-    "#define PUT(f) if :: tok[f] > 0 -> unsafe = 1 :: else -> tok[f] = 1; gen[f] = 2 fi";
+const LTL_PUT: &str = "#define PUT(f) if :: tok[f] > 0 -> unsafe = 1 :: else -> skip fi; if :: tok[f] < 2 -> tok[f]++ :: else -> skip fi; gen[f] = 2";
+/// A task (not folded into one step) entered along flow `f`: the instance keeps the flow it came
+/// by (`busy[f]`) until it ends, as the engine's token does, so a second token entering along the
+/// same flow while it runs is unsafe, as a second token on the flow is. Another instance
+/// starts beside it (counted up to two), as in the engine. A withdrawal zeroes only the task's
+/// `act[]` (fewer statements in the steps that clear a scope): entering a task with none
+/// running first zeroes its `busy[]`.
+const SAFETY_ENTER: &str =
+    "#define ENTER(f) assert(busy[f] == 0); if :: busy[f] < 2 -> busy[f]++ :: else -> skip fi";
+/// [`SAFETY_ENTER`] in the LTL model: the second entry only raises `unsafe`.
+const LTL_ENTER: &str = "#define ENTER(f) if :: busy[f] > 0 -> unsafe = 1 :: else -> skip fi; if :: busy[f] < 2 -> busy[f]++ :: else -> skip fi";
 
 impl Translation {
     /// The model for LTL claims (same lines, flows marked without assertions).
     pub fn ltl_model(&self) -> String {
-        self.promela.replacen(SAFETY_PUT, LTL_PUT, 1)
+        self.promela
+            .replacen(SAFETY_PUT, LTL_PUT, 1)
+            .replacen(SAFETY_ENTER, LTL_ENTER, 1)
     }
 }
 
@@ -158,7 +170,7 @@ struct Ctx {
 }
 
 /// One guarded step.
-#[derive(Default)]
+#[derive(Clone, Default)]
 struct Alt {
     guard: Vec<String>,
     effect: Vec<String>,

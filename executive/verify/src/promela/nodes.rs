@@ -3,6 +3,9 @@
 
 use super::*;
 
+/// The flows and the activity slots upstream of a flow ([`Tr::upstream`]).
+type Upstream = (BTreeSet<usize>, BTreeSet<usize>);
+
 impl Tr<'_> {
     /// An exclusive split decided by declared data: each outgoing flow with its exact guard
     /// (the first condition that holds, in order; the default when none does). `None` when a
@@ -268,8 +271,10 @@ impl Tr<'_> {
                 }
             }
             GatewayKind::Inclusive if ins.len() > 1 => {
-                // Non-local join: fire when some incoming flow is marked and no token can still
-                // arrive on the empty ones (nothing upstream of them is marked).
+                // Non-local join (§13.4.3): fire when some incoming flow is marked and no token
+                // can still arrive on the empty ones — a token upstream of an empty flow waits
+                // for it unless a path of sequence flows also leads it to a marked one, as the
+                // engine decides (its `incoming_reached`).
                 let m = self.marker(c, n, "join");
                 let mut alt = Alt::default();
                 // A token on a flow that has not arrived yet (of the next wave) is one that
@@ -279,16 +284,43 @@ impl Tr<'_> {
                     .map(|f| format!("ARRIVED({})", self.f(c, *f)))
                     .collect();
                 alt.guard.push(format!("({})", marked.join(" || ")));
+                // What can reach each incoming flow along sequence flows (and links) alone.
+                let along: Vec<(usize, Upstream)> = ins
+                    .iter()
+                    .map(|f| (self.f(c, *f), self.upstream(c, *f, n, false)))
+                    .collect();
                 for f in ins {
                     let i = self.f(c, *f);
-                    let (flows, acts) = self.upstream(c, *f, n);
+                    let (flows, acts) = self.upstream(c, *f, n, true);
+                    // A token at `place` waits for flow `i` unless it can reach a marked one.
+                    let exempt = |place: usize, act: bool| -> String {
+                        along
+                            .iter()
+                            .filter(|(j, (fl, ac))| {
+                                *j != i
+                                    && if act {
+                                        ac.contains(&place)
+                                    } else {
+                                        fl.contains(&place)
+                                    }
+                            })
+                            .map(|(j, _)| format!(" || ARRIVED({j})"))
+                            .collect()
+                    };
                     let mut empty: Vec<String> = vec![format!("tok[{i}] == 0")];
-                    empty.extend(flows.iter().map(|u| format!("tok[{u}] == 0")));
-                    empty.extend(acts.iter().map(|a| format!("!act[{a}]")));
+                    empty.extend(
+                        flows
+                            .iter()
+                            .map(|u| format!("(tok[{u}] == 0{})", exempt(*u, false))),
+                    );
+                    empty.extend(
+                        acts.iter()
+                            .map(|a| format!("(!act[{a}]{})", exempt(*a, true))),
+                    );
                     alt.guard
                         .push(format!("(ARRIVED({i}) || ({}))", empty.join(" && ")));
                     alt.effect.push(format!(
-                        "if :: ARRIVED({i}) -> tok[{i}] = 0; gen[{i}] = 0 :: else -> skip fi"
+                        "if :: ARRIVED({i}) -> tok[{i}]--; gen[{i}] = 0 :: else -> skip fi"
                     ));
                 }
                 self.joining.push(alt.guard.join(" && "));
@@ -333,31 +365,61 @@ impl Tr<'_> {
         }
     }
 
+    /// Pushes `alt` (marked `m`), the end of one instance of an activity: once per flow an
+    /// instance may have come by (`ways_in`), or as it is when the activity does not count them.
+    fn push_per_way_in(&mut self, m: &str, alt: Alt, ways_in: &[usize]) {
+        if ways_in.is_empty() {
+            return self.push(m, alt);
+        }
+        for i in ways_in {
+            let mut one = alt.clone();
+            one.guard.push(format!("busy[{i}] > 0"));
+            one.effect.push(format!("busy[{i}]--"));
+            self.push(m, one);
+        }
+    }
+
     /// Flows and activity slots from which `flow` can still receive a token, not passing
-    /// through the join `join` (static, like fbpmn's `PreEdges`).
+    /// through the join `join` (static, like fbpmn's `PreEdges`): along sequence flows and
+    /// links (a link catch is reached from the link throws of its name in its scope) and, with
+    /// `boundaries`, from an activity through its boundary events.
     pub(super) fn upstream(
         &self,
         c: usize,
         flow: FlowId,
         join: NodeId,
-    ) -> (BTreeSet<usize>, BTreeSet<usize>) {
+        boundaries: bool,
+    ) -> Upstream {
+        let g = self.g;
         let (mut flows, mut acts) = (BTreeSet::new(), BTreeSet::new());
         let mut seen = BTreeSet::new();
-        let mut stack = vec![self.g.flow(flow).source];
+        let mut stack = vec![g.flow(flow).source];
         while let Some(n) = stack.pop() {
             if n == join || !seen.insert(n) {
                 continue;
             }
-            let node = self.g.node(n);
+            let node = g.node(n);
             if let Some(a) = self.act_ix.get(&(c, n)) {
                 acts.insert(*a);
             }
             for f in &node.incoming {
                 flows.insert(self.f(c, *f));
-                stack.push(self.g.flow(*f).source);
+                stack.push(g.flow(*f).source);
             }
-            if let NodeKind::Boundary(b) = &node.kind {
-                stack.push(b.attached_to);
+            match &node.kind {
+                NodeKind::Boundary(b) if boundaries => stack.push(b.attached_to),
+                NodeKind::Catch(k) => {
+                    for name in k.triggers.iter().filter_map(|d| match d {
+                        EventDefinition::Link(l) => Some(l),
+                        _ => None,
+                    }) {
+                        stack.extend(g.scope_nodes(node.scope).iter().copied().filter(|t| {
+                            matches!(&g.node(*t).kind, NodeKind::Throw(defs)
+                                if defs.iter().any(|d| matches!(d, EventDefinition::Link(l) if l == name)))
+                        }));
+                    }
+                }
+                _ => {}
             }
         }
         (flows, acts)
@@ -491,6 +553,15 @@ impl Tr<'_> {
                 }
             }
         }
+        // A task without a loop, entered only along its flows, counts its instances and the
+        // flow each came by (`ENTER`).
+        let counted =
+            body.is_none() && node.looping.is_none() && !self.pend_ix.contains_key(&(c, n));
+        let ways_in: Vec<usize> = if counted {
+            ins.iter().map(|f| self.f(c, *f)).collect()
+        } else {
+            Vec::new()
+        };
         for entry in entries {
             let phase = if body.is_some() { "activate" } else { "start" };
             let m = self.marker(c, n, phase);
@@ -514,6 +585,23 @@ impl Tr<'_> {
                     let choose: Vec<String> =
                         (1..=k).map(|i| format!(":: act[{a}] = {i}")).collect();
                     alt.effect.push(format!("if {} fi", choose.join(" ")));
+                }
+                // A task counts its instances: a token arriving while one runs starts another
+                // beside it, as in the engine (up to two; a sub-process's body has one marking).
+                _ if counted => {
+                    if let Entry::Flow(f) = entry {
+                        // What a withdrawal left counted (it zeroes `act[]` only).
+                        let stale: Vec<String> =
+                            ways_in.iter().map(|i| format!("busy[{i}] = 0")).collect();
+                        alt.effect.push(format!(
+                            "if :: act[{a}] == 0 -> {} :: else -> skip fi",
+                            stale.join("; ")
+                        ));
+                        alt.effect.push(format!("ENTER({})", self.f(c, f)));
+                    }
+                    alt.effect.push(format!(
+                        "if :: act[{a}] < 2 -> act[{a}]++ :: else -> skip fi"
+                    ));
                 }
                 _ => alt.effect.push(format!("act[{a}] = 1")),
             }
@@ -617,12 +705,18 @@ impl Tr<'_> {
         if parallel.is_some() && !early {
             alt.guard.push(format!("act[{a}] == 1"));
         }
-        alt.effect.push(format!("act[{a}] = 0"));
+        // One instance of a task ends (the one that came by the flow chosen); the others run on.
+        let one_ends = if counted {
+            format!("act[{a}]--")
+        } else {
+            format!("act[{a}] = 0")
+        };
+        alt.effect.push(one_ends.clone());
         alt.effect.extend(self.data_effects(n));
         alt.effect.extend(self.completed(c, n));
         self.sent(n, &mut alt);
         self.put_all(c, outs, &mut alt);
-        self.push(&m, alt);
+        self.push_per_way_in(&m, alt, &ways_in);
         // A system's failure, caught by a boundary here or around.
         {
             for catch in catchers {
@@ -638,7 +732,7 @@ impl Tr<'_> {
                 {
                     self.bound(cc, b, &mut alt);
                 }
-                alt.effect.push(format!("act[{a}] = 0"));
+                alt.effect.push(one_ends.clone());
                 let code = self
                     .triggers(b)
                     .iter()
@@ -651,7 +745,7 @@ impl Tr<'_> {
                     .flatten();
                 alt.effect.extend(self.error_observed(code.as_deref()));
                 self.caught(catch, &mut alt);
-                self.push(&m, alt);
+                self.push_per_way_in(&m, alt, &ways_in);
             }
         }
         // Timers, messages and conditions on the boundary may fire while the activity runs.
@@ -679,6 +773,8 @@ impl Tr<'_> {
                     self.bound(c, b, &mut alt);
                 }
                 self.cancel(c, n, &mut alt);
+                alt.effect
+                    .extend(ways_in.iter().map(|i| format!("busy[{i}] = 0")));
             } else if let Some(k) = self.cnt_ix.get(&(c, b)).copied() {
                 // Beside the running activity: a duration timer once per activation, anything
                 // else (messages, conditions, cycles) a bounded number of times.
