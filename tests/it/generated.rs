@@ -124,15 +124,7 @@ impl Draw {
                     return id;
                 }
                 // A contingency on the task itself, interrupting or not.
-                let b = self.id("b");
-                let def = TRIGGERS[self.rng.below(5) as usize];
-                let cancel = def.contains("error") || self.rng.chance(50);
-                let _ = write!(
-                    out,
-                    r#"<boundaryEvent id="{b}" attachedToRef="{id}" cancelActivity="{cancel}">{def}</boundaryEvent>"#
-                );
-                let after = self.task(out);
-                self.flow(out, &b, &after);
+                let after = self.contingency(out, &id, 50);
                 let end = self.end(out, inner);
                 self.flow(out, &after, &end);
                 id
@@ -225,15 +217,7 @@ impl Draw {
                 let _ = write!(out, r#"<subProcess id="{id}">{body}</subProcess>"#);
                 self.flow(out, from, &id);
                 if self.rng.chance(60) {
-                    let b = self.id("b");
-                    let def = TRIGGERS[self.rng.below(5) as usize];
-                    let cancel = def.contains("error") || self.rng.chance(60);
-                    let _ = write!(
-                        out,
-                        r#"<boundaryEvent id="{b}" attachedToRef="{id}" cancelActivity="{cancel}">{def}</boundaryEvent>"#
-                    );
-                    let after = self.task(out);
-                    self.flow(out, &b, &after);
+                    let after = self.contingency(out, &id, 60);
                     let end = self.id("e");
                     let _ = write!(out, r#"<endEvent id="{end}"/>"#);
                     self.flow(out, &after, &end);
@@ -241,6 +225,21 @@ impl Draw {
                 id
             }
         }
+    }
+
+    /// A boundary event of a random trigger on `holder` (interrupting for an error, else with
+    /// `interrupting` percent chance) and the task after it; the task's id.
+    fn contingency(&mut self, out: &mut String, holder: &str, interrupting: u64) -> String {
+        let b = self.id("b");
+        let def = TRIGGERS[self.rng.below(5) as usize];
+        let cancel = def.contains("error") || self.rng.chance(interrupting);
+        let _ = write!(
+            out,
+            r#"<boundaryEvent id="{b}" attachedToRef="{holder}" cancelActivity="{cancel}">{def}</boundaryEvent>"#
+        );
+        let after = self.task(out);
+        self.flow(out, &b, &after);
+        after
     }
 
     /// A condition on a name nothing writes: Spin and the exploration take it either way.
