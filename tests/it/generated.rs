@@ -279,7 +279,7 @@ impl Draw {
     }
 
     /// An inclusive block: two or three conditional branches, one of them perhaps the default
-    /// (without one, no branch may be taken), joined by an inclusive gateway (§13.3.3).
+    /// (without one, no branch may be taken), joined by an inclusive gateway (§13.4.3).
     fn inclusive(&mut self, out: &mut String, from: &str, depth: u32, inner: bool) -> String {
         let (split, join) = (self.id("o"), self.id("j"));
         let default = self.rng.chance(60).then(|| self.id("f"));
