@@ -3,6 +3,7 @@
 //! behind links and unsafe merges: per construct a mission model on which Spin and the engine
 //! agree exactly, and a flawed variant both find the flaw in.
 
+use crate::generated::service_task;
 use crate::protocol::tempdir;
 use crate::verify::{Compared, Comparison, compare};
 
@@ -471,17 +472,10 @@ fn activities_without_incoming_flow_start_with_their_scope() {
     );
 }
 
-/// A service task run by a system (`r.<id>`).
-fn work(id: &str) -> String {
-    format!(
-        r#"<serviceTask id="{id}"><extensionElements><trace:task resource="r.{id}"/></extensionElements></serviceTask>"#
-    )
-}
-
 /// An inclusive block whose first branch reaches the join through a link (`link`), or along a
 /// flow: the join waits for a token coming through the link as for one on a flow.
 fn linked_join(link: bool) -> String {
-    let (a, b, join) = (work("a"), work("b"), work("after"));
+    let (a, b, join) = (service_task("a"), service_task("b"), service_task("after"));
     let first = if link {
         r#"<intermediateThrowEvent id="jump"><linkEventDefinition name="L"/></intermediateThrowEvent>
     <intermediateCatchEvent id="land"><linkEventDefinition name="L"/></intermediateCatchEvent>
@@ -524,7 +518,7 @@ fn an_inclusive_join_waits_for_a_token_still_coming_through_a_link() {
 fn doubled(guarded: bool) -> String {
     let tasks: String = ["a", "b", "merged", "slow", "last"]
         .iter()
-        .map(|t| work(t))
+        .map(|t| service_task(t))
         .collect();
     let guard = if guarded {
         r#"<subProcess id="esp" triggeredByEvent="true">

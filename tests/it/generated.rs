@@ -38,6 +38,13 @@ struct Draw {
     looping: bool,
 }
 
+/// A service task run by a system (resource `r.<id>`).
+pub(crate) fn service_task(id: &str) -> String {
+    format!(
+        r#"<serviceTask id="{id}"><extensionElements><trace:task resource="r.{id}"/></extensionElements></serviceTask>"#
+    )
+}
+
 /// A split whose branches [`Draw::branches`] draws.
 struct Split<'a> {
     id: &'a str,
@@ -72,10 +79,7 @@ impl Draw {
 
     fn task(&mut self, out: &mut String) -> String {
         let id = self.id("t");
-        let _ = write!(
-            out,
-            r#"<serviceTask id="{id}"><extensionElements><trace:task resource="r.{id}"/></extensionElements></serviceTask>"#
-        );
+        out.push_str(&service_task(&id));
         id
     }
 

@@ -6,7 +6,7 @@ impl<'d> Builder<'d, '_> {
     /// A node's default flow: read on the elements whose schema type has `default` (activities
     /// and exclusive, inclusive and complex gateways); elsewhere it is reported and ignored.
     pub(super) fn default_flow(&mut self, nid: NodeId, el: &Element, owner: &str) {
-        let Some(d) = crate::constraints::schema_attr(el, "default") else {
+        let Some(d) = schema_attr(el, "default") else {
             return;
         };
         let d = local_ref(d);
