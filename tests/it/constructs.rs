@@ -1,7 +1,8 @@
 //! The Spin translation of event sub-processes, compensation, transactions with cancel, message
 //! flows between pools, processes the outside starts, parallel multi-instance, inclusive joins
-//! behind links and unsafe merges: per construct a mission model on which Spin and the engine
-//! agree exactly, and a flawed variant both find the flaw in.
+//! behind links, unsafe merges, receive tasks and repeating outside events: per construct a
+//! mission model on which Spin and the engine agree exactly, and a flawed variant both find the
+//! flaw in.
 
 use crate::generated::service_task;
 use crate::protocol::tempdir;
@@ -561,5 +562,131 @@ fn a_second_token_on_a_flow_or_into_a_running_task_is_unsafe_and_kept() {
         assert!(c.unsafe_run, "guarded {guarded}");
         assert!(!c.deadlock, "guarded {guarded}");
         assert!(c.ends.contains("e"), "guarded {guarded}: {:?}", c.ends);
+    }
+}
+
+/// A sub-process waits in a receive task, an error event sub-process beside it.
+fn receiving() -> String {
+    format!(
+        r#"<process id="p" isExecutable="true">
+    <startEvent id="s"/>
+    <subProcess id="sp">
+      <startEvent id="s1"/>
+      <receiveTask id="wait" messageRef="STATUS"/>
+      <endEvent id="e1"/>
+      <sequenceFlow id="g0" sourceRef="s1" targetRef="wait"/>
+      <sequenceFlow id="g1" sourceRef="wait" targetRef="e1"/>
+      <subProcess id="esp" triggeredByEvent="true">
+        <startEvent id="es"><errorEventDefinition errorRef="JAM"/></startEvent>
+        {handle}
+        <endEvent id="ee"/>
+        <sequenceFlow id="h0" sourceRef="es" targetRef="handle"/>
+        <sequenceFlow id="h1" sourceRef="handle" targetRef="ee"/>
+      </subProcess>
+    </subProcess>
+    {after}
+    <endEvent id="e"/>
+    <sequenceFlow id="f0" sourceRef="s" targetRef="sp"/>
+    <sequenceFlow id="f1" sourceRef="sp" targetRef="after"/>
+    <sequenceFlow id="f2" sourceRef="after" targetRef="e"/>
+  </process>"#,
+        handle = service_task("handle"),
+        after = service_task("after"),
+    )
+}
+
+#[test]
+fn a_receive_task_waits_for_its_message_and_never_fails() {
+    let c = agree("receiving", &receiving());
+    // Only a system's task fails; the error handler beside the receive task never runs.
+    assert!(c.dead.contains("handle"), "{:?}", c.dead);
+    assert!(!c.ends.contains("ee"), "{:?}", c.ends);
+    assert!(c.ends.contains("e") && !c.deadlock, "{:?}", c.ends);
+}
+
+/// Two branches merged without a gateway into `merged`, which runs once per token; both leave
+/// along one flow into `into`: a sub-process (`sub`) or a parallel multi-instance task.
+fn doubled_into(sub: bool) -> String {
+    let into = if sub {
+        format!(
+            r#"<subProcess id="into"><startEvent id="s1"/>{}<endEvent id="e1"/><sequenceFlow id="g0" sourceRef="s1" targetRef="inner"/><sequenceFlow id="g1" sourceRef="inner" targetRef="e1"/></subProcess>"#,
+            service_task("inner")
+        )
+    } else {
+        r#"<serviceTask id="into"><extensionElements><trace:task resource="r.into"/></extensionElements><multiInstanceLoopCharacteristics isSequential="false"><loopCardinality xsi:type="tFormalExpression">2</loopCardinality></multiInstanceLoopCharacteristics></serviceTask>"#.to_owned()
+    };
+    let tasks: String = ["a", "b", "merged"]
+        .iter()
+        .map(|t| service_task(t))
+        .collect();
+    format!(
+        r#"<process id="p" isExecutable="true">
+    <startEvent id="s"/>
+    <parallelGateway id="fork"/>
+    {tasks}
+    {into}
+    <endEvent id="e"/>
+    <sequenceFlow id="f0" sourceRef="s" targetRef="fork"/>
+    <sequenceFlow id="f1" sourceRef="fork" targetRef="a"/>
+    <sequenceFlow id="f2" sourceRef="fork" targetRef="b"/>
+    <sequenceFlow id="f3" sourceRef="a" targetRef="merged"/>
+    <sequenceFlow id="f4" sourceRef="b" targetRef="merged"/>
+    <sequenceFlow id="f5" sourceRef="merged" targetRef="into"/>
+    <sequenceFlow id="f6" sourceRef="into" targetRef="e"/>
+  </process>"#
+    )
+}
+
+#[test]
+fn a_second_token_into_a_running_sub_process_or_multi_instance_task_is_unsafe() {
+    for sub in [true, false] {
+        let c = agree(&format!("doubled-into-{sub}"), &doubled_into(sub));
+        assert!(c.unsafe_run, "sub-process {sub}");
+        assert!(c.ends.contains("e"), "sub-process {sub}: {:?}", c.ends);
+    }
+}
+
+/// The main path waits for a signal nothing throws, while the outside may send messages to a
+/// non-interrupting event sub-process (`esp`) or boundary event on the waiting sub-process.
+fn stuck_beside_messages(esp: bool) -> String {
+    let beside = if esp {
+        format!(
+            r#"<subProcess id="esp" triggeredByEvent="true"><startEvent id="es" isInterrupting="false"><messageEventDefinition messageRef="STATUS"/></startEvent>{}<endEvent id="ee"/><sequenceFlow id="h0" sourceRef="es" targetRef="report"/><sequenceFlow id="h1" sourceRef="report" targetRef="ee"/></subProcess>"#,
+            service_task("report")
+        )
+    } else {
+        format!(
+            r#"<boundaryEvent id="b" attachedToRef="sp" cancelActivity="false"><messageEventDefinition messageRef="STATUS"/></boundaryEvent>{}<endEvent id="ee"/><sequenceFlow id="h0" sourceRef="b" targetRef="report"/><sequenceFlow id="h1" sourceRef="report" targetRef="ee"/>"#,
+            service_task("report")
+        )
+    };
+    format!(
+        r#"<process id="p" isExecutable="true">
+    <startEvent id="s"/>
+    <subProcess id="sp">
+      <startEvent id="s1"/>
+      <intermediateCatchEvent id="never"><signalEventDefinition signalRef="RESULT"/></intermediateCatchEvent>
+      <endEvent id="e1"/>
+      <sequenceFlow id="g0" sourceRef="s1" targetRef="never"/>
+      <sequenceFlow id="g1" sourceRef="never" targetRef="e1"/>
+    </subProcess>
+    {beside}
+    <endEvent id="e"/>
+    <sequenceFlow id="f0" sourceRef="s" targetRef="sp"/>
+    <sequenceFlow id="f1" sourceRef="sp" targetRef="e"/>
+  </process>"#
+    )
+}
+
+#[test]
+fn a_mission_stuck_beside_a_repeating_message_event_deadlocks_once_the_outside_has_had_its_turns() {
+    for esp in [true, false] {
+        let c = agree(&format!("stuck-{esp}"), &stuck_beside_messages(esp));
+        assert!(c.deadlock, "event sub-process {esp}");
+        assert!(
+            c.ends.contains("ee") && !c.ends.contains("e"),
+            "{:?}",
+            c.ends
+        );
     }
 }

@@ -2,7 +2,8 @@
 //! the engine both take — tasks, timers, signals thrown and caught, parallel, exclusive and
 //! inclusive blocks, event-based races, loops, branches merged without a gateway, link jumps,
 //! branches that end early in every kind of end event, tasks and sub-processes with boundary
-//! events, event sub-processes — seeded, a few hundred per run. On each, Spin on the PROMELA translation and
+//! events, event sub-processes, multi-instance tasks and sub-processes, compensation, messages
+//! from outside — seeded, a few hundred per run. On each, Spin on the PROMELA translation and
 //! the engine's own exploration must agree exactly. Each model is written out first; a
 //! disagreement names its seed and file, to be kept as a test.
 
@@ -55,12 +56,13 @@ struct Split<'a> {
     default: Option<&'a str>,
 }
 
-const TRIGGERS: [&str; 5] = [
+const TRIGGERS: [&str; 6] = [
     r#"<signalEventDefinition signalRef="S0"/>"#,
     r#"<signalEventDefinition signalRef="S1"/>"#,
     r#"<errorEventDefinition errorRef="E"/>"#,
     r#"<escalationEventDefinition escalationRef="X"/>"#,
     r#"<timerEventDefinition><timeDuration xsi:type="tFormalExpression">PT1H</timeDuration></timerEventDefinition>"#,
+    r#"<messageEventDefinition messageRef="M"/>"#,
 ];
 
 impl Draw {
@@ -111,8 +113,8 @@ impl Draw {
     fn item(&mut self, out: &mut String, from: &str, depth: u32, inner: bool) -> String {
         // Sub-processes nest one deep, blocks two deep: small enough to explore in full.
         let kind = match depth {
-            0 => self.rng.below(13),
-            1 => self.rng.below(11),
+            0 => self.rng.below(16),
+            1 => self.rng.below(14),
             _ => self.rng.below(3),
         };
         match kind {
@@ -135,10 +137,10 @@ impl Draw {
             }
             1 => {
                 let id = self.id("c");
-                let def = if self.rng.chance(50) {
-                    TRIGGERS[4]
-                } else {
-                    TRIGGERS[self.rng.below(2) as usize]
+                let def = match self.rng.below(6) {
+                    0..3 => TRIGGERS[4],
+                    3 => TRIGGERS[5],
+                    k => TRIGGERS[k as usize - 4],
                 };
                 let _ = write!(
                     out,
@@ -214,6 +216,23 @@ impl Draw {
                 self.flow(out, from, &throw);
                 catch
             }
+            11 => self.many(out, from, depth, inner),
+            12 if !self.looping => self.compensation(out, from, depth, inner),
+            12 | 13 => {
+                // A message from outside, awaited by a receive task or a catch event.
+                let id = self.id("rm");
+                if self.rng.chance(50) {
+                    let _ = write!(out, r#"<receiveTask id="{id}" messageRef="M"/>"#);
+                } else {
+                    let _ = write!(
+                        out,
+                        r#"<intermediateCatchEvent id="{id}">{}</intermediateCatchEvent>"#,
+                        TRIGGERS[5]
+                    );
+                }
+                self.flow(out, from, &id);
+                id
+            }
             _ => {
                 let id = self.id("sp");
                 let mut body = String::new();
@@ -235,7 +254,7 @@ impl Draw {
     /// `interrupting` percent chance) and the task after it; the task's id.
     fn contingency(&mut self, out: &mut String, holder: &str, interrupting: u64) -> String {
         let b = self.id("b");
-        let def = TRIGGERS[self.rng.below(5) as usize];
+        let def = TRIGGERS[self.rng.below(6) as usize];
         let cancel = def.contains("error") || self.rng.chance(interrupting);
         let _ = write!(
             out,
@@ -244,6 +263,56 @@ impl Draw {
         let after = self.task(out);
         self.flow(out, &b, &after);
         after
+    }
+
+    /// A multi-instance activity, two instances one after another or side by side: a task, or
+    /// at the top level a sub-process.
+    fn many(&mut self, out: &mut String, from: &str, depth: u32, inner: bool) -> String {
+        let sequential = self.rng.chance(50);
+        let each = format!(
+            r#"<multiInstanceLoopCharacteristics isSequential="{sequential}"><loopCardinality xsi:type="tFormalExpression">2</loopCardinality></multiInstanceLoopCharacteristics>"#
+        );
+        let id = if depth == 0 && self.rng.chance(50) {
+            let id = self.id("msp");
+            let mut body = String::new();
+            self.scope(&mut body, depth + 1, inner);
+            let _ = write!(out, r#"<subProcess id="{id}">{each}{body}</subProcess>"#);
+            id
+        } else {
+            let id = self.id("mt");
+            let _ = write!(
+                out,
+                r#"<serviceTask id="{id}"><extensionElements><trace:task resource="r.{id}"/></extensionElements>{each}</serviceTask>"#
+            );
+            id
+        };
+        self.flow(out, from, &id);
+        id
+    }
+
+    /// A task with a compensation handler, what follows it, and a compensation throw (of that
+    /// task's handler or of every completed one in the scope).
+    fn compensation(&mut self, out: &mut String, from: &str, depth: u32, inner: bool) -> String {
+        let t = self.task(out);
+        self.flow(out, from, &t);
+        let (b, handler, link) = (self.id("cb"), self.id("ch"), self.id("a"));
+        let _ = write!(
+            out,
+            r#"<boundaryEvent id="{b}" attachedToRef="{t}"><compensateEventDefinition/></boundaryEvent><serviceTask id="{handler}" isForCompensation="true"><extensionElements><trace:task resource="r.{handler}"/></extensionElements></serviceTask><association id="{link}" sourceRef="{b}" targetRef="{handler}"/>"#
+        );
+        let last = self.seq(out, &t, depth + 1, inner);
+        let throw = self.id("ct");
+        let which = if self.rng.chance(50) {
+            format!(r#" activityRef="{t}""#)
+        } else {
+            String::new()
+        };
+        let _ = write!(
+            out,
+            r#"<intermediateThrowEvent id="{throw}"><compensateEventDefinition{which}/></intermediateThrowEvent>"#
+        );
+        self.flow(out, &last, &throw);
+        throw
     }
 
     /// A condition on a name nothing writes: Spin and the exploration take it either way.
@@ -309,7 +378,7 @@ impl Draw {
         join
     }
 
-    /// A race: an event-based gateway before two catch events (a timer, a signal), each
+    /// A race: an event-based gateway before two catch events (a timer, a signal, a message), each
     /// followed by its own branch, merged by an exclusive gateway.
     fn race(&mut self, out: &mut String, from: &str, depth: u32, inner: bool) -> String {
         let (gate, join) = (self.id("eb"), self.id("j"));
@@ -319,8 +388,10 @@ impl Draw {
         );
         self.flow(out, from, &gate);
         let mut triggers = vec![self.rng.below(2) as usize, 4];
-        if self.rng.chance(30) {
-            triggers[1] = 1 - triggers[0];
+        match self.rng.below(10) {
+            0..3 => triggers[1] = 1 - triggers[0],
+            3..6 => triggers[1] = 5,
+            _ => {}
         }
         for trigger in triggers {
             let c = self.id("c");
@@ -394,7 +465,7 @@ impl Draw {
         self.flow(out, &last, &end);
         if self.rng.chance(25) {
             let (esp, s, e) = (self.id("esp"), self.id("es"), self.id("ee"));
-            let def = TRIGGERS[self.rng.below(5) as usize];
+            let def = TRIGGERS[self.rng.below(6) as usize];
             let interrupting = def.contains("error") || self.rng.chance(50);
             let mut body = String::new();
             let t = self.task(&mut body);
@@ -421,7 +492,7 @@ fn model(seed: u64) -> String {
     format!(
         r#"<?xml version="1.0" encoding="UTF-8"?>
 <definitions xmlns="http://www.omg.org/spec/BPMN/20100524/MODEL" xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance" xmlns:trace="urn:trace:bpmn:1.0" id="d" targetNamespace="urn:generated">
-  <signal id="S0" name="S0"/><signal id="S1" name="S1"/><error id="E" errorCode="E"/><escalation id="X" escalationCode="X"/>
+  <signal id="S0" name="S0"/><signal id="S1" name="S1"/><error id="E" errorCode="E"/><escalation id="X" escalationCode="X"/><message id="M" name="M"/>
   <process id="p" isExecutable="true">{body}</process>
 </definitions>"#
     )

@@ -3,8 +3,9 @@
 //! catches, each armed timer, message or condition fires, each diverging gateway takes each of
 //! its branches — under the same abstractions as the PROMELA translation (no data; conditions
 //! chosen; timers untimed; the outside starts a process once per run; a non-interrupting event
-//! sub-process, and a process started by an event, runs one instance at a time), with no
-//! translation in between. It checks the
+//! sub-process, and a process started by an event, runs one instance at a time; the outside
+//! fires a non-interrupting boundary event or event sub-process start at most [`REPEATS`] times
+//! per activation), with no translation in between. It checks the
 //! built-in properties on the engine's real semantics and gives the end events each run can
 //! reach, so the Spin verdicts can be cross-checked against it (the differential test).
 //!
@@ -15,7 +16,8 @@ use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
 use std::sync::Arc;
 
 use executive_engine::{
-    Action, At, Engine, Entry, Event, Input, On, Outcome, State, TaskKey, Vars, chosen_from_outside,
+    Action, At, Engine, Entry, Event, Input, On, Outcome, State, TaskKey, Vars, WaitId,
+    chosen_from_outside,
 };
 use executive_model::{
     Called, EventDefinition, FlowId, GatewayKind, NodeId, NodeKind, ProcessGraph, TaskKind,
@@ -50,6 +52,28 @@ struct Node {
     from: Option<usize>,
     /// What happened on the way (for a first step, the branches it took, if any).
     label: String,
+    /// How often the outside fired each repeating subscription ([`repeats`]) of the state.
+    fired: BTreeMap<WaitId, u8>,
+}
+
+/// How often the outside fires one non-interrupting boundary event or event sub-process start
+/// (a message, a condition, a timer cycle) per activation of what it is armed on: the first
+/// time and one repetition, as the translation bounds them at its default loop bound
+/// (`--loops 1`). Unbounded, a mission whose other tokens are stuck would never show as stuck,
+/// since the outside could always fire once more.
+pub const REPEATS: u8 = 2;
+
+/// Whether `w` fires beside what it is armed on and stays armed: a non-interrupting boundary
+/// event or event sub-process start.
+fn repeats(g: &ProcessGraph, w: &executive_engine::Wait) -> bool {
+    match &g.node(w.node).kind {
+        NodeKind::Boundary(b) => !b.interrupting,
+        NodeKind::Start(st) => {
+            !st.interrupting
+                && matches!(g.node(w.node).scope, executive_model::Scope::SubProcess(_))
+        }
+        _ => false,
+    }
 }
 
 /// The shape of a state: tokens by (scope path, node, flow in, what they do), waits by node,
@@ -60,25 +84,7 @@ pub(crate) fn shape(
     s: &State,
     starts: &[(executive_model::ProcessId, NodeId)],
 ) -> String {
-    let path = |mut scope: Option<executive_engine::ScopeId>| {
-        let mut p = Vec::new();
-        while let Some(id) = scope {
-            let Some(sc) = s.scopes.get(&id) else { break };
-            p.push(match sc.kind {
-                executive_engine::ScopeKind::Process(pid) => g.process(pid).id.clone(),
-                executive_engine::ScopeKind::SubProcess(n)
-                | executive_engine::ScopeKind::Body(n) => g.node(n).id.clone(),
-            });
-            p.push(
-                sc.owner
-                    .and_then(|o| s.tokens.get(&o))
-                    .map(|t| g.node(t.node).id.clone())
-                    .unwrap_or_default(),
-            );
-            scope = sc.parent;
-        }
-        p.join("/")
-    };
+    let path = |scope| scope_path(g, s, scope);
     let mut tokens: Vec<String> = s
         .tokens
         .values()
@@ -123,6 +129,45 @@ pub(crate) fn shape(
         }
     }
     format!("{tokens:?}{waits:?}{outcomes:?}")
+}
+
+/// Where a scope is, by element ids from the innermost out.
+fn scope_path(g: &ProcessGraph, s: &State, mut scope: Option<executive_engine::ScopeId>) -> String {
+    let mut p = Vec::new();
+    while let Some(id) = scope {
+        let Some(sc) = s.scopes.get(&id) else { break };
+        p.push(match sc.kind {
+            executive_engine::ScopeKind::Process(pid) => g.process(pid).id.clone(),
+            executive_engine::ScopeKind::SubProcess(n) | executive_engine::ScopeKind::Body(n) => {
+                g.node(n).id.clone()
+            }
+        });
+        p.push(
+            sc.owner
+                .and_then(|o| s.tokens.get(&o))
+                .map(|t| g.node(t.node).id.clone())
+                .unwrap_or_default(),
+        );
+        scope = sc.parent;
+    }
+    p.join("/")
+}
+
+/// The firings counted in `fired` by shape, to tell states apart that differ only in them.
+fn fired_shape(g: &ProcessGraph, s: &State, fired: &BTreeMap<WaitId, u8>) -> String {
+    let mut out: Vec<String> = fired
+        .iter()
+        .filter_map(|(w, n)| {
+            let wait = s.waits.get(w)?;
+            Some(format!(
+                "{}|{}|{n}",
+                g.node(wait.node).id,
+                scope_path(g, s, Some(wait.scope))
+            ))
+        })
+        .collect();
+    out.sort();
+    out.join(",")
 }
 
 /// The code the exploration fails a task with to stand for every code no boundary names.
@@ -231,15 +276,17 @@ pub(crate) fn starts_now<'s>(
         })
 }
 
-/// What the outside can do in a state.
+/// What the outside can do in a state, each with the subscription it fires, if any. `fired`
+/// counts the firings of repeating subscriptions so far.
 fn inputs(
     g: &ProcessGraph,
     s: &State,
+    fired: &BTreeMap<WaitId, u8>,
     codes: &[String],
     starts: &[(executive_model::ProcessId, NodeId)],
-) -> Vec<(String, Event)> {
+) -> Vec<(String, Event, Option<WaitId>)> {
     let mut out = Vec::new();
-    out.extend(starts_now(g, s, starts).map(|(_, label, event)| (label, event)));
+    out.extend(starts_now(g, s, starts).map(|(_, label, event)| (label, event, None)));
     for (id, t) in &s.tokens {
         let label = g.node(t.node).id.clone();
         match &t.at {
@@ -251,6 +298,7 @@ fn inputs(
                         task: key,
                         output: Vars::new(),
                     },
+                    None,
                 ));
                 if !matches!(&g.node(t.node).kind, NodeKind::Task(task) if task.kind == TaskKind::User)
                 {
@@ -262,6 +310,7 @@ fn inputs(
                                 code: c.clone(),
                                 message: String::new(),
                             },
+                            None,
                         ));
                     }
                 }
@@ -271,6 +320,7 @@ fn inputs(
                     out.push((
                         take_label(g, t.node, &flows),
                         Event::BranchTaken { token: *id, flows },
+                        None,
                     ));
                 }
             }
@@ -293,7 +343,8 @@ fn inputs(
             On::Timer { .. } | On::Condition { .. } | On::Manual => true,
             _ => false,
         };
-        let fires = !later && !running_beside(g, s, w) && from_outside;
+        let spent = repeats(g, w) && fired.get(wid).is_some_and(|n| *n >= REPEATS);
+        let fires = !later && !running_beside(g, s, w) && from_outside && !spent;
         if fires {
             // A timer fires as the engine fires it (a duration once, a cycle as often as it
             // repeats); other events by hand.
@@ -301,7 +352,7 @@ fn inputs(
                 On::Timer { key, .. } => Event::TimerFired { timer: key },
                 _ => Event::WaitTriggered { wait: *wid },
             };
-            out.push((format!("{}.fire", g.node(w.node).id), event));
+            out.push((format!("{}.fire", g.node(w.node).id), event, Some(*wid)));
         }
     }
     out
@@ -470,6 +521,7 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
                     state,
                     from: None,
                     label: labels.join(" "),
+                    fired: BTreeMap::new(),
                 });
                 queue.push_back(nodes.len() - 1);
             }
@@ -505,7 +557,7 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
             }
         }
         let running = state.instances.values().any(|i| i.outcome.is_none());
-        let next = inputs(&g, &state, &codes, &starts);
+        let next = inputs(&g, &state, &nodes[at].fired, &codes, &starts);
         if next.is_empty() {
             if running && out.deadlock.is_none() {
                 out.deadlock = Some(path_of(&nodes, at));
@@ -518,7 +570,7 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
                 .any(|i| matches!(i.outcome, Some(Outcome::Failed { .. })))
         };
         let failed_before = failed(&state);
-        for (label, event) in next {
+        for (label, event, wait) in next {
             for (taken, run) in within(&state, std::slice::from_ref(&event)) {
                 let Ok((actions, after)) = run else {
                     continue;
@@ -538,7 +590,14 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
                     continue;
                 }
                 note(&actions, &mut entered);
-                let key = shape(&g, &after, &starts);
+                let mut fired = nodes[at].fired.clone();
+                if let Some(w) = wait
+                    && state.waits.get(&w).is_some_and(|w| repeats(&g, w))
+                {
+                    *fired.entry(w).or_default() += 1;
+                }
+                fired.retain(|w, _| after.waits.contains_key(w));
+                let key = shape(&g, &after, &starts) + &fired_shape(&g, &after, &fired);
                 if seen.contains_key(&key) {
                     continue;
                 }
@@ -552,6 +611,7 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
                     state: after,
                     from: Some(at),
                     label,
+                    fired,
                 });
                 queue.push_back(nodes.len() - 1);
             }

@@ -476,7 +476,11 @@ impl Tr<'_> {
             _ => Vec::new(),
         };
         let fails = match &node.kind {
-            NodeKind::Task(t) => !matches!(t.kind, TaskKind::User | TaskKind::Script),
+            // A receive task waits for its message; nothing it runs can fail.
+            NodeKind::Task(t) => !matches!(
+                t.kind,
+                TaskKind::User | TaskKind::Script | TaskKind::Receive
+            ),
             NodeKind::CallActivity(_) => outside(self.g, n),
             _ => false,
         };
@@ -572,6 +576,25 @@ impl Tr<'_> {
                     alt.guard.push(format!("pend[{k}] > 0"));
                     alt.effect.push(format!("pend[{k}]--"));
                 }
+            }
+            // An activity that does not count its instances (a sub-process, a loop, a
+            // multi-instance activity, a handler) keeps the flow it was entered by all the same,
+            // until it is next entered with none running: a second token entering along that
+            // flow while it runs is unsafe, as in the engine (its body is not run twice beside
+            // it: the translation has one marking per scope).
+            if let Entry::Flow(f) = entry
+                && !counted
+                && parallel != Some(0)
+            {
+                let stale: Vec<String> = ins
+                    .iter()
+                    .map(|i| format!("busy[{}] = 0", self.f(c, *i)))
+                    .collect();
+                alt.effect.push(format!(
+                    "if :: act[{a}] == 0 -> {} :: else -> skip fi",
+                    stale.join("; ")
+                ));
+                alt.effect.push(format!("ENTER({})", self.f(c, f)));
             }
             match parallel {
                 // No instance at all: the activity completes at once.
