@@ -1,8 +1,8 @@
 //! The Spin translation of event sub-processes, compensation, transactions with cancel, message
 //! flows between pools, processes the outside starts, parallel multi-instance, inclusive joins
-//! behind links, unsafe merges, receive tasks and repeating outside events: per construct a
-//! mission model on which Spin and the engine agree exactly, and a flawed variant both find the
-//! flaw in.
+//! behind links, unsafe merges, receive tasks, repeating outside events and counts written as
+//! numbers: per construct a mission model on which Spin and the engine agree exactly, and a
+//! flawed variant both find the flaw in.
 
 use crate::generated::service_task;
 use crate::protocol::tempdir;
@@ -686,6 +686,68 @@ fn a_mission_stuck_beside_a_repeating_message_event_deadlocks_once_the_outside_h
         assert!(
             c.ends.contains("ee") && !c.ends.contains("e"),
             "{:?}",
+            c.ends
+        );
+    }
+}
+
+/// A sub-process run twice by `looping` (each body signals `result` at its end) beside a branch
+/// that waits for two such signals.
+fn counted(looping: &str) -> String {
+    format!(
+        r#"<process id="p" isExecutable="true">
+    <startEvent id="s"/>
+    <parallelGateway id="fork"/>
+    <subProcess id="many">
+      {looping}
+      <startEvent id="s1"/>
+      {work}
+      <intermediateThrowEvent id="tell"><signalEventDefinition signalRef="RESULT"/></intermediateThrowEvent>
+      <endEvent id="e1"/>
+      <sequenceFlow id="g0" sourceRef="s1" targetRef="work"/>
+      <sequenceFlow id="g1" sourceRef="work" targetRef="tell"/>
+      <sequenceFlow id="g2" sourceRef="tell" targetRef="e1"/>
+    </subProcess>
+    <intermediateCatchEvent id="first"><signalEventDefinition signalRef="RESULT"/></intermediateCatchEvent>
+    <intermediateCatchEvent id="second"><signalEventDefinition signalRef="RESULT"/></intermediateCatchEvent>
+    {both}
+    <endEvent id="e"/>
+    <endEvent id="done"/>
+    <sequenceFlow id="f0" sourceRef="s" targetRef="fork"/>
+    <sequenceFlow id="f1" sourceRef="fork" targetRef="many"/>
+    <sequenceFlow id="f2" sourceRef="many" targetRef="e"/>
+    <sequenceFlow id="f3" sourceRef="fork" targetRef="first"/>
+    <sequenceFlow id="f4" sourceRef="first" targetRef="second"/>
+    <sequenceFlow id="f5" sourceRef="second" targetRef="both"/>
+    <sequenceFlow id="f6" sourceRef="both" targetRef="done"/>
+  </process>"#,
+        work = service_task("work"),
+        both = service_task("both"),
+    )
+}
+
+#[test]
+fn a_count_written_as_a_number_runs_exactly_that_many_bodies() {
+    let each = |sequential| {
+        format!(
+            r#"<multiInstanceLoopCharacteristics isSequential="{sequential}"><loopCardinality xsi:type="tFormalExpression">2</loopCardinality></multiInstanceLoopCharacteristics>"#
+        )
+    };
+    for (name, looping) in [
+        ("sequential", each(true)),
+        ("parallel", each(false)),
+        (
+            "loop",
+            r#"<standardLoopCharacteristics loopMaximum="2"/>"#.to_owned(),
+        ),
+    ] {
+        // Two bodies, two signals: the waiting branch always goes on (one body would leave it
+        // stuck, which Spin found where it chose one and the engine always ran one).
+        let c = agree(&format!("counted-{name}"), &counted(&looping));
+        assert!(!c.deadlock, "{name}");
+        assert!(
+            c.ends.contains("done") && !c.dead.contains("both"),
+            "{name}: {:?}",
             c.ends
         );
     }

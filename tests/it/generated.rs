@@ -2,8 +2,9 @@
 //! the engine both take — tasks, timers, signals thrown and caught, parallel, exclusive and
 //! inclusive blocks, event-based races, loops, branches merged without a gateway, link jumps,
 //! branches that end early in every kind of end event, tasks and sub-processes with boundary
-//! events, event sub-processes, multi-instance tasks and sub-processes, compensation, messages
-//! from outside — seeded, a few hundred per run. On each, Spin on the PROMELA translation and
+//! events, event sub-processes, multi-instance tasks and sub-processes, standard loops,
+//! transactions cancelled or not, call activities, compensation, messages, conditions and timer
+//! cycles from outside — seeded, a few hundred per run. On each, Spin on the PROMELA translation and
 //! the engine's own exploration must agree exactly. Each model is written out first; a
 //! disagreement names its seed and file, to be kept as a test.
 
@@ -37,6 +38,8 @@ struct Draw {
     /// starts from the same marking and the engine's state space stays finite (Spin bounds a
     /// cycle's rounds, the exploration only converges).
     looping: bool,
+    /// The processes call activities call, drawn beside the main one.
+    called: String,
 }
 
 /// A service task run by a system (resource `r.<id>`).
@@ -56,13 +59,15 @@ struct Split<'a> {
     default: Option<&'a str>,
 }
 
-const TRIGGERS: [&str; 6] = [
+const TRIGGERS: [&str; 8] = [
     r#"<signalEventDefinition signalRef="S0"/>"#,
     r#"<signalEventDefinition signalRef="S1"/>"#,
     r#"<errorEventDefinition errorRef="E"/>"#,
     r#"<escalationEventDefinition escalationRef="X"/>"#,
     r#"<timerEventDefinition><timeDuration xsi:type="tFormalExpression">PT1H</timeDuration></timerEventDefinition>"#,
     r#"<messageEventDefinition messageRef="M"/>"#,
+    r#"<timerEventDefinition><timeCycle xsi:type="tFormalExpression">R2/PT1H</timeCycle></timerEventDefinition>"#,
+    r#"<conditionalEventDefinition><condition xsi:type="tFormalExpression">ready == 1</condition></conditionalEventDefinition>"#,
 ];
 
 impl Draw {
@@ -113,8 +118,8 @@ impl Draw {
     fn item(&mut self, out: &mut String, from: &str, depth: u32, inner: bool) -> String {
         // Sub-processes nest one deep, blocks two deep: small enough to explore in full.
         let kind = match depth {
-            0 => self.rng.below(16),
-            1 => self.rng.below(14),
+            0 => self.rng.below(19),
+            1 => self.rng.below(15),
             _ => self.rng.below(3),
         };
         match kind {
@@ -137,10 +142,11 @@ impl Draw {
             }
             1 => {
                 let id = self.id("c");
-                let def = match self.rng.below(6) {
+                let def = match self.rng.below(7) {
                     0..3 => TRIGGERS[4],
                     3 => TRIGGERS[5],
-                    k => TRIGGERS[k as usize - 4],
+                    4 => TRIGGERS[7],
+                    k => TRIGGERS[k as usize - 5],
                 };
                 let _ = write!(
                     out,
@@ -233,6 +239,38 @@ impl Draw {
                 self.flow(out, from, &id);
                 id
             }
+            14 => {
+                // A standard loop without a condition: it runs up to its maximum.
+                let id = self.id("lt");
+                let test_before = self.rng.chance(50);
+                let _ = write!(
+                    out,
+                    r#"<serviceTask id="{id}"><extensionElements><trace:task resource="r.{id}"/></extensionElements><standardLoopCharacteristics testBefore="{test_before}" loopMaximum="2"/></serviceTask>"#
+                );
+                self.flow(out, from, &id);
+                id
+            }
+            15 => self.transaction(out, from, depth),
+            16 => {
+                // A call of a process of its own, executable or not.
+                let (id, called) = (self.id("ca"), self.id("q"));
+                let mut body = String::new();
+                self.scope(&mut body, depth + 1, true);
+                let executable = self.rng.chance(50);
+                let _ = write!(
+                    self.called,
+                    r#"<process id="{called}" isExecutable="{executable}">{body}</process>"#
+                );
+                let _ = write!(out, r#"<callActivity id="{id}" calledElement="{called}"/>"#);
+                self.flow(out, from, &id);
+                if self.rng.chance(50) {
+                    let after = self.contingency(out, &id, 60);
+                    let end = self.id("e");
+                    let _ = write!(out, r#"<endEvent id="{end}"/>"#);
+                    self.flow(out, &after, &end);
+                }
+                id
+            }
             _ => {
                 let id = self.id("sp");
                 let mut body = String::new();
@@ -254,7 +292,7 @@ impl Draw {
     /// `interrupting` percent chance) and the task after it; the task's id.
     fn contingency(&mut self, out: &mut String, holder: &str, interrupting: u64) -> String {
         let b = self.id("b");
-        let def = TRIGGERS[self.rng.below(6) as usize];
+        let def = TRIGGERS[self.rng.below(8) as usize];
         let cancel = def.contains("error") || self.rng.chance(interrupting);
         let _ = write!(
             out,
@@ -263,6 +301,38 @@ impl Draw {
         let after = self.task(out);
         self.flow(out, &b, &after);
         after
+    }
+
+    /// A transaction: a sequence, then an exclusive split to its end or to a cancel end event,
+    /// and a cancel boundary event on it with the task after it.
+    fn transaction(&mut self, out: &mut String, from: &str, depth: u32) -> String {
+        let (id, start, split, end, cancel) = (
+            self.id("tx"),
+            self.id("s"),
+            self.id("x"),
+            self.id("e"),
+            self.id("ce"),
+        );
+        let mut body = String::new();
+        let _ = write!(body, r#"<startEvent id="{start}"/>"#);
+        let last = self.seq(&mut body, &start, depth + 1, true);
+        let (ended, cancelled, condition) = (self.id("f"), self.id("f"), self.condition());
+        let _ = write!(
+            body,
+            r#"<exclusiveGateway id="{split}" default="{ended}"/><endEvent id="{end}"/><endEvent id="{cancel}"><cancelEventDefinition/></endEvent><sequenceFlow id="{ended}" sourceRef="{split}" targetRef="{end}"/><sequenceFlow id="{cancelled}" sourceRef="{split}" targetRef="{cancel}">{condition}</sequenceFlow>"#
+        );
+        self.flow(&mut body, &last, &split);
+        let _ = write!(out, r#"<transaction id="{id}">{body}</transaction>"#);
+        self.flow(out, from, &id);
+        let (b, after, stop) = (self.id("b"), self.id("t"), self.id("e"));
+        let _ = write!(
+            out,
+            r#"<boundaryEvent id="{b}" attachedToRef="{id}"><cancelEventDefinition/></boundaryEvent>{}<endEvent id="{stop}"/>"#,
+            service_task(&after)
+        );
+        self.flow(out, &b, &after);
+        self.flow(out, &after, &stop);
+        id
     }
 
     /// A multi-instance activity, two instances one after another or side by side: a task, or
@@ -465,7 +535,7 @@ impl Draw {
         self.flow(out, &last, &end);
         if self.rng.chance(25) {
             let (esp, s, e) = (self.id("esp"), self.id("es"), self.id("ee"));
-            let def = TRIGGERS[self.rng.below(6) as usize];
+            let def = TRIGGERS[self.rng.below(8) as usize];
             let interrupting = def.contains("error") || self.rng.chance(50);
             let mut body = String::new();
             let t = self.task(&mut body);
@@ -486,6 +556,7 @@ fn model(seed: u64) -> String {
         rng: Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1),
         ids: 0,
         looping: false,
+        called: String::new(),
     };
     let mut body = String::new();
     d.scope(&mut body, 0, false);
@@ -493,8 +564,9 @@ fn model(seed: u64) -> String {
         r#"<?xml version="1.0" encoding="UTF-8"?>
 <definitions xmlns="http://www.omg.org/spec/BPMN/20100524/MODEL" xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance" xmlns:trace="urn:trace:bpmn:1.0" id="d" targetNamespace="urn:generated">
   <signal id="S0" name="S0"/><signal id="S1" name="S1"/><error id="E" errorCode="E"/><escalation id="X" escalationCode="X"/><message id="M" name="M"/>
-  <process id="p" isExecutable="true">{body}</process>
-</definitions>"#
+  <process id="p" isExecutable="true">{body}</process>{}
+</definitions>"#,
+        d.called
     )
 }
 

@@ -47,8 +47,10 @@ impl Run<'_> {
             }
             Some(Looping::MultiInstance(mi)) => {
                 if self.decides() {
-                    // Exploring without data: one body.
-                    state.total = Some(1);
+                    // Exploring without data: a count the model writes as a number, up to the
+                    // game's cap, else one body.
+                    let cap = self.game.map_or(0, |g| g.instances).max(1);
+                    state.total = Some(mi.literal_count().map_or(1, |n| n.min(cap)));
                 } else if let Some(c) = &mi.input_collection {
                     // The collection may be a data input of the activity (§10.3.8).
                     let inputs = self.loop_data_inputs(t);
@@ -214,7 +216,17 @@ impl Run<'_> {
             Some(Looping::Standard {
                 maximum, condition, ..
             }) => {
-                if maximum.is_some_and(|m| completed >= m) || self.decides() {
+                // Exploring without data, a loop stops after one body, unless it has no
+                // condition and so runs to its maximum (up to the game's cap).
+                let limit = match (self.decides(), condition) {
+                    (true, None) if maximum.is_some() => {
+                        let cap = self.game.map_or(0, |g| g.instances).max(1);
+                        maximum.map(|m| m.min(cap))
+                    }
+                    (true, _) => Some(1),
+                    (false, _) => *maximum,
+                };
+                if limit.is_some_and(|m| completed >= m) {
                     return self.loop_done(t);
                 }
                 match self.loop_condition(t, condition.as_ref(), completed) {

@@ -774,6 +774,23 @@ pub enum Looping {
     MultiInstance(Box<MultiInstance>),
 }
 
+impl Looping {
+    /// How many times the activity runs when the model fixes it without data: a multi-instance
+    /// activity's [`MultiInstance::literal_count`], or a standard loop without a condition,
+    /// which runs to its `loopMaximum` (at least once).
+    pub fn literal_count(&self) -> Option<u64> {
+        match self {
+            Looping::Standard {
+                maximum: Some(m),
+                condition: None,
+                ..
+            } => Some((*m).max(1)),
+            Looping::Standard { .. } => None,
+            Looping::MultiInstance(mi) => mi.literal_count(),
+        }
+    }
+}
+
 /// Multi-instance characteristics.
 #[derive(Debug)]
 pub struct MultiInstance {
@@ -795,6 +812,17 @@ pub struct MultiInstance {
     pub behavior: MiBehavior,
     /// Conditions of the `complexBehaviorDefinition`s (behavior `Complex`), in document order.
     pub complex: Vec<Expression>,
+}
+
+impl MultiInstance {
+    /// How many instances run when the model writes the count as a number (`loopCardinality`
+    /// `3`, no input collection), which verification can take as it is without data.
+    pub fn literal_count(&self) -> Option<u64> {
+        if self.input_collection.is_some() {
+            return None;
+        }
+        self.cardinality.as_ref()?.text.trim().parse().ok()
+    }
 }
 
 /// Multi-instance `behavior`.

@@ -410,6 +410,7 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
         let game = e.game();
         game.decide = true;
         game.timers = true;
+        game.instances = crate::promela::MAX_INSTANCES;
         game.hold = hold.clone();
         game.fixed = choices.clone();
         e

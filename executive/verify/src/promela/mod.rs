@@ -234,24 +234,19 @@ struct Tr<'g> {
     ending: Option<usize>,
 }
 
-/// Most parallel instances of one task the translation runs at once: a literal cardinality
-/// above it is cut to it (the instances of a task differ only in when each completes, and three
-/// already interleave every way two completions can with the rest).
-const MAX_INSTANCES: u64 = 3;
+/// Most instances of one activity whose count the model writes as a number
+/// (`Looping::literal_count`) the translation and the exploration run: a larger count is cut to
+/// it (the instances differ only in when each completes, and three already interleave every way
+/// two completions can with the rest).
+pub(crate) const MAX_INSTANCES: u64 = 3;
 
 impl Tr<'_> {
     /// How many instances a parallel multi-instance activity starts: its literal cardinality
     /// (at most [`MAX_INSTANCES`]), else any number from one to the loop bound plus one, as a
     /// sequential one repeats.
     fn instances(&self, mi: &executive_model::MultiInstance) -> u64 {
-        match mi
-            .cardinality
-            .as_ref()
-            .map(|e| e.text.trim().parse::<u64>())
-        {
-            Some(Ok(n)) if mi.input_collection.is_none() => n.min(MAX_INSTANCES),
-            _ => u64::from(self.bounds.loops) + 1,
-        }
+        mi.literal_count()
+            .map_or(u64::from(self.bounds.loops) + 1, |n| n.min(MAX_INSTANCES))
     }
 }
 

@@ -353,11 +353,24 @@ impl Tr<'_> {
                 }
             }
             GatewayKind::EventBased { .. } => {
+                // Like an activity that does not count its instances, the armed gateway keeps
+                // the flow it was reached by: a second token along it while it waits is unsafe
+                // (the engine arms it twice; the translation keeps one).
+                let a = self.a(c, n);
+                let stale: Vec<String> = ins
+                    .iter()
+                    .map(|i| format!("busy[{}] = 0", self.f(c, *i)))
+                    .collect();
                 for fi in ins {
                     let m = self.marker(c, n, "arm");
                     let mut alt = Alt::default();
                     self.take(c, *fi, &mut alt);
-                    alt.effect.push(format!("act[{}] = 1", self.a(c, n)));
+                    alt.effect.push(format!(
+                        "if :: act[{a}] == 0 -> {} :: else -> skip fi",
+                        stale.join("; ")
+                    ));
+                    alt.effect.push(format!("ENTER({})", self.f(c, *fi)));
+                    alt.effect.push(format!("act[{a}] = 1"));
                     alt.effect.extend(self.listening(n));
                     self.push(&m, alt);
                 }
@@ -462,6 +475,14 @@ impl Tr<'_> {
         let early = mi.is_some_and(|mi| {
             mi.completion.is_some() || mi.behavior == executive_model::MiBehavior::Complex
         });
+        // A count the model writes as a number runs exactly that many instances, as the engine
+        // runs them (up to `MAX_INSTANCES`), unless they may end early.
+        let exact = node
+            .looping
+            .as_ref()
+            .and_then(|l| l.literal_count())
+            .filter(|_| !early)
+            .map(|k| k.min(MAX_INSTANCES));
         // Completing instances throw the activity's behaviour event to its signal boundaries.
         let behaviour: Vec<NodeId> = match mi {
             Some(mi) if mi.behavior != executive_model::MiBehavior::All => node
@@ -604,10 +625,18 @@ impl Tr<'_> {
                     self.push(&m, alt);
                     continue;
                 }
+                Some(k) if k > 1 && exact.is_some() => alt.effect.push(format!("act[{a}] = {k}")),
                 Some(k) if k > 1 => {
                     let choose: Vec<String> =
                         (1..=k).map(|i| format!(":: act[{a}] = {i}")).collect();
                     alt.effect.push(format!("if {} fi", choose.join(" ")));
+                }
+                // Bodies one after another, none at all: the activity completes at once.
+                None if exact == Some(0) => {
+                    alt.effect.extend(self.data_effects(n));
+                    self.put_all(c, outs, &mut alt);
+                    self.push(&m, alt);
+                    continue;
                 }
                 // A task counts its instances: a token arriving while one runs starts another
                 // beside it, as in the engine (up to two; a sub-process's body has one marking).
@@ -660,29 +689,6 @@ impl Tr<'_> {
             Some(scope) => format!("act[{a}] && {}", self.idle_inside(body_ctx, scope)),
             None => format!("act[{a}]"),
         };
-        if parallel.is_some() {
-            // One instance of several completes; the last one completes the activity.
-            let m = self.marker(c, n, "complete-instance");
-            let mut alt = Alt {
-                outside: outside(self.g, n),
-                ..Alt::default()
-            };
-            alt.guard.push(format!("act[{a}] > 1"));
-            alt.effect.push(format!("act[{a}]--"));
-            self.push(&m, alt);
-        } else if node.looping.is_some() {
-            let m = self.marker(c, n, "repeat");
-            let mut alt = Alt {
-                outside: body.is_none() && outside(self.g, n),
-                ..Alt::default()
-            };
-            alt.guard.push(done_guard.clone());
-            self.bound(c, n, &mut alt);
-            if let Some(scope) = body {
-                self.start_body(body_ctx, scope, &mut alt);
-            }
-            self.push(&m, alt);
-        }
         // The ways out of a running activity (completion, a caught failure, a boundary event):
         // those that lead back to it are bounded, except completion when every way leads
         // back (so the activity can always end).
@@ -715,6 +721,38 @@ impl Tr<'_> {
                 .iter()
                 .any(|b| interrupting(self.g, *b) && !back(self, *b, n));
         let choices = !catchers.is_empty() || !spontaneous.is_empty();
+        // Bodies one after another, exactly as many as the model writes (`exact`), where
+        // completion does not count the cycles itself.
+        let bodies = exact.filter(|_| parallel.is_none() && !(choices && exit && completes_back));
+        if parallel.is_some() {
+            // One instance of several completes; the last one completes the activity.
+            let m = self.marker(c, n, "complete-instance");
+            let mut alt = Alt {
+                outside: outside(self.g, n),
+                ..Alt::default()
+            };
+            alt.guard.push(format!("act[{a}] > 1"));
+            alt.effect.push(format!("act[{a}]--"));
+            self.push(&m, alt);
+        } else if node.looping.is_some() {
+            let m = self.marker(c, n, "repeat");
+            let mut alt = Alt {
+                outside: body.is_none() && outside(self.g, n),
+                ..Alt::default()
+            };
+            alt.guard.push(done_guard.clone());
+            match (bodies, self.cnt_ix.get(&(c, n))) {
+                (Some(k), Some(r)) => {
+                    alt.guard.push(format!("reps[{r}] + 1 < {k}"));
+                    alt.effect.push(format!("reps[{r}]++"));
+                }
+                _ => self.bound(c, n, &mut alt),
+            }
+            if let Some(scope) = body {
+                self.start_body(body_ctx, scope, &mut alt);
+            }
+            self.push(&m, alt);
+        }
         let m = self.marker(c, n, "complete");
         let mut alt = Alt {
             outside: body.is_none() && outside(self.g, n),
@@ -725,6 +763,9 @@ impl Tr<'_> {
             self.bound(c, n, &mut alt);
         }
         alt.guard.push(done_guard);
+        if let (Some(k), Some(r)) = (bodies, self.cnt_ix.get(&(c, n))) {
+            alt.guard.push(format!("reps[{r}] + 1 == {k}"));
+        }
         if parallel.is_some() && !early {
             alt.guard.push(format!("act[{a}] == 1"));
         }

@@ -317,6 +317,8 @@ impl Ctx<'_> {
             let game = e.game();
             game.decide = true;
             game.hold = self.hold.clone();
+            // Every instance a count written as a number starts draws time and energy.
+            game.instances = u64::MAX;
         }
         e
     }
