@@ -752,3 +752,70 @@ fn a_count_written_as_a_number_runs_exactly_that_many_bodies() {
         );
     }
 }
+
+/// After preparing, the lander sends the orbiter a sample along each of `sends` branches in one
+/// step, beside a task; with `fails`, each branch then ends in an error nothing catches, in the same step.
+fn lander_and_orbiter(sends: usize, fails: bool) -> String {
+    let error = if fails {
+        r#"<errorEventDefinition errorRef="JAM"/>"#
+    } else {
+        ""
+    };
+    let branches: String = (0..sends)
+        .map(|k| {
+            format!(
+                r#"<intermediateThrowEvent id="send{k}"><messageEventDefinition messageRef="SAMPLE"/></intermediateThrowEvent><sequenceFlow id="l{k}" sourceRef="fork" targetRef="send{k}"/><sequenceFlow id="n{k}" sourceRef="send{k}" targetRef="sent{k}"/><endEvent id="sent{k}">{error}</endEvent>"#
+            )
+        })
+        .collect();
+    let flows: String = (0..sends)
+        .map(|k| format!(r#"<messageFlow id="m{k}" sourceRef="send{k}" targetRef="wake"/>"#))
+        .collect();
+    format!(
+        r#"<collaboration id="c">
+    <participant id="lander_pool" processRef="lander"/>
+    <participant id="orbiter_pool" processRef="orbiter"/>
+    {flows}
+  </collaboration>
+  <process id="lander" isExecutable="true">
+    <startEvent id="s"/>
+    <parallelGateway id="fork"/>
+    {branches}
+    {prepare}
+    {work}
+    <endEvent id="done"/>
+    <sequenceFlow id="l8" sourceRef="s" targetRef="prepare"/>
+    <sequenceFlow id="l9" sourceRef="prepare" targetRef="fork"/>
+    <sequenceFlow id="w1" sourceRef="fork" targetRef="work"/>
+    <sequenceFlow id="w2" sourceRef="work" targetRef="done"/>
+  </process>
+  <process id="orbiter" isExecutable="true">
+    <startEvent id="wake"><messageEventDefinition messageRef="SAMPLE"/></startEvent>
+    {relay}
+    <endEvent id="relayed"/>
+    <sequenceFlow id="o1" sourceRef="wake" targetRef="relay"/>
+    <sequenceFlow id="o2" sourceRef="relay" targetRef="relayed"/>
+  </process>"#,
+        prepare = service_task("prepare"),
+        work = service_task("work"),
+        relay = service_task("relay"),
+    )
+}
+
+#[test]
+fn a_second_message_to_a_running_process_is_lost_and_the_sender_goes_on() {
+    // Both samples leave in one step: the orbiter's process runs once (one instance at a time,
+    // the second message lost), and the lander's work goes on (the exploration used to drop
+    // the whole run, so nothing after it was reached).
+    let c = agree("two-samples", &lander_and_orbiter(2, false));
+    assert!(!c.deadlock);
+    assert_eq!(c.ends, set(&["done", "relayed", "sent0", "sent1"]));
+}
+
+#[test]
+fn an_uncaught_error_fails_its_own_process_and_another_pool_runs_on() {
+    // The lander's error, in the step that sent the sample, ends the lander only: the orbiter,
+    // started by the message, relays (Spin used to clear every process).
+    let c = agree("failing-lander", &lander_and_orbiter(1, true));
+    assert_eq!(c.ends, set(&["relayed", "sent0"]));
+}

@@ -4,9 +4,9 @@
 //! branches that end early in every kind of end event, tasks and sub-processes with boundary
 //! events, event sub-processes, multi-instance tasks and sub-processes, standard loops,
 //! transactions cancelled or not, call activities, compensation, messages, conditions and timer
-//! cycles from outside — seeded, a few hundred per run. On each, Spin on the PROMELA translation and
-//! the engine's own exploration must agree exactly. Each model is written out first; a
-//! disagreement names its seed and file, to be kept as a test.
+//! cycles from outside, messages to another pool — seeded, a few hundred per run. On each, Spin
+//! on the PROMELA translation and the engine's own exploration must agree exactly. Each model is
+//! written out first; a disagreement names its seed and file, to be kept as a test.
 
 use std::fmt::Write;
 
@@ -40,6 +40,10 @@ struct Draw {
     looping: bool,
     /// The processes call activities call, drawn beside the main one.
     called: String,
+    /// Drawing a called process (its elements send nothing to the other pool).
+    calling: u32,
+    /// The throw events that send a message to the other pool.
+    sends: Vec<String>,
 }
 
 /// A service task run by a system (resource `r.<id>`).
@@ -224,6 +228,17 @@ impl Draw {
             }
             11 => self.many(out, from, depth, inner),
             12 if !self.looping => self.compensation(out, from, depth, inner),
+            13 if !self.looping && self.calling == 0 && self.rng.chance(50) => {
+                // A message to the other pool, which `model` draws.
+                let id = self.id("sm");
+                let _ = write!(
+                    out,
+                    r#"<intermediateThrowEvent id="{id}"><messageEventDefinition messageRef="N"/></intermediateThrowEvent>"#
+                );
+                self.sends.push(id.clone());
+                self.flow(out, from, &id);
+                id
+            }
             12 | 13 => {
                 // A message from outside, awaited by a receive task or a catch event.
                 let id = self.id("rm");
@@ -255,7 +270,9 @@ impl Draw {
                 // A call of a process of its own, executable or not.
                 let (id, called) = (self.id("ca"), self.id("q"));
                 let mut body = String::new();
+                self.calling += 1;
                 self.scope(&mut body, depth + 1, true);
+                self.calling -= 1;
                 let executable = self.rng.chance(50);
                 let _ = write!(
                     self.called,
@@ -263,12 +280,7 @@ impl Draw {
                 );
                 let _ = write!(out, r#"<callActivity id="{id}" calledElement="{called}"/>"#);
                 self.flow(out, from, &id);
-                if self.rng.chance(50) {
-                    let after = self.contingency(out, &id, 60);
-                    let end = self.id("e");
-                    let _ = write!(out, r#"<endEvent id="{end}"/>"#);
-                    self.flow(out, &after, &end);
-                }
+                self.perhaps_contingency(out, &id, 50);
                 id
             }
             _ => {
@@ -277,14 +289,19 @@ impl Draw {
                 self.scope(&mut body, depth + 1, true);
                 let _ = write!(out, r#"<subProcess id="{id}">{body}</subProcess>"#);
                 self.flow(out, from, &id);
-                if self.rng.chance(60) {
-                    let after = self.contingency(out, &id, 60);
-                    let end = self.id("e");
-                    let _ = write!(out, r#"<endEvent id="{end}"/>"#);
-                    self.flow(out, &after, &end);
-                }
+                self.perhaps_contingency(out, &id, 60);
                 id
             }
+        }
+    }
+
+    /// With `percent` chance, a [`Draw::contingency`] on `holder` and a plain end after its task.
+    fn perhaps_contingency(&mut self, out: &mut String, holder: &str, percent: u64) {
+        if self.rng.chance(percent) {
+            let after = self.contingency(out, holder, 60);
+            let end = self.id("e");
+            let _ = write!(out, r#"<endEvent id="{end}"/>"#);
+            self.flow(out, &after, &end);
         }
     }
 
@@ -550,6 +567,40 @@ impl Draw {
     }
 }
 
+impl Draw {
+    /// The other pool, when the main process sends to it: its process (started by the message,
+    /// or waiting for it after a task) and the collaboration with the message flows.
+    fn other(&mut self) -> String {
+        if self.sends.is_empty() {
+            return String::new();
+        }
+        let started = self.rng.chance(50);
+        let receiver = if started { "rs" } else { "rc" };
+        let body = if started {
+            format!(
+                r#"<startEvent id="rs"><messageEventDefinition messageRef="N"/></startEvent>{}<endEvent id="re"/><sequenceFlow id="rf0" sourceRef="rs" targetRef="rt"/><sequenceFlow id="rf1" sourceRef="rt" targetRef="re"/>"#,
+                service_task("rt")
+            )
+        } else {
+            format!(
+                r#"<startEvent id="rs"/>{}<intermediateCatchEvent id="rc"><messageEventDefinition messageRef="N"/></intermediateCatchEvent><endEvent id="re"/><sequenceFlow id="rf0" sourceRef="rs" targetRef="rt"/><sequenceFlow id="rf1" sourceRef="rt" targetRef="rc"/><sequenceFlow id="rf2" sourceRef="rc" targetRef="re"/>"#,
+                service_task("rt")
+            )
+        };
+        let flows: String = self
+            .sends
+            .iter()
+            .enumerate()
+            .map(|(k, s)| {
+                format!(r#"<messageFlow id="mf{k}" sourceRef="{s}" targetRef="{receiver}"/>"#)
+            })
+            .collect();
+        format!(
+            r#"<process id="r" isExecutable="true">{body}</process><collaboration id="c"><participant id="P" processRef="p"/><participant id="R" processRef="r"/>{flows}</collaboration>"#
+        )
+    }
+}
+
 /// The model drawn from `seed`.
 fn model(seed: u64) -> String {
     let mut d = Draw {
@@ -557,14 +608,17 @@ fn model(seed: u64) -> String {
         ids: 0,
         looping: false,
         called: String::new(),
+        calling: 0,
+        sends: Vec::new(),
     };
     let mut body = String::new();
     d.scope(&mut body, 0, false);
+    let other = d.other();
     format!(
         r#"<?xml version="1.0" encoding="UTF-8"?>
 <definitions xmlns="http://www.omg.org/spec/BPMN/20100524/MODEL" xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance" xmlns:trace="urn:trace:bpmn:1.0" id="d" targetNamespace="urn:generated">
-  <signal id="S0" name="S0"/><signal id="S1" name="S1"/><error id="E" errorCode="E"/><escalation id="X" escalationCode="X"/><message id="M" name="M"/>
-  <process id="p" isExecutable="true">{body}</process>{}
+  <signal id="S0" name="S0"/><signal id="S1" name="S1"/><error id="E" errorCode="E"/><escalation id="X" escalationCode="X"/><message id="M" name="M"/><message id="N" name="N"/>
+  <process id="p" isExecutable="true">{body}</process>{}{other}
 </definitions>"#,
         d.called
     )
@@ -584,10 +638,13 @@ fn spin_and_the_engine_agree_on_generated_models() {
     let (mut compared, mut invalid, mut refused, mut needs_data) = (0u64, 0, 0, 0);
     // Models with an exclusive split, where the exploration decides before anything else.
     let mut deciding = 0;
+    // Models with a second pool the main process sends to.
+    let mut pools = 0;
     let mut differences = Vec::new();
     for seed in first..first + count {
         let xml = model(seed);
         deciding += u64::from(xml.contains("<exclusiveGateway"));
+        pools += u64::from(xml.contains("<collaboration"));
         let path = work.join(format!("{seed}.bpmn"));
         std::fs::write(&path, &xml).expect("model written");
         let loaded = executive_model::load(xml.as_bytes());
@@ -618,7 +675,7 @@ fn spin_and_the_engine_agree_on_generated_models() {
         }
     }
     println!(
-        "generated: {count} models from seed {first} ({deciding} with an exclusive split): {compared} compared, {} agree exactly; {invalid} invalid, {refused} not translated, {needs_data} not explorable",
+        "generated: {count} models from seed {first} ({deciding} with an exclusive split, {pools} with two pools): {compared} compared, {} agree exactly; {invalid} invalid, {refused} not translated, {needs_data} not explorable",
         compared - differences.len() as u64
     );
     assert!(differences.is_empty(), "{}", differences.join("\n"));

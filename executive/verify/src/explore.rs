@@ -358,13 +358,19 @@ fn inputs(
     out
 }
 
-/// Whether a process started by an event (`evented`) runs two instances at once.
-fn twice(s: &State, evented: &BTreeSet<executive_model::ProcessId>) -> bool {
+/// The instances of a process started by an event (`evented`) that run beside an older one of
+/// the same process.
+fn beside(
+    s: &State,
+    evented: &BTreeSet<executive_model::ProcessId>,
+) -> Vec<executive_engine::InstanceId> {
     let mut running = BTreeSet::new();
     s.instances
-        .values()
-        .filter(|i| i.outcome.is_none() && evented.contains(&i.process))
-        .any(|i| !running.insert(i.process))
+        .iter()
+        .filter(|(_, i)| i.outcome.is_none() && evented.contains(&i.process))
+        .filter(|(_, i)| !running.insert(i.process))
+        .map(|(id, _)| *id)
+        .collect()
 }
 
 /// Whether `w` is the start of a non-interrupting event sub-process of which an instance
@@ -573,7 +579,7 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
         let failed_before = failed(&state);
         for (label, event, wait) in next {
             for (taken, run) in within(&state, std::slice::from_ref(&event)) {
-                let Ok((actions, after)) = run else {
+                let Ok((actions, mut after)) = run else {
                     continue;
                 };
                 let label = std::iter::once(label.clone())
@@ -585,10 +591,24 @@ pub fn explore(g: Arc<ProcessGraph>, max_states: usize) -> Exploration {
                     continue;
                 }
                 // A process started by an event (another pool's message, a signal) runs one
-                // instance at a time, as the translation has one marking per process: a run that
-                // would start a second one beside it is not followed (the one before ends first).
-                if twice(&after, &evented) {
-                    continue;
+                // instance at a time, as the translation has one marking per process: an
+                // instance started beside a running one is the translation's lost message (or
+                // signal heard without effect), cancelled at once.
+                let extra = beside(&after, &evented);
+                if !extra.is_empty() {
+                    let mut e = engine(after, &BTreeMap::new());
+                    let mut ignored = Vec::new();
+                    for instance in extra {
+                        let input = Input {
+                            seq: e.state().last_seq + 1,
+                            at: 0,
+                            event: Event::CancelRequested { instance },
+                        };
+                        if e.step_into(input, &mut ignored).is_err() {
+                            break;
+                        }
+                    }
+                    after = e.state().clone();
                 }
                 note(&actions, &mut entered);
                 let mut fired = nodes[at].fired.clone();

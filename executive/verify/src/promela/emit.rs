@@ -163,20 +163,6 @@ impl Tr<'_> {
             idle.join(" && ")
         };
         let _ = writeln!(p, "#define IDLE ({idle})");
-        let mut clear: Vec<String> = (0..self.flow_names.len())
-            .map(|i| format!("tok[{i}] = 0"))
-            .collect();
-        clear.extend((0..self.act_names.len()).map(|i| format!("act[{i}] = 0")));
-        clear.extend((0..self.pend_ix.len()).map(|k| format!("pend[{k}] = 0")));
-        let _ = writeln!(
-            p,
-            "#define CLEAR_ALL {}",
-            if clear.is_empty() {
-                "skip".to_owned()
-            } else {
-                clear.join("; ")
-            }
-        );
         let _ = writeln!(p, "active proctype Mission() {{");
         // Initial marking: the first primary process's none (or timer) starts; the next ones
         // start in turn once everything before them waits.

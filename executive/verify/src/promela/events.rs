@@ -432,7 +432,19 @@ impl Tr<'_> {
                     alt.effect.extend(self.error_observed(code.as_deref()));
                     match self.catcher(c, n, &|t| self.error_matches(e, t)) {
                         Some(catch) => self.caught(catch, alt),
-                        None => alt.effect.push("failed = 1; CLEAR_ALL".to_owned()),
+                        None => {
+                            // Nothing catches it: the instance fails — the process it was
+                            // thrown in and every process that one called. Other processes
+                            // (another pool's, one started by a message) run on, as in the
+                            // engine.
+                            let mut root = c;
+                            while let Some((caller, _)) = self.ctxs[root].call {
+                                root = caller;
+                            }
+                            let inside = self.contents(root, None);
+                            self.clear(&inside, alt);
+                            alt.effect.push("failed = 1".to_owned());
+                        }
                     }
                     go_on = false;
                 }
