@@ -27,8 +27,8 @@ pub struct Game {
     /// token game's player may otherwise fire a non-interrupting timer again by hand (model
     /// exploration: the translation fires a duration once per activation).
     pub timers: bool,
-    /// With `decide`, a multi-instance activity whose count is a number in the model
-    /// (`MultiInstance::literal_count`) runs that many instances, at most this many; any other
-    /// runs one. 0 (the default): one each.
+    /// With `decide`, a multi-instance activity or loop whose count the model writes as a
+    /// number (`Looping::literal_count`) runs that many instances or bodies, at most this many;
+    /// any other runs one. 0 (the default): one each.
     pub instances: u64,
 }

@@ -357,25 +357,32 @@ impl Tr<'_> {
                 // the flow it was reached by: a second token along it while it waits is unsafe
                 // (the engine arms it twice; the translation keeps one).
                 let a = self.a(c, n);
-                let stale: Vec<String> = ins
-                    .iter()
-                    .map(|i| format!("busy[{}] = 0", self.f(c, *i)))
-                    .collect();
                 for fi in ins {
                     let m = self.marker(c, n, "arm");
                     let mut alt = Alt::default();
                     self.take(c, *fi, &mut alt);
-                    alt.effect.push(format!(
-                        "if :: act[{a}] == 0 -> {} :: else -> skip fi",
-                        stale.join("; ")
-                    ));
-                    alt.effect.push(format!("ENTER({})", self.f(c, *fi)));
+                    self.enter_along(c, a, ins, *fi, &mut alt);
                     alt.effect.push(format!("act[{a}] = 1"));
                     alt.effect.extend(self.listening(n));
                     self.push(&m, alt);
                 }
             }
         }
+    }
+
+    /// Enters an element that keeps the flow each token came by (`busy[]`, `ENTER`) along `f`:
+    /// with none of it running (`act[a] == 0`), what a withdrawal left counted is zeroed first
+    /// (a withdrawal zeroes only `act[]`).
+    fn enter_along(&self, c: usize, a: usize, ins: &[FlowId], f: FlowId, alt: &mut Alt) {
+        let stale: Vec<String> = ins
+            .iter()
+            .map(|i| format!("busy[{}] = 0", self.f(c, *i)))
+            .collect();
+        alt.effect.push(format!(
+            "if :: act[{a}] == 0 -> {} :: else -> skip fi",
+            stale.join("; ")
+        ));
+        alt.effect.push(format!("ENTER({})", self.f(c, f)));
     }
 
     /// Pushes `alt` (marked `m`), the end of one instance of an activity: once per flow an
@@ -598,28 +605,19 @@ impl Tr<'_> {
                     alt.effect.push(format!("pend[{k}]--"));
                 }
             }
-            // An activity that does not count its instances (a sub-process, a loop, a
-            // multi-instance activity, a handler) keeps the flow it was entered by all the same,
-            // until it is next entered with none running: a second token entering along that
-            // flow while it runs is unsafe, as in the engine (its body is not run twice beside
-            // it: the translation has one marking per scope).
+            // No instance at all (a count of 0): the activity completes at once.
+            let none = parallel == Some(0) || (parallel.is_none() && exact == Some(0));
+            // An instance keeps the flow it was entered by until it ends, as the engine's token
+            // does: a second token entering along that flow while it runs is unsafe. Beside a
+            // task another instance starts; a sub-process, loop or multi-instance activity
+            // runs its body once for both (the translation has one marking per scope).
             if let Entry::Flow(f) = entry
-                && !counted
-                && parallel != Some(0)
+                && !none
             {
-                let stale: Vec<String> = ins
-                    .iter()
-                    .map(|i| format!("busy[{}] = 0", self.f(c, *i)))
-                    .collect();
-                alt.effect.push(format!(
-                    "if :: act[{a}] == 0 -> {} :: else -> skip fi",
-                    stale.join("; ")
-                ));
-                alt.effect.push(format!("ENTER({})", self.f(c, f)));
+                self.enter_along(c, a, ins, f, &mut alt);
             }
             match parallel {
-                // No instance at all: the activity completes at once.
-                Some(0) => {
+                _ if none => {
                     alt.effect.extend(self.data_effects(n));
                     self.put_all(c, outs, &mut alt);
                     self.push(&m, alt);
@@ -631,26 +629,8 @@ impl Tr<'_> {
                         (1..=k).map(|i| format!(":: act[{a}] = {i}")).collect();
                     alt.effect.push(format!("if {} fi", choose.join(" ")));
                 }
-                // Bodies one after another, none at all: the activity completes at once.
-                None if exact == Some(0) => {
-                    alt.effect.extend(self.data_effects(n));
-                    self.put_all(c, outs, &mut alt);
-                    self.push(&m, alt);
-                    continue;
-                }
-                // A task counts its instances: a token arriving while one runs starts another
-                // beside it, as in the engine (up to two; a sub-process's body has one marking).
+                // A task counts its instances (up to two).
                 _ if counted => {
-                    if let Entry::Flow(f) = entry {
-                        // What a withdrawal left counted (it zeroes `act[]` only).
-                        let stale: Vec<String> =
-                            ways_in.iter().map(|i| format!("busy[{i}] = 0")).collect();
-                        alt.effect.push(format!(
-                            "if :: act[{a}] == 0 -> {} :: else -> skip fi",
-                            stale.join("; ")
-                        ));
-                        alt.effect.push(format!("ENTER({})", self.f(c, f)));
-                    }
                     alt.effect.push(format!(
                         "if :: act[{a}] < 2 -> act[{a}]++ :: else -> skip fi"
                     ));
