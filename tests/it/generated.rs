@@ -229,12 +229,16 @@ impl Draw {
             11 => self.many(out, from, depth, inner),
             12 if !self.looping => self.compensation(out, from, depth, inner),
             13 if !self.looping && self.calling == 0 && self.rng.chance(50) => {
-                // A message to the other pool, which `model` draws.
+                // A message to the other pool, which `model` draws: a throw event or a send task.
                 let id = self.id("sm");
-                let _ = write!(
-                    out,
-                    r#"<intermediateThrowEvent id="{id}"><messageEventDefinition messageRef="N"/></intermediateThrowEvent>"#
-                );
+                let _ = if self.rng.chance(50) {
+                    write!(out, r#"<sendTask id="{id}" messageRef="N"/>"#)
+                } else {
+                    write!(
+                        out,
+                        r#"<intermediateThrowEvent id="{id}"><messageEventDefinition messageRef="N"/></intermediateThrowEvent>"#
+                    )
+                };
                 self.sends.push(id.clone());
                 self.flow(out, from, &id);
                 id
@@ -569,21 +573,26 @@ impl Draw {
 
 impl Draw {
     /// The other pool, when the main process sends to it: its process (started by the message,
-    /// or waiting for it after a task) and the collaboration with the message flows.
+    /// or waiting for it after a task, in a catch event or a receive task) and the collaboration with the message flows.
     fn other(&mut self) -> String {
         if self.sends.is_empty() {
             return String::new();
         }
-        let started = self.rng.chance(50);
-        let receiver = if started { "rs" } else { "rc" };
-        let body = if started {
+        let how = self.rng.below(3);
+        let receiver = if how == 0 { "rs" } else { "rc" };
+        let wait = if how == 1 {
+            r#"<intermediateCatchEvent id="rc"><messageEventDefinition messageRef="N"/></intermediateCatchEvent>"#
+        } else {
+            r#"<receiveTask id="rc" messageRef="N"/>"#
+        };
+        let body = if how == 0 {
             format!(
                 r#"<startEvent id="rs"><messageEventDefinition messageRef="N"/></startEvent>{}<endEvent id="re"/><sequenceFlow id="rf0" sourceRef="rs" targetRef="rt"/><sequenceFlow id="rf1" sourceRef="rt" targetRef="re"/>"#,
                 service_task("rt")
             )
         } else {
             format!(
-                r#"<startEvent id="rs"/>{}<intermediateCatchEvent id="rc"><messageEventDefinition messageRef="N"/></intermediateCatchEvent><endEvent id="re"/><sequenceFlow id="rf0" sourceRef="rs" targetRef="rt"/><sequenceFlow id="rf1" sourceRef="rt" targetRef="rc"/><sequenceFlow id="rf2" sourceRef="rc" targetRef="re"/>"#,
+                r#"<startEvent id="rs"/>{}{wait}<endEvent id="re"/><sequenceFlow id="rf0" sourceRef="rs" targetRef="rt"/><sequenceFlow id="rf1" sourceRef="rt" targetRef="rc"/><sequenceFlow id="rf2" sourceRef="rc" targetRef="re"/>"#,
                 service_task("rt")
             )
         };
