@@ -517,10 +517,7 @@ fn an_inclusive_join_waits_for_a_token_still_coming_through_a_link() {
 /// waits on the same flow beside the first's (unsafe), and both rounds then pass the join.
 /// `guarded` adds an error event sub-process, so that no task is one step in the translation.
 fn doubled(guarded: bool) -> String {
-    let tasks: String = ["a", "b", "merged", "slow", "last"]
-        .iter()
-        .map(|t| service_task(t))
-        .collect();
+    let tasks: String = ["slow", "last"].iter().map(|t| service_task(t)).collect();
     let guard = if guarded {
         r#"<subProcess id="esp" triggeredByEvent="true">
       <startEvent id="es"><errorEventDefinition errorRef="JAM"/></startEvent>
@@ -530,26 +527,39 @@ fn doubled(guarded: bool) -> String {
     } else {
         ""
     };
-    format!(
-        r#"<process id="p" isExecutable="true">
-    <startEvent id="s"/>
-    <parallelGateway id="fork"/>
-    <parallelGateway id="again"/>
+    merged_twice(&format!(
+        r#"<parallelGateway id="again"/>
     <parallelGateway id="join"/>
     {tasks}
-    <endEvent id="e"/>
     {guard}
-    <sequenceFlow id="f0" sourceRef="s" targetRef="fork"/>
-    <sequenceFlow id="f1" sourceRef="fork" targetRef="a"/>
-    <sequenceFlow id="f2" sourceRef="fork" targetRef="b"/>
-    <sequenceFlow id="f3" sourceRef="a" targetRef="merged"/>
-    <sequenceFlow id="f4" sourceRef="b" targetRef="merged"/>
     <sequenceFlow id="f5" sourceRef="merged" targetRef="again"/>
     <sequenceFlow id="f6" sourceRef="again" targetRef="slow"/>
     <sequenceFlow id="f7" sourceRef="again" targetRef="join"/>
     <sequenceFlow id="f8" sourceRef="slow" targetRef="join"/>
     <sequenceFlow id="f9" sourceRef="join" targetRef="last"/>
-    <sequenceFlow id="f10" sourceRef="last" targetRef="e"/>
+    <sequenceFlow id="f10" sourceRef="last" targetRef="e"/>"#
+    ))
+}
+
+/// A process whose two parallel branches (`a`, `b`) merge without a gateway into `merged`,
+/// which runs once per token; `rest` holds what follows `merged`, up to the end event `e`.
+fn merged_twice(rest: &str) -> String {
+    let tasks: String = ["a", "b", "merged"]
+        .iter()
+        .map(|t| service_task(t))
+        .collect();
+    format!(
+        r#"<process id="p" isExecutable="true">
+    <startEvent id="s"/>
+    <parallelGateway id="fork"/>
+    {tasks}
+    <endEvent id="e"/>
+    <sequenceFlow id="f0" sourceRef="s" targetRef="fork"/>
+    <sequenceFlow id="f1" sourceRef="fork" targetRef="a"/>
+    <sequenceFlow id="f2" sourceRef="fork" targetRef="b"/>
+    <sequenceFlow id="f3" sourceRef="a" targetRef="merged"/>
+    <sequenceFlow id="f4" sourceRef="b" targetRef="merged"/>
+    {rest}
   </process>"#
     )
 }
@@ -615,26 +625,11 @@ fn doubled_into(sub: bool) -> String {
     } else {
         r#"<serviceTask id="into"><extensionElements><trace:task resource="r.into"/></extensionElements><multiInstanceLoopCharacteristics isSequential="false"><loopCardinality xsi:type="tFormalExpression">2</loopCardinality></multiInstanceLoopCharacteristics></serviceTask>"#.to_owned()
     };
-    let tasks: String = ["a", "b", "merged"]
-        .iter()
-        .map(|t| service_task(t))
-        .collect();
-    format!(
-        r#"<process id="p" isExecutable="true">
-    <startEvent id="s"/>
-    <parallelGateway id="fork"/>
-    {tasks}
-    {into}
-    <endEvent id="e"/>
-    <sequenceFlow id="f0" sourceRef="s" targetRef="fork"/>
-    <sequenceFlow id="f1" sourceRef="fork" targetRef="a"/>
-    <sequenceFlow id="f2" sourceRef="fork" targetRef="b"/>
-    <sequenceFlow id="f3" sourceRef="a" targetRef="merged"/>
-    <sequenceFlow id="f4" sourceRef="b" targetRef="merged"/>
+    merged_twice(&format!(
+        r#"{into}
     <sequenceFlow id="f5" sourceRef="merged" targetRef="into"/>
-    <sequenceFlow id="f6" sourceRef="into" targetRef="e"/>
-  </process>"#
-    )
+    <sequenceFlow id="f6" sourceRef="into" targetRef="e"/>"#
+    ))
 }
 
 #[test]

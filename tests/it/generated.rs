@@ -569,11 +569,10 @@ impl Draw {
             out.push_str("</subProcess>");
         }
     }
-}
 
-impl Draw {
     /// The other pool, when the main process sends to it: its process (started by the message,
-    /// or waiting for it after a task, in a catch event or a receive task) and the collaboration with the message flows.
+    /// or waiting for it after a task, in a catch event or a receive task) and the
+    /// collaboration with the message flows.
     fn other(&mut self) -> String {
         if self.sends.is_empty() {
             return String::new();

@@ -45,12 +45,9 @@ impl Run<'_> {
                 }
                 self.start_body(t);
             }
-            Some(Looping::MultiInstance(mi)) => {
+            Some(looping @ Looping::MultiInstance(mi)) => {
                 if self.decides() {
-                    // Exploring without data: a count the model writes as a number, up to the
-                    // game's cap, else one body.
-                    let cap = self.game.map_or(0, |g| g.instances).max(1);
-                    state.total = Some(mi.literal_count().map_or(1, |n| n.min(cap)));
+                    state.total = Some(self.decided_count(looping));
                 } else if let Some(c) = &mi.input_collection {
                     // The collection may be a data input of the activity (§10.3.8).
                     let inputs = self.loop_data_inputs(t);
@@ -104,6 +101,13 @@ impl Run<'_> {
             }
             None => self.start_activity(t),
         }
+    }
+
+    /// Exploring without data (`decides`): how many instances or bodies `looping` runs — a count
+    /// the model writes as a number (`Looping::literal_count`), up to the game's cap, else one.
+    fn decided_count(&self, looping: &Looping) -> u64 {
+        let cap = self.game.map_or(0, |g| g.instances).max(1);
+        looping.literal_count().map_or(1, |n| n.min(cap))
     }
 
     fn set_loop(&mut self, t: TokenId, l: Loop) {
@@ -213,18 +217,15 @@ impl Run<'_> {
         let (completed, started, total, running) =
             (l.completed, l.started, l.total, l.running.len());
         match g.node(node).looping.as_ref() {
-            Some(Looping::Standard {
-                maximum, condition, ..
-            }) => {
-                // Exploring without data, a loop stops after one body, unless it has no
-                // condition and so runs to its maximum (up to the game's cap).
-                let limit = match (self.decides(), condition) {
-                    (true, None) if maximum.is_some() => {
-                        let cap = self.game.map_or(0, |g| g.instances).max(1);
-                        maximum.map(|m| m.min(cap))
-                    }
-                    (true, _) => Some(1),
-                    (false, _) => *maximum,
+            Some(
+                looping @ Looping::Standard {
+                    maximum, condition, ..
+                },
+            ) => {
+                let limit = if self.decides() {
+                    Some(self.decided_count(looping))
+                } else {
+                    *maximum
                 };
                 if limit.is_some_and(|m| completed >= m) {
                     return self.loop_done(t);
