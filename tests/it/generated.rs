@@ -44,6 +44,14 @@ struct Draw {
     calling: u32,
     /// The throw events that send a message to the other pool.
     sends: Vec<String>,
+    /// Drawn for bpmn-js-token-simulation (`simulated.rs`): without what it runs as a plain task
+    /// (multi-instance, standard loops, call activities), without loops back through a gateway,
+    /// whose branch it keeps for every round, with every compensation throw naming its task and
+    /// every merge without a gateway after an exclusive split (see `simulated.rs`).
+    game: bool,
+    /// Inside an inclusive block drawn for the simulator: no event-based gateway there (the
+    /// simulator's inclusive join does not wait for a token passing from one to its event).
+    joining: bool,
 }
 
 /// A service task run by a system (resource `r.<id>`).
@@ -75,6 +83,22 @@ const TRIGGERS: [&str; 8] = [
 ];
 
 impl Draw {
+    /// A trigger of [`TRIGGERS`] for a boundary event or an event sub-process's start; drawn for
+    /// the simulator, an error or escalation is sometimes caught whatever its code.
+    fn trigger(&mut self) -> &'static str {
+        let def = TRIGGERS[self.rng.below(8) as usize];
+        if self.game && (def.contains("error") || def.contains("escalation")) && self.rng.chance(40)
+        {
+            if def.contains("error") {
+                "<errorEventDefinition/>"
+            } else {
+                "<escalationEventDefinition/>"
+            }
+        } else {
+            def
+        }
+    }
+
     fn id(&mut self, prefix: &str) -> String {
         self.ids += 1;
         format!("{prefix}{}", self.ids)
@@ -126,6 +150,11 @@ impl Draw {
             1 => self.rng.below(15),
             _ => self.rng.below(3),
         };
+        let kind = if self.game && matches!(kind, 8 | 11 | 14 | 16) {
+            0
+        } else {
+            kind
+        };
         match kind {
             2 | 3 if self.looping => {
                 let id = self.task(out);
@@ -175,8 +204,11 @@ impl Draw {
                 let _ = write!(out, r#"<parallelGateway id="{split}"/>"#);
                 self.flow(out, from, &split);
                 let side = self.seq(out, &split, depth + 1, inner);
-                let end = self.end(out, inner);
-                self.flow(out, &side, &end);
+                // Drawn for the simulator, the branch may end where its last element ends (§13.2).
+                if !(self.game && self.rng.chance(30)) {
+                    let end = self.end(out, inner);
+                    self.flow(out, &side, &end);
+                }
                 split
             }
             4 => {
@@ -290,7 +322,10 @@ impl Draw {
             _ => {
                 let id = self.id("sp");
                 let mut body = String::new();
-                self.scope(&mut body, depth + 1, true);
+                // Drawn for the simulator, a sub-process may be empty: it completes at once.
+                if !(self.game && self.rng.chance(10)) {
+                    self.scope(&mut body, depth + 1, true);
+                }
                 let _ = write!(out, r#"<subProcess id="{id}">{body}</subProcess>"#);
                 self.flow(out, from, &id);
                 self.perhaps_contingency(out, &id, 60);
@@ -313,7 +348,7 @@ impl Draw {
     /// `interrupting` percent chance) and the task after it; the task's id.
     fn contingency(&mut self, out: &mut String, holder: &str, interrupting: u64) -> String {
         let b = self.id("b");
-        let def = TRIGGERS[self.rng.below(8) as usize];
+        let def = self.trigger();
         let cancel = def.contains("error") || self.rng.chance(interrupting);
         let _ = write!(
             out,
@@ -384,6 +419,23 @@ impl Draw {
     /// A task with a compensation handler, what follows it, and a compensation throw (of that
     /// task's handler or of every completed one in the scope).
     fn compensation(&mut self, out: &mut String, from: &str, depth: u32, inner: bool) -> String {
+        if self.game && self.rng.chance(30) {
+            // Drawn for the simulator: a sub-process whose handler is an event sub-process.
+            let (t, esp, s, e) = (self.id("sp"), self.id("esp"), self.id("es"), self.id("ee"));
+            let mut body = String::new();
+            self.scope(&mut body, depth + 1, inner);
+            let mut handler = String::new();
+            let h = self.task(&mut handler);
+            let _ = write!(
+                out,
+                r#"<subProcess id="{t}">{body}<subProcess id="{esp}" triggeredByEvent="true"><startEvent id="{s}"><compensateEventDefinition/></startEvent>{handler}<endEvent id="{e}"/>"#
+            );
+            self.flow(out, &s, &h);
+            self.flow(out, &h, &e);
+            out.push_str("</subProcess></subProcess>");
+            self.flow(out, from, &t);
+            return self.compensated(out, &t, depth, inner);
+        }
         let t = self.task(out);
         self.flow(out, from, &t);
         let (b, handler, link) = (self.id("cb"), self.id("ch"), self.id("a"));
@@ -391,9 +443,17 @@ impl Draw {
             out,
             r#"<boundaryEvent id="{b}" attachedToRef="{t}"><compensateEventDefinition/></boundaryEvent><serviceTask id="{handler}" isForCompensation="true"><extensionElements><trace:task resource="r.{handler}"/></extensionElements></serviceTask><association id="{link}" sourceRef="{b}" targetRef="{handler}"/>"#
         );
-        let last = self.seq(out, &t, depth + 1, inner);
+        self.compensated(out, &t, depth, inner)
+    }
+
+    /// What follows `t`, an activity with a compensation handler, and the throw of its
+    /// compensation (or of every handler in the scope).
+    fn compensated(&mut self, out: &mut String, t: &str, depth: u32, inner: bool) -> String {
+        let last = self.seq(out, t, depth + 1, inner);
         let throw = self.id("ct");
-        let which = if self.rng.chance(50) {
+        // The simulator compensates nothing for a throw of every handler (it looks for one of
+        // the scope itself): it throws the task's own there.
+        let which = if self.game || self.rng.chance(50) {
             format!(r#" activityRef="{t}""#)
         } else {
             String::new()
@@ -463,15 +523,22 @@ impl Draw {
             guarded: true,
             default: default.as_deref(),
         };
+        let outer = std::mem::replace(&mut self.joining, true);
         for last in self.branches(out, &split, depth, inner) {
             self.flow(out, &last, &join);
         }
+        self.joining = outer;
         join
     }
 
     /// A race: an event-based gateway before two catch events (a timer, a signal, a message), each
     /// followed by its own branch, merged by an exclusive gateway.
     fn race(&mut self, out: &mut String, from: &str, depth: u32, inner: bool) -> String {
+        if self.game && self.joining {
+            let id = self.task(out);
+            self.flow(out, from, &id);
+            return id;
+        }
         let (gate, join) = (self.id("eb"), self.id("j"));
         let _ = write!(
             out,
@@ -526,7 +593,9 @@ impl Draw {
     /// parallel split's (the task after them runs once per branch).
     fn merge(&mut self, out: &mut String, from: &str, depth: u32, inner: bool) -> String {
         let split = self.id("m");
-        let exclusive = self.looping || self.rng.chance(50);
+        // Two tokens along one flow reach what follows a parallel split's merge in one step:
+        // the simulator passes one where BPMN passes each (§13.4.2), so it draws exclusive ones.
+        let exclusive = self.looping || self.game || self.rng.chance(50);
         let default = exclusive.then(|| self.id("f"));
         let _ = match &default {
             Some(d) => write!(out, r#"<exclusiveGateway id="{split}" default="{d}"/>"#),
@@ -547,22 +616,51 @@ impl Draw {
         next
     }
 
-    /// A scope's content: start, a sequence, an end, perhaps an event sub-process.
+    /// A scope's content: start, a sequence, an end, perhaps an event sub-process. Drawn for the
+    /// simulator, the start event may be left out (the first element starts the scope, §13.2),
+    /// or a sub-process may have a second start event with a task of its own.
     fn scope(&mut self, out: &mut String, depth: u32, inner: bool) {
+        let mark = out.len();
         let start = self.id("s");
         let _ = write!(out, r#"<startEvent id="{start}"/>"#);
         let last = self.seq(out, &start, depth, inner);
         let end = self.end(out, inner);
         self.flow(out, &last, &end);
+        if self.game
+            && self.rng.chance(20)
+            && let Some(implicit) = without_start(&out[mark..], &start)
+        {
+            out.truncate(mark);
+            out.push_str(&implicit);
+        } else if self.game && depth > 0 && self.rng.chance(15) {
+            let (second, end) = (self.id("s"), self.id("e"));
+            let _ = write!(out, r#"<startEvent id="{second}"/><endEvent id="{end}"/>"#);
+            let t = self.task(out);
+            self.flow(out, &second, &t);
+            self.flow(out, &t, &end);
+        }
         if self.rng.chance(25) {
             let (esp, s, e) = (self.id("esp"), self.id("es"), self.id("ee"));
-            let def = TRIGGERS[self.rng.below(8) as usize];
+            let def = self.trigger();
             let interrupting = def.contains("error") || self.rng.chance(50);
             let mut body = String::new();
             let t = self.task(&mut body);
+            // Drawn for the simulator, an event sub-process inside may throw again what it
+            // caught, to the scope around.
+            let again = if self.game && inner && self.rng.chance(30) {
+                match def {
+                    d if d.starts_with("<error") => r#"<errorEventDefinition errorRef="E"/>"#,
+                    d if d.starts_with("<escalation") => {
+                        r#"<escalationEventDefinition escalationRef="X"/>"#
+                    }
+                    _ => "",
+                }
+            } else {
+                ""
+            };
             let _ = write!(
                 out,
-                r#"<subProcess id="{esp}" triggeredByEvent="true"><startEvent id="{s}" isInterrupting="{interrupting}">{def}</startEvent>{body}<endEvent id="{e}"/>"#
+                r#"<subProcess id="{esp}" triggeredByEvent="true"><startEvent id="{s}" isInterrupting="{interrupting}">{def}</startEvent>{body}<endEvent id="{e}">{again}</endEvent>"#
             );
             self.flow(out, &s, &t);
             self.flow(out, &t, &e);
@@ -575,16 +673,35 @@ impl Draw {
     /// collaboration with the message flows.
     fn other(&mut self) -> String {
         if self.sends.is_empty() {
-            return String::new();
+            // Drawn for the simulator, perhaps a pool that a signal starts.
+            if !(self.game && self.rng.chance(30)) {
+                return String::new();
+            }
+            let signal = self.rng.below(2);
+            return format!(
+                r#"<process id="r" isExecutable="true"><startEvent id="rs"><signalEventDefinition signalRef="S{signal}"/></startEvent>{}<endEvent id="re"/><sequenceFlow id="rf0" sourceRef="rs" targetRef="rt"/><sequenceFlow id="rf1" sourceRef="rt" targetRef="re"/></process><collaboration id="c"><participant id="P" processRef="p"/><participant id="R" processRef="r"/></collaboration>"#,
+                service_task("rt")
+            );
         }
-        let how = self.rng.below(3);
+        // Drawn for the simulator, the message may also be awaited by a task (one a message
+        // flow reaches waits for it, as a receive task does).
+        let how = self.rng.below(if self.game { 5 } else { 3 });
         let receiver = if how == 0 { "rs" } else { "rc" };
-        let wait = if how == 1 {
-            r#"<intermediateCatchEvent id="rc"><messageEventDefinition messageRef="N"/></intermediateCatchEvent>"#
-        } else {
-            r#"<receiveTask id="rc" messageRef="N"/>"#
+        let wait = match how {
+            1 => {
+                r#"<intermediateCatchEvent id="rc"><messageEventDefinition messageRef="N"/></intermediateCatchEvent>"#
+            }
+            3 => r#"<task id="rc"/>"#,
+            _ => r#"<receiveTask id="rc" messageRef="N"/>"#,
         };
-        let body = if how == 0 {
+        let body = if how == 4 {
+            // Drawn for the simulator: a race between the message and a timer.
+            format!(
+                r#"<startEvent id="rs"/>{}<eventBasedGateway id="rg"/><intermediateCatchEvent id="rc"><messageEventDefinition messageRef="N"/></intermediateCatchEvent><intermediateCatchEvent id="rd">{}</intermediateCatchEvent><endEvent id="re"/><endEvent id="rx"/><sequenceFlow id="rf0" sourceRef="rs" targetRef="rt"/><sequenceFlow id="rf1" sourceRef="rt" targetRef="rg"/><sequenceFlow id="rf2" sourceRef="rg" targetRef="rc"/><sequenceFlow id="rf3" sourceRef="rg" targetRef="rd"/><sequenceFlow id="rf4" sourceRef="rc" targetRef="re"/><sequenceFlow id="rf5" sourceRef="rd" targetRef="rx"/>"#,
+                service_task("rt"),
+                TRIGGERS[4]
+            )
+        } else if how == 0 {
             format!(
                 r#"<startEvent id="rs"><messageEventDefinition messageRef="N"/></startEvent>{}<endEvent id="re"/><sequenceFlow id="rf0" sourceRef="rs" targetRef="rt"/><sequenceFlow id="rf1" sourceRef="rt" targetRef="re"/>"#,
                 service_task("rt")
@@ -609,8 +726,26 @@ impl Draw {
     }
 }
 
-/// The model drawn from `seed`.
-fn model(seed: u64) -> String {
+/// `drawn` without the start event `start` and the flow that leaves it; `None` when that flow
+/// leads to a parallel gateway, which the simulator never fires without incoming flows.
+fn without_start(drawn: &str, start: &str) -> Option<String> {
+    let event = format!(r#"<startEvent id="{start}"/>"#);
+    let source = format!(r#" sourceRef="{start}" targetRef=""#);
+    let mut text = drawn.replacen(&event, "", 1);
+    let at = text.find(&source)?;
+    let target = &text[at + source.len()..];
+    let target = &target[..target.find('"')?];
+    if text.contains(&format!(r#"<parallelGateway id="{target}""#)) {
+        return None;
+    }
+    let open = text[..at].rfind("<sequenceFlow")?;
+    let close = at + text[at..].find("/>")? + 2;
+    text.replace_range(open..close, "");
+    Some(text)
+}
+
+/// The model drawn from `seed`; `game`: for bpmn-js-token-simulation ([`Draw::game`]).
+pub(crate) fn model(seed: u64, game: bool) -> String {
     let mut d = Draw {
         rng: Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1),
         ids: 0,
@@ -618,6 +753,8 @@ fn model(seed: u64) -> String {
         called: String::new(),
         calling: 0,
         sends: Vec::new(),
+        game,
+        joining: false,
     };
     let mut body = String::new();
     d.scope(&mut body, 0, false);
@@ -650,7 +787,7 @@ fn spin_and_the_engine_agree_on_generated_models() {
     let mut pools = 0;
     let mut differences = Vec::new();
     for seed in first..first + count {
-        let xml = model(seed);
+        let xml = model(seed, false);
         deciding += u64::from(xml.contains("<exclusiveGateway"));
         pools += u64::from(xml.contains("<collaboration"));
         let path = work.join(format!("{seed}.bpmn"));

@@ -33,6 +33,7 @@ mod resources;
 mod ros2;
 mod ros2_europa;
 mod run;
+mod simulated;
 mod studio;
 mod studio_compose;
 mod studio_draw;

@@ -346,16 +346,23 @@ impl<'a> Run<'a> {
     fn start_task(&mut self, t: TokenId, task: &executive_model::Task) {
         let tok = &self.s.tokens[&t];
         let (scope, node, instance) = (tok.scope, tok.node, tok.instance);
-        if self.game.is_some() && task.kind != TaskKind::Receive {
-            // An implicitly started task that a message flow points at waits for the message.
+        if let Some(game) = self.game
+            && task.kind != TaskKind::Receive
+        {
+            // A task that a message flow points at waits for the message: an implicitly
+            // started one always; in a player's token game (not model exploration, which plays
+            // what a mission run does) any other too, as bpmn-js-token-simulation plays it,
+            // unless the player holds it (then it waits for the player, and a message that
+            // comes meanwhile is lost, as anywhere) or it also sends one — the simulator then
+            // takes its messages in the drawing's order, left to right, which the engine does
+            // not keep; such a task sends when it is left.
             let id = &self.g.node(node).id;
-            let messaged = self.g.node(node).incoming.is_empty()
-                && self
-                    .g
-                    .collaborations
-                    .iter()
-                    .flat_map(|c| &c.message_flows)
-                    .any(|m| &m.target == id);
+            let flows = || self.g.collaborations.iter().flat_map(|c| &c.message_flows);
+            let messaged = flows().any(|m| &m.target == id)
+                && (self.g.node(node).incoming.is_empty()
+                    || !(game.decide
+                        || game.hold.contains(&node)
+                        || flows().any(|m| &m.source == id)));
             if messaged {
                 self.subscribe(t, node, On::Message(String::new(), None));
                 if let Some(tok) = self.s.tokens.get_mut(&t) {
@@ -363,7 +370,7 @@ impl<'a> Run<'a> {
                 }
                 return;
             }
-            if self.game.is_some_and(|g| !g.hold.contains(&node)) {
+            if !game.hold.contains(&node) {
                 return self.complete_activity(t);
             }
             return self.dispatch(t, None);

@@ -38,6 +38,11 @@ pub mod simulate;
 #[cfg(test)]
 mod simulate_tests;
 pub mod templates;
+
+/// The npm packages the page is built from, as `build.rs` installed them: for tests that bundle
+/// pages of their own from the same pinned packages (the differential test against
+/// bpmn-js-token-simulation, `tests/simulator/`).
+pub const NODE_MODULES: &str = env!("TRACE_STUDIO_NODE_MODULES");
 #[cfg(test)]
 mod templates_tests;
 #[cfg(test)]

@@ -508,3 +508,32 @@ fn send_task_run_by_a_connector_delivers_along_its_message_flow_when_it_complete
     let out = d.complete("st", &[]);
     assert!(out.contains(&"dispatch qa".to_owned()), "{out:?}");
 }
+
+// docs/engine-semantics.md, "A task a message flow reaches, in the token game": in a player's
+// token game a task that a message flow reaches waits for the message, as
+// bpmn-js-token-simulation plays it; held by the player, it waits for the player instead and a
+// message that comes meanwhile is lost; model exploration runs it as a mission does.
+#[test]
+fn in_a_players_token_game_a_task_a_message_flow_reaches_waits_for_its_message() {
+    let receiver = line("q", "", &["qt"], r#"<task id="qt"/>"#);
+    let model = two_pools("st", "qt", &sender_send_task(), &receiver);
+    // Played: q waits at its task until p's send task sends.
+    let mut d = Driver::new(&model);
+    d.e.game();
+    assert_eq!(start_process(&mut d, "q", &[]), Vec::<String>::new());
+    assert_eq!(instances(&d), running(&[("q", false)]));
+    d.start(&[]);
+    assert_eq!(instances(&d), running(&[("q", true), ("p", true)]));
+    // Held by the player: the message is lost, and the task waits for the player.
+    let mut d = Driver::new(&model);
+    let qt = d.e.graph().node_by_id("qt").expect("qt");
+    d.e.game().hold.insert(qt);
+    assert_eq!(start_process(&mut d, "q", &[]), ["dispatch qt"]);
+    d.start(&[]);
+    assert_eq!(instances(&d), running(&[("q", false), ("p", true)]));
+    assert_eq!(d.complete("qt", &[]), ["completed"]);
+    // Explored: the task completes at once, as a mission runs it.
+    let mut d = Driver::new(&model);
+    d.e.game().decide = true;
+    assert_eq!(start_process(&mut d, "q", &[]), ["completed"]);
+}
