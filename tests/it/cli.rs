@@ -1,9 +1,11 @@
 //! The `trace` command as users run it: `trace validate`'s exit codes, rustc-style diagnostics
-//! with line:column and a caret, and `--json` for tools; and `docs/cli.md`, the reference of
+//! with line:column and a caret, and `--json` for tools, each ending quietly when its reader
+//! goes away; and `docs/cli.md`, the reference of
 //! every command and flag, equal to what the clap definitions say (`TRACE_BLESS=1` writes it
 //! again after a change); every binary's `--version` with its commit and Zenoh's version.
 
-use std::process::Command;
+use std::io::Read;
+use std::process::{Command, Stdio};
 
 use mission_tests::{bin, repo};
 
@@ -38,6 +40,35 @@ fn temp_model(name: &str, text: &str) -> std::path::PathBuf {
     let path = dir.join(name);
     std::fs::write(&path, text).unwrap();
     path
+}
+
+// `trace validate … | head`: the reader goes away after a few bytes; the command ends quietly
+// (no "Broken pipe" error), in either format.
+#[test]
+fn validate_ends_quietly_when_its_reader_goes_away() {
+    let path = temp_model("noisy.bpmn", BROKEN);
+    for json in [false, true] {
+        let mut command = Command::new(bin("trace"));
+        command.arg("validate");
+        if json {
+            command.arg("--json");
+        }
+        // Far more than a pipe holds, so the command is still writing when the reader leaves.
+        let mut child = command
+            .args(std::iter::repeat_n(&path, 2000))
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("trace runs");
+        let mut out = child.stdout.take().expect("stdout");
+        let mut first = [0u8; 64];
+        out.read_exact(&mut first).expect("the first bytes");
+        drop(out);
+        let ended = child.wait_with_output().expect("trace ends");
+        let stderr = String::from_utf8_lossy(&ended.stderr);
+        assert!(ended.status.success(), "json {json}: {stderr}");
+        assert!(!stderr.contains("Broken pipe"), "json {json}: {stderr}");
+    }
 }
 
 #[test]

@@ -531,16 +531,14 @@ pub(crate) fn check(doc: &Document<'_>, sink: &mut Sink) {
         let mut soft: Vec<(&'static str, String)> = Vec::new();
         let mut err = |code: &'static str, constraint: &'static str, msg: String| {
             // Descriptive processes (isExecutable="false") are drawings: a broken reference there is
-            // worth a warning, not a refusal, as vendor exports are full of them.
+            // worth a warning, not a refusal, as vendor exports are full of them; reading
+            // strictly, it breaks the rule all the same (REF).
             // An attribute the schema lacks, outside an executable process: said only when
             // reading strictly (drawings carry many, and nothing runs them).
             if PEDANTIC.contains(&code) || (code == "unknown-attribute" && !executable) {
                 sink.pedantic(code, constraint, el.offset, id, msg);
-            } else if BENT.contains(&code) {
+            } else if BENT.contains(&code) || (constraint == "REF" && in_process && !executable) {
                 sink.bent(code, constraint, el.offset, id, msg);
-            } else if constraint == "REF" && in_process && !executable {
-                sink.warning(code, el.offset, id, msg)
-                    .constraint(constraint);
             } else {
                 sink.error(code, el.offset, id, msg).constraint(constraint);
             }
@@ -577,6 +575,22 @@ pub(crate) fn check(doc: &Document<'_>, sink: &mut Sink) {
             .filter(|c| c.ns == Ns::Bpmn && c.children.is_empty())
             .map(|c| (c.name, c.trimmed_text()));
         for (name, value) in attrs.chain(children) {
+            // An association links any two elements; what it names must exist (a rule bent
+            // harmlessly: only a compensation handler's association is followed, and a handler
+            // it misses is reported as such).
+            if el.name == "association"
+                && matches!(name, "sourceRef" | "targetRef")
+                && ix.kind(value).is_none()
+            {
+                soft.push((
+                    "dangling-reference",
+                    format!(
+                        "{name} `{}` does not exist; an association only documents",
+                        local_ref(value)
+                    ),
+                ));
+                continue;
+            }
             let Some(kinds) = ref_targets(el.name, name) else {
                 continue;
             };

@@ -333,6 +333,9 @@ fn each_diagnostic_fires_on_its_minimal_model() {
         ("dangling-reference", doc("", r#"<bpmn:startEvent id="s"/><bpmn:sequenceFlow id="f" sourceRef="s" targetRef="nowhere"/>"#)),
         ("boundary-on-non-activity", around(r#"<bpmn:task id="x"/><bpmn:boundaryEvent id="b" attachedToRef="s"><bpmn:timerEventDefinition><bpmn:timeDuration xsi:type="bpmn:tFormalExpression">PT1M</bpmn:timeDuration></bpmn:timerEventDefinition></bpmn:boundaryEvent>"#)),
         ("missing-called-process", around(r#"<bpmn:callActivity id="x" calledElement="ghost"/>"#)),
+        ("ambiguous-link", doc("", r#"<bpmn:startEvent id="s"/><bpmn:intermediateThrowEvent id="x"><bpmn:linkEventDefinition name="L"/></bpmn:intermediateThrowEvent><bpmn:intermediateCatchEvent id="c1"><bpmn:linkEventDefinition name="L"/></bpmn:intermediateCatchEvent><bpmn:intermediateCatchEvent id="c2"><bpmn:linkEventDefinition name="L"/></bpmn:intermediateCatchEvent><bpmn:endEvent id="e1"/><bpmn:endEvent id="e2"/>
+            <bpmn:sequenceFlow id="f0" sourceRef="s" targetRef="x"/><bpmn:sequenceFlow id="f1" sourceRef="c1" targetRef="e1"/><bpmn:sequenceFlow id="f2" sourceRef="c2" targetRef="e2"/>"#)),
+        ("bad-data-association", around(r#"<bpmn:task id="x"><bpmn:ioSpecification><bpmn:dataInput id="di"/><bpmn:dataOutput id="do"/><bpmn:inputSet><bpmn:dataInputRefs>di</bpmn:dataInputRefs></bpmn:inputSet><bpmn:outputSet><bpmn:dataOutputRefs>do</bpmn:dataOutputRefs></bpmn:outputSet></bpmn:ioSpecification><bpmn:dataInputAssociation id="da"><bpmn:sourceRef>ob</bpmn:sourceRef><bpmn:targetRef>do</bpmn:targetRef></bpmn:dataInputAssociation></bpmn:task><bpmn:dataObject id="ob"/>"#)),
         ("bad-timer", around(r#"<bpmn:intermediateCatchEvent id="x"><bpmn:timerEventDefinition><bpmn:timeDuration xsi:type="bpmn:tFormalExpression">5 minutes</bpmn:timeDuration></bpmn:timerEventDefinition></bpmn:intermediateCatchEvent>"#)),
         ("bad-expression", around(r#"<bpmn:scriptTask id="x" scriptFormat="cel"><bpmn:script>a = (</bpmn:script></bpmn:scriptTask>"#).replace("bad-script", "")),
         ("missing-resource", around(r#"<bpmn:serviceTask id="x"/>"#)),
@@ -357,6 +360,44 @@ fn each_diagnostic_fires_on_its_minimal_model() {
             found
         };
         assert!(found.contains(&code), "{code}: expected it among {found:?}");
+    }
+}
+
+/// In a drawing (`isExecutable="false"`) a reference that names nothing is a warning naming
+/// the reference rule — vendor exports are full of them, and a call may name what another
+/// bundle deploys — and an error when reading strictly.
+#[test]
+fn a_drawings_broken_references_are_warnings_and_errors_when_strict() {
+    let cases = [
+        (
+            "missing-called-process",
+            r#"<bpmn:callActivity id="x" calledElement="ghost"/>"#,
+        ),
+        (
+            "dangling-reference",
+            r#"<bpmn:task id="x"/><bpmn:dataObjectReference id="r" dataObjectRef="ghost"/>"#,
+        ),
+        (
+            "dangling-reference",
+            r#"<bpmn:task id="x"/><bpmn:textAnnotation id="a"/><bpmn:association id="l" sourceRef="a" targetRef="ghost"/>"#,
+        ),
+    ];
+    for (code, middle) in cases {
+        let xml = around(middle).replace(r#"isExecutable="true""#, r#"isExecutable="false""#);
+        let loaded = load(xml.as_bytes());
+        assert!(
+            loaded.errors().next().is_none(),
+            "{middle}: {:#?}",
+            loaded.diagnostics
+        );
+        assert!(
+            loaded.diagnostics.iter().any(|d| d.code == code
+                && d.severity == Severity::Warning
+                && d.constraint == Some("REF")),
+            "{middle}: {:#?}",
+            loaded.diagnostics
+        );
+        assert!(strict_errors(&xml).contains(&code), "{middle}");
     }
 }
 

@@ -140,7 +140,10 @@ pub fn render(out: &mut dyn Write, path: &Path, loaded: &Loaded) -> std::io::Res
         } else if let Some(e) = &d.element {
             report = report.with_notes(vec![format!("element `{e}`")]);
         }
-        term::emit_to_io_write(out, &config, &file, &report).map_err(std::io::Error::other)?;
+        term::emit_to_io_write(out, &config, &file, &report).map_err(|e| match e {
+            codespan_reporting::files::Error::Io(io) => io,
+            other => std::io::Error::other(other),
+        })?;
     }
     Ok(())
 }
@@ -324,7 +327,11 @@ pub fn run(
         }
     }
     if json {
-        serde_json::to_writer_pretty(&mut *out, &reports).map_err(std::io::Error::other)?;
+        // An I/O error (the reader gone: `trace validate --json | head`) keeps its kind.
+        serde_json::to_writer_pretty(&mut *out, &reports).map_err(|e| match e.io_error_kind() {
+            Some(kind) => std::io::Error::new(kind, e),
+            None => std::io::Error::other(e),
+        })?;
         writeln!(out)?;
     }
     Ok(worst)

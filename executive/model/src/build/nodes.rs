@@ -189,13 +189,25 @@ impl<'d> Builder<'d, '_> {
                             let msg = format!(
                                 "call activity calls `{c}`, which is not a process or global task of this mission bundle"
                             );
-                            self.problem(
-                                strict,
-                                "missing-called-process",
-                                el.offset,
-                                Some(&owner),
-                                msg,
-                            );
+                            if strict {
+                                self.problem(
+                                    strict,
+                                    "missing-called-process",
+                                    el.offset,
+                                    Some(&owner),
+                                    msg,
+                                );
+                            } else {
+                                // A drawing may call what another bundle deploys; reading
+                                // strictly, the reference names nothing (REF).
+                                self.sink.bent(
+                                    "missing-called-process",
+                                    "REF",
+                                    el.offset,
+                                    Some(&owner),
+                                    msg,
+                                );
+                            }
                             None
                         }
                     },

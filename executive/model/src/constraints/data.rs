@@ -192,6 +192,33 @@ pub(super) fn data_association(
             .map(|r| local_ref(r.text))
             .collect()
     };
+    // The end inside the owner: an input association writes a data input (or a property, as
+    // bpmn-js draws it), an output association reads a data output (§10.4.1).
+    let inside: Vec<&str> = if input {
+        el.bpmn_children("targetRef")
+            .map(|r| local_ref(r.text))
+            .collect()
+    } else {
+        sources.clone()
+    };
+    for r in inside {
+        let wrong = if input { "dataOutput" } else { "dataInput" };
+        if ix.by_id.get(r).is_some_and(|end| end.name == wrong) {
+            let (way, what) = if input {
+                ("writes", "output")
+            } else {
+                ("reads", "input")
+            };
+            err(
+                "bad-data-association",
+                "§10.4.1",
+                format!(
+                    "data {} association {way} `{r}`, a data {what}",
+                    if input { "input" } else { "output" }
+                ),
+            );
+        }
+    }
     for r in outside {
         let Some(target) = ix.by_id.get(r) else {
             continue;

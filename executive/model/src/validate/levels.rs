@@ -46,19 +46,26 @@ impl Checker<'_> {
                 _ => None,
             })
             .collect();
-        let links_caught: BTreeSet<&str> = nodes
-            .iter()
-            .filter_map(|n| match &g.node(*n).kind {
-                NodeKind::Catch(c) => c.triggers.iter().find_map(|d| {
-                    if let EventDefinition::Link(name) = d {
-                        Some(name.as_str())
-                    } else {
-                        None
-                    }
-                }),
-                _ => None,
-            })
-            .collect();
+        let mut links_caught: BTreeSet<&str> = BTreeSet::new();
+        for n in nodes {
+            if let NodeKind::Catch(c) = &g.node(*n).kind
+                && let Some(name) = c.triggers.iter().find_map(|d| match d {
+                    EventDefinition::Link(name) => Some(name.as_str()),
+                    _ => None,
+                })
+                && !links_caught.insert(name)
+            {
+                // §10.5.6: a link may have several sources but only one target.
+                self.report(
+                    *n,
+                    "ambiguous-link",
+                    Some("§10.5.6"),
+                    format!(
+                        "a second link catch event named `{name}` in the same process level: a link throw would not know where to continue"
+                    ),
+                );
+            }
+        }
         for n in nodes {
             let node = g.node(*n);
             match &node.kind {
