@@ -52,27 +52,33 @@ fn the_engine_plays_generated_models_as_bpmn_js_token_simulation_does() {
             .build()
             .expect("runtime")
             .block_on(async {
-                let c = session(port).await;
+                let mut client = open(port, &page).await;
                 let mut runs = Vec::new();
-                let opened = c
-                    .goto(&format!("file://{}", page.join("index.html").display()))
-                    .await;
                 for seed in first..first + count {
                     let xml = model(seed, true);
-                    let ran = match &opened {
-                        Err(e) => Err(format!("the page did not open: {e}")),
-                        Ok(()) => c
+                    let ran = match &client {
+                        Err(e) => Err(e.clone()),
+                        Ok(c) => c
                             .execute_async(
                                 "const [xml, seed, limit, done] = arguments; \
-                             simulate(xml, seed, limit).then(done);",
+                                 simulate(xml, seed, limit).then(done);",
                                 vec![json!(xml), json!(seed), json!(TRIGGERS)],
                             )
                             .await
                             .map_err(|e| e.to_string()),
                     };
+                    if ran.is_err() {
+                        // A page whose script never returned answers nothing more: a new one.
+                        if let Ok(c) = client {
+                            let _ = c.close().await;
+                        }
+                        client = open(port, &page).await;
+                    }
                     runs.push((seed, xml, ran));
                 }
-                let _ = c.close().await;
+                if let Ok(c) = client {
+                    let _ = c.close().await;
+                }
                 runs
             });
 
@@ -163,6 +169,26 @@ fn the_engine_plays_generated_models_as_bpmn_js_token_simulation_does() {
         runs.len()
     );
 }
+
+/// A browser session on the simulator's page; a run that takes longer than [`SCRIPT`] is
+/// given up.
+async fn open(port: u16, page: &std::path::Path) -> Result<fantoccini::Client, String> {
+    let c = session(port).await;
+    c.update_timeouts(fantoccini::wd::TimeoutConfiguration::new(
+        Some(SCRIPT),
+        None,
+        None,
+    ))
+    .await
+    .map_err(|e| e.to_string())?;
+    c.goto(&format!("file://{}", page.join("index.html").display()))
+        .await
+        .map_err(|e| format!("the page did not open: {e}"))?;
+    Ok(c)
+}
+
+/// How long the simulator may take over one model.
+const SCRIPT: std::time::Duration = std::time::Duration::from_secs(10);
 
 /// The difference of order within a step (docs/engine-semantics.md, "Within a step"): the
 /// simulator throws the moment it enters a throw event (a terminate ends everything that has not

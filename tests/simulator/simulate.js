@@ -13,8 +13,10 @@ const DDI = 'http://www.omg.org/spec/DD/20100524/DI';
 const NODE = /(Task|^task|Event|Gateway|^callActivity)$/;
 
 // A diagram for a model drawn without one: bpmn-js simulates only what it draws. Shapes sit on
-// a grid; an edge runs from its source's centre to its target's.
-function withDiagram(xml) {
+// a grid; an edge runs from its source's centre to its target's. A sub-process is drawn
+// collapsed, its content on a plane of its own, when `collapse()` says so (unless a message flow
+// reaches inside it).
+function withDiagram(xml, collapse) {
   const doc = new DOMParser().parseFromString(xml, 'application/xml');
   const broken = doc.getElementsByTagName('parsererror')[0];
   if (broken) {
@@ -24,18 +26,25 @@ function withDiagram(xml) {
   const top = [...root.children];
   const collaboration = top.find(e => e.localName === 'collaboration');
   const processes = new Map(top.filter(e => e.localName === 'process').map(p => [ p.getAttribute('id'), p ]));
-  const diagram = doc.createElementNS(DI, 'bpmndi:BPMNDiagram');
-  diagram.setAttribute('id', 'Diagram_generated');
-  const plane = doc.createElementNS(DI, 'bpmndi:BPMNPlane');
-  plane.setAttribute('id', 'Plane_generated');
+  const newPlane = of => {
+    const diagram = doc.createElementNS(DI, 'bpmndi:BPMNDiagram');
+    diagram.setAttribute('id', `Diagram_${of}`);
+    const plane = doc.createElementNS(DI, 'bpmndi:BPMNPlane');
+    plane.setAttribute('id', `Plane_${of}`);
+    plane.setAttribute('bpmnElement', of);
+    diagram.appendChild(plane);
+    root.appendChild(diagram);
+    return plane;
+  };
   const planeOf = collaboration || [...processes.values()][0];
-  plane.setAttribute('bpmnElement', planeOf.getAttribute('id'));
-  diagram.appendChild(plane);
-  root.appendChild(diagram);
+  const plane = newPlane(planeOf.getAttribute('id'));
   const centres = new Map();
   const edges = [];
+  // What message flows connect stays on the collaboration's plane.
+  const ends = new Set([ ...doc.getElementsByTagNameNS('*', 'messageFlow') ]
+    .flatMap(m => [ m.getAttribute('sourceRef'), m.getAttribute('targetRef') ]));
   let count = 0;
-  const shape = (el, width, height, extra = {}) => {
+  const shape = (plane, el, width, height, extra = {}) => {
     const id = el.getAttribute('id');
     const s = doc.createElementNS(DI, 'bpmndi:BPMNShape');
     s.setAttribute('id', `${id}_di`);
@@ -54,35 +63,41 @@ function withDiagram(xml) {
     plane.appendChild(s);
     centres.set(id, { x: x + width / 2, y: y + height / 2 });
   };
-  const walk = container => {
+  const walk = (container, plane) => {
     for (const el of container.children) {
       const name = el.localName;
       if (name === 'sequenceFlow' || name === 'association') {
-        edges.push(el);
+        edges.push([ el, plane ]);
       } else if (name === 'subProcess' || name === 'transaction' || name === 'adHocSubProcess') {
-        shape(el, 350, 200, { isExpanded: 'true' });
-        walk(el);
+        const messaged = [ ...el.querySelectorAll('*') ].some(c => ends.has(c.getAttribute('id')));
+        if (collapse() && !messaged) {
+          shape(plane, el, 100, 80, { isExpanded: 'false' });
+          walk(el, newPlane(el.getAttribute('id')));
+        } else {
+          shape(plane, el, 350, 200, { isExpanded: 'true' });
+          walk(el, plane);
+        }
       } else if (NODE.test(name)) {
-        shape(el, 100, 80);
+        shape(plane, el, 100, 80);
       }
     }
   };
   if (collaboration) {
     for (const el of collaboration.children) {
       if (el.localName === 'participant') {
-        shape(el, 4000, 600, { isHorizontal: 'true' });
+        shape(plane, el, 4000, 600, { isHorizontal: 'true' });
         const p = processes.get(el.getAttribute('processRef'));
         if (p) {
-          walk(p);
+          walk(p, plane);
         }
       } else if (el.localName === 'messageFlow') {
-        edges.push(el);
+        edges.push([ el, plane ]);
       }
     }
   } else {
-    walk(planeOf);
+    walk(planeOf, plane);
   }
-  for (const el of edges) {
+  for (const [ el, plane ] of edges) {
     const from = centres.get(el.getAttribute('sourceRef'));
     const to = centres.get(el.getAttribute('targetRef'));
     if (!from || !to) {
@@ -114,6 +129,9 @@ function random(seed) {
     return x % n;
   };
 }
+
+// Trace events per model, at most.
+const MOVES = 20000;
 
 const is = (el, type) => el.businessObject && el.businessObject.$instanceOf(type);
 
@@ -148,13 +166,19 @@ window.simulate = async function(xml, seed, limit) {
   document.body.appendChild(container);
   const viewer = new Viewer({ container, additionalModules: [ SimulatorModule ] });
   try {
-    const { warnings } = await viewer.importXML(withDiagram(xml));
+    const draw = random(seed);
+    const { warnings } = await viewer.importXML(withDiagram(xml, () => draw(100) < 25));
     const simulator = viewer.get('simulator');
     const registry = viewer.get('elementRegistry');
-    const draw = random(seed);
     const steps = [];
     const trace = [];
-    simulator.on('trace', e => trace.push(`${e.action}:${e.element.id}:${e.scope ? e.scope.id : null}`));
+    simulator.on('trace', e => {
+      // A model the simulator loops on forever: given up, with the reason.
+      if (trace.length >= MOVES) {
+        throw new Error(`the simulator did not settle within ${MOVES} moves`);
+      }
+      trace.push(`${e.action}:${e.element.id}:${e.scope ? e.scope.id : null}`);
+    });
     simulator.reset();
     for (const gateway of registry.filter(e => is(e, 'bpmn:ExclusiveGateway') || is(e, 'bpmn:InclusiveGateway'))) {
       const outgoing = gateway.outgoing.filter(c => is(c, 'bpmn:SequenceFlow'));
