@@ -6,7 +6,12 @@
 //! transactions cancelled or not, call activities, compensation, messages, conditions and timer
 //! cycles from outside, messages to another pool — seeded, a few hundred per run. On each, Spin
 //! on the PROMELA translation and the engine's own exploration must agree exactly. Each model is
-//! written out first; a disagreement names its seed and file, to be kept as a test.
+//! written out first; a disagreement names its seed and file, to be kept as a test. The same
+//! grammar, drawn for bpmn-js-token-simulation, also draws implicit starts, branches that end
+//! without an end event, empty sub-processes and ones with two starts, errors and escalations
+//! caught whatever their code, event sub-processes that throw again, compensation event
+//! sub-processes, a pool a signal starts, a task a message reaches and a message raced against
+//! a timer (`simulated.rs`).
 
 use std::fmt::Write;
 
@@ -769,16 +774,19 @@ pub(crate) fn model(seed: u64, game: bool) -> String {
     )
 }
 
+/// The number the environment variable `name` holds, else `default`: how many models, from
+/// which seed.
+pub(crate) fn number(name: &str, default: u64) -> u64 {
+    std::env::var(name)
+        .ok()
+        .and_then(|n| n.parse().ok())
+        .unwrap_or(default)
+}
+
 #[test]
 fn spin_and_the_engine_agree_on_generated_models() {
-    let count: u64 = std::env::var("TRACE_GENERATED_MODELS")
-        .ok()
-        .and_then(|n| n.parse().ok())
-        .unwrap_or(200);
-    let first: u64 = std::env::var("TRACE_GENERATED_SEED")
-        .ok()
-        .and_then(|n| n.parse().ok())
-        .unwrap_or(1);
+    let count = number("TRACE_GENERATED_MODELS", 200);
+    let first = number("TRACE_GENERATED_SEED", 1);
     let work = tempdir("generated");
     let (mut compared, mut invalid, mut refused, mut needs_data) = (0u64, 0, 0, 0);
     // Models with an exclusive split, where the exploration decides before anything else.

@@ -15,7 +15,7 @@ use executive_runtime::conformance::token_sim;
 use mission_tests::repo;
 use serde_json::{Value, json};
 
-use crate::generated::model;
+use crate::generated::{model, number};
 use crate::protocol::tempdir;
 use crate::studio::{free_port, session, start};
 
@@ -24,14 +24,8 @@ const TRIGGERS: u64 = 40;
 
 #[test]
 fn the_engine_plays_generated_models_as_bpmn_js_token_simulation_does() {
-    let count: u64 = std::env::var("TRACE_SIMULATED_MODELS")
-        .ok()
-        .and_then(|n| n.parse().ok())
-        .unwrap_or(500);
-    let first: u64 = std::env::var("TRACE_SIMULATED_SEED")
-        .ok()
-        .and_then(|n| n.parse().ok())
-        .unwrap_or(1);
+    let count = number("TRACE_SIMULATED_MODELS", 500);
+    let first = number("TRACE_SIMULATED_SEED", 1);
     let work = tempdir("simulated");
     let page = work.join("page");
     let built = Command::new("node")
@@ -143,7 +137,7 @@ fn the_engine_plays_generated_models_as_bpmn_js_token_simulation_does() {
         }
     }
     println!(
-        "simulated: {count} models from seed {first}: {} run by the simulator, {} agree, {} reviewed deviations, {} terminate races; {} refused by the simulator",
+        "simulated: {count} models from seed {first}: {} run by the simulator, {} agree, {} reviewed deviations, {} differ only in order within a step; {} refused by the simulator",
         results.len(),
         results.len() - deviations.len() - races.len() - differences.len(),
         deviations.len(),

@@ -137,10 +137,10 @@ const is = (el, type) => el.businessObject && el.businessObject.$instanceOf(type
 
 // What the outside may trigger, as a user of the simulator does (its context pad calls
 // `trigger` with the element's subscription): a process's none start event (or, without one, an
-// element without incoming flow), once per process;
-// a timer, message or condition on a catch event, a boundary event or an event sub-process's
-// start; a receive task; a task told to wait. Messages along a message flow, signals, errors,
-// escalations, compensation and cancellation come only from the model itself.
+// element without incoming flow), once per process; a timer, message or condition on a catch
+// event, a boundary event or an event sub-process's start; a receive task; a task told to wait.
+// Messages along a message flow, signals, errors, escalations, compensation and cancellation
+// come only from the model itself.
 function outside(subscription, started) {
   const { event, element } = subscription;
   if (!element || element.incoming.some(c => is(c, 'bpmn:MessageFlow'))) {

@@ -128,29 +128,29 @@ fn play(dir: &Path, s: &Scenario, uncaught: &mut bool) -> Result<(), String> {
 }
 
 impl Player {
+    /// Runs the scenario's steps in order.
     fn steps(&mut self, dir: &Path, steps: &[serde_json::Value]) -> Result<(), String> {
-        let p = self;
         for step in steps {
             let str_of = |k: &str| step[k].as_str().unwrap_or_default().to_owned();
             match step["op"].as_str().unwrap_or_default() {
                 "setConfig" => {
-                    let gw = p.node(&str_of("gateway"))?;
+                    let gw = self.node(&str_of("gateway"))?;
                     let flows = step["activeOutgoing"]
                         .as_array()
                         .into_iter()
                         .flatten()
                         .filter_map(|f| f.as_str())
-                        .filter_map(|f| p.g.flows.iter().position(|x| x.id == f))
+                        .filter_map(|f| self.g.flows.iter().position(|x| x.id == f))
                         .map(|i| executive_model::FlowId(i as u32))
                         .collect();
-                    p.engine.game().choices.insert(gw, flows);
+                    self.engine.game().choices.insert(gw, flows);
                 }
                 "waitAtElement" => {
-                    let n = p.node(&str_of("element"))?;
-                    p.engine.game().hold.insert(n);
+                    let n = self.node(&str_of("element"))?;
+                    self.engine.game().hold.insert(n);
                 }
-                "trigger" => p.trigger(&str_of("element"), step["scopeOf"].as_str())?,
-                "signal" => p.message_flow(&str_of("element"))?,
+                "trigger" => self.trigger(&str_of("element"), step["scopeOf"].as_str())?,
+                "signal" => self.message_flow(&str_of("element"))?,
                 "expectTrace" => {
                     let fixture = dir.join("simulator").join(str_of("fixture"));
                     let text = std::fs::read_to_string(&fixture)
@@ -165,14 +165,14 @@ impl Player {
                             // A collapsed sub-process is reported by its diagram plane, `<id>_plane`.
                             let element = element
                                 .strip_suffix("_plane")
-                                .filter(|id| p.g.node_by_id(id).is_some())
+                                .filter(|id| self.g.node_by_id(id).is_some())
                                 .unwrap_or(element);
                             (matches!(action, "enter" | "exit")
-                                && p.g.node_by_id(element).is_some())
+                                && self.g.node_by_id(element).is_some())
                             .then(|| format!("{action}:{element}"))
                         })
                         .collect();
-                    let got = std::mem::take(&mut p.trace);
+                    let got = std::mem::take(&mut self.trace);
                     if got != expected {
                         let (mut a, mut b) = (got.clone(), expected.clone());
                         a.sort();
@@ -185,8 +185,8 @@ impl Player {
                     }
                 }
                 "expectInstanceCompleted" => {
-                    let first = p.started.first().ok_or("no instance was started")?;
-                    let inst = &p.engine.state().instances[first];
+                    let first = self.started.first().ok_or("no instance was started")?;
+                    let inst = &self.engine.state().instances[first];
                     if inst.outcome != Some(Outcome::Completed) {
                         return Err(format!("instance not completed: {:?}", inst.outcome));
                     }
