@@ -10,8 +10,8 @@
 //! grammar, drawn for bpmn-js-token-simulation, also draws implicit starts, branches that end
 //! without an end event, empty sub-processes and ones with two starts, errors and escalations
 //! caught whatever their code, event sub-processes that throw again, compensation event
-//! sub-processes, a pool a signal starts, a task a message reaches and a message raced against
-//! a timer (`simulated.rs`).
+//! sub-processes, a pool a signal starts, a task a message reaches, a message raced against a
+//! timer and a receive task after an event-based gateway (`simulated.rs`).
 
 use std::fmt::Write;
 
@@ -558,11 +558,16 @@ impl Draw {
         }
         for trigger in triggers {
             let c = self.id("c");
-            let _ = write!(
-                out,
-                r#"<intermediateCatchEvent id="{c}">{}</intermediateCatchEvent>"#,
-                TRIGGERS[trigger]
-            );
+            // Drawn for the simulator, the message may be awaited by a receive task.
+            let _ = if trigger == 5 && self.game && self.rng.chance(50) {
+                write!(out, r#"<receiveTask id="{c}" messageRef="M"/>"#)
+            } else {
+                write!(
+                    out,
+                    r#"<intermediateCatchEvent id="{c}">{}</intermediateCatchEvent>"#,
+                    TRIGGERS[trigger]
+                )
+            };
             self.flow(out, &gate, &c);
             let last = self.seq(out, &c, depth + 1, inner);
             self.flow(out, &last, &join);
