@@ -188,8 +188,9 @@ const SCRIPT: std::time::Duration = std::time::Duration::from_secs(10);
 /// simulator throws the moment it enters a throw event (a terminate ends everything that has not
 /// yet moved; a catcher entered after the throw, in its order of work, misses it), and the engine
 /// at the end of the throw's wave, once every other token of the wave has arrived. So, in a model
-/// that throws, one of them moves a few elements further than the other, or the two part after
-/// a throw event was entered, or a catcher waits in one and not in the other ([`ordered`]).
+/// that throws, one of them moves a few elements further than the other, or each moves
+/// differently only after a throw event was entered, or a catcher waits in one and not in the
+/// other ([`ordered`]).
 const RACE: &str = "order within a step: the simulator throws as it enters a throw event, the engine \
      at the end of the throw's wave";
 
@@ -203,7 +204,7 @@ const THROWS: [&str; 4] = [
 
 /// Whether two traces differ as the order within a step makes them (the failure's two traces,
 /// as the corpus runner prints them): one holds every element entry and exit of the other and
-/// more, or they part only after one of `throwers` was entered.
+/// more, or what each holds beyond the other comes after one of `throwers` was entered in it.
 fn ordered(why: &str, throwers: &std::collections::BTreeSet<String>) -> bool {
     let list = |label: &str| -> Option<Vec<String>> {
         let line = why
@@ -224,16 +225,28 @@ fn ordered(why: &str, throwers: &std::collections::BTreeSet<String>) -> bool {
     let (Some(expected), Some(got)) = (list("expected"), list("got")) else {
         return false;
     };
-    let parted = expected
-        .iter()
-        .zip(&got)
-        .take_while(|(e, g)| e == g)
-        .count();
-    let thrown = expected[..parted].iter().any(|e| {
-        e.strip_prefix("enter:")
-            .is_some_and(|id| throwers.contains(id))
-    });
-    thrown || within(&expected, &got) || within(&got, &expected)
+    // Everything one trace has beyond the other comes after its first throw event was entered.
+    let after_a_throw = |ours: &[String], theirs: &[String]| {
+        let Some(first) = ours.iter().position(|e| {
+            e.strip_prefix("enter:")
+                .is_some_and(|id| throwers.contains(id))
+        }) else {
+            return false;
+        };
+        let mut rest = theirs.to_vec();
+        ours.iter()
+            .enumerate()
+            .all(|(i, e)| match rest.iter().position(|g| g == e) {
+                Some(k) => {
+                    rest.swap_remove(k);
+                    true
+                }
+                None => i > first,
+            })
+    };
+    within(&expected, &got)
+        || within(&got, &expected)
+        || (after_a_throw(&expected, &got) && after_a_throw(&got, &expected))
 }
 
 /// The ids of the elements of `xml` that throw (not a link, not a none event): what acts at the
