@@ -139,6 +139,17 @@ impl Checker<'_> {
         let g = self.g;
         let node = g.node(n);
         let (ins, outs) = (node.incoming.len(), node.outgoing.len());
+        // A compensation activity runs only as the handler its boundary event's association
+        // names: a sequence flow in or out would make it run in normal flow too, or continue
+        // after compensating (bpmn-js will not draw such flows either).
+        if node.for_compensation && (ins > 0 || outs > 0) {
+            self.hard(
+                n,
+                "compensation-handler-flow",
+                Some("§10.3"),
+                "a compensation activity (isForCompensation) cannot have incoming or outgoing sequence flows; it runs only as a compensation handler".to_owned(),
+            );
+        }
         // Conditional flows leave activities and exclusive, inclusive and complex gateways
         // (§8.3.13); from an event the condition is still evaluated, as on an activity.
         if matches!(
