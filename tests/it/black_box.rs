@@ -94,18 +94,7 @@ async fn a_black_box_pool_hears_the_mission_and_answers_it_from_outside() {
     );
     let session = crate::protocol::open(&[], std::slice::from_ref(&hub)).await;
     let keys = Keys::default();
-    // The lander's presence, declared after its inbox, tells that the inbox is reachable from
-    // this session: a letter sent before that would find nobody to answer it.
-    let presence = session
-        .liveliness()
-        .declare_subscriber(keys.fleet_alive("A", "running"))
-        .history(true)
-        .await
-        .expect("presence subscriber");
-    tokio::time::timeout(Duration::from_secs(30), presence.recv_async())
-        .await
-        .expect("the lander's presence reaches this session")
-        .expect("a presence sample");
+    crate::fleet::reachable(&session, &keys, "A").await;
     let letter = |key: &str, flow: &str| Letter {
         key: key.to_owned(),
         from: "B".to_owned(),

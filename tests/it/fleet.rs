@@ -562,6 +562,21 @@ async fn ask(
     }
 }
 
+/// Waits until pool `pool`'s inbox is reachable from `session`: its presence, which an executive
+/// declares after its inbox, has reached it (a letter sent before would find nobody to answer).
+pub(crate) async fn reachable(session: &zenoh::Session, keys: &connector_api::Keys, pool: &str) {
+    let presence = session
+        .liveliness()
+        .declare_subscriber(keys.fleet_alive(pool, "running"))
+        .history(true)
+        .await
+        .expect("presence subscriber");
+    tokio::time::timeout(Duration::from_secs(30), presence.recv_async())
+        .await
+        .unwrap_or_else(|_| panic!("the presence of pool `{pool}` reaches this session"))
+        .expect("a presence sample");
+}
+
 // At the door of a fleet executive's inbox: garbage, a letter sent as another pool than it
 // names, and one addressed to another pool are refused with the reason and counted, not
 // handed to the executive; a good one is, and its verdict is the reply.
@@ -576,17 +591,7 @@ async fn the_fleet_link_refuses_forged_and_garbage_letters_and_replies_the_verdi
     let fleet = connector_zenoh::Fleet::join(&scout_side, keys.clone(), "scout", tx)
         .await
         .expect("joins");
-    // Its presence, declared after its inbox, tells that the inbox is reachable from here.
-    let presence = other
-        .liveliness()
-        .declare_subscriber(keys.fleet_alive("scout", "running"))
-        .history(true)
-        .await
-        .expect("presence subscriber");
-    tokio::time::timeout(Duration::from_secs(30), presence.recv_async())
-        .await
-        .expect("the scout's presence reaches the other session")
-        .expect("a presence sample");
+    reachable(&other, &keys, "scout").await;
     let garbage = ask(
         &other,
         &keys.fleet_message("scout", "lander", "k.m1"),
