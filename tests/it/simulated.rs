@@ -125,8 +125,9 @@ fn the_engine_plays_generated_models_as_bpmn_js_token_simulation_does() {
         .expect("diagram");
         if let Some(deviation) = r.deviation {
             deviations.push(format!("seed {}: {deviation}", r.name));
-        } else if THROWS.iter().any(|t| xml.contains(t))
-            && (ordered(why, &throwers(&xml)) || why.starts_with("nothing waits at"))
+        } else if let throwers = throwers(&xml)
+            && !throwers.is_empty()
+            && (ordered(why, &throwers) || why.starts_with("nothing waits at"))
         {
             if std::env::var_os("TRACE_SIMULATED_RACES").is_some() {
                 println!("{}", kept(&corpus, &r.name, why, &scenarios));
@@ -194,14 +195,6 @@ const SCRIPT: std::time::Duration = std::time::Duration::from_secs(10);
 const RACE: &str = "order within a step: the simulator throws as it enters a throw event, the engine \
      at the end of the throw's wave";
 
-/// What throws, in a model, for [`RACE`].
-const THROWS: [&str; 4] = [
-    "<terminateEventDefinition",
-    "<signalEventDefinition",
-    "<escalationEventDefinition",
-    "<errorEventDefinition",
-];
-
 /// Whether two traces differ as the order within a step makes them (the failure's two traces,
 /// as the corpus runner prints them): one holds every element entry and exit of the other and
 /// more, or what each holds beyond the other comes after one of `throwers` was entered in it.
@@ -249,19 +242,18 @@ fn ordered(why: &str, throwers: &std::collections::BTreeSet<String>) -> bool {
         || (after_a_throw(&expected, &got) && after_a_throw(&got, &expected))
 }
 
-/// The ids of the elements of `xml` that throw (not a link, not a none event): what acts at the
-/// end of its wave in the engine and as it is entered in the simulator.
+/// The ids of the elements of `xml` that throw, by the engine's own rule
+/// ([`executive_engine::throws`]): what acts at the end of its wave in the engine and as it is
+/// entered in the simulator.
 fn throwers(xml: &str) -> std::collections::BTreeSet<String> {
-    use executive_model::{EventDefinition, NodeKind};
+    use executive_model::NodeKind;
     let Some(g) = executive_model::load(xml.as_bytes()).graph else {
         return Default::default();
     };
     g.nodes
         .iter()
         .filter(|n| match &n.kind {
-            NodeKind::Throw(defs) | NodeKind::End(defs) => {
-                defs.iter().any(|d| !matches!(d, EventDefinition::Link(_)))
-            }
+            NodeKind::Throw(defs) | NodeKind::End(defs) => executive_engine::throws(defs),
             _ => false,
         })
         .map(|n| n.id.clone())

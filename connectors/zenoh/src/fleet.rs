@@ -36,6 +36,9 @@ const SAY_EVERY: Duration = Duration::from_secs(30);
 /// How long a received message may wait for the executive's verdict before the sender is told
 /// to try again.
 const VERDICT_WAIT: Duration = Duration::from_secs(30);
+/// How long closing waits for the letters still being answered: a verdict given just before the
+/// executive stops reaches its sender instead of dying with the process.
+const ANSWERS_WAIT: Duration = Duration::from_secs(5);
 
 /// Why the fleet link could not be set up.
 #[derive(Debug, thiserror::Error)]
@@ -59,6 +62,34 @@ struct Shared {
     /// The state of each pool's executive seen so far (this one's among them).
     peers: tokio::sync::watch::Sender<BTreeMap<String, PeerState>>,
     drops: Drops,
+    /// Letters received and not yet answered, and the signal that one was answered.
+    answering: std::sync::atomic::AtomicUsize,
+    answered: tokio::sync::Notify,
+}
+
+/// One letter being answered, counted in [`Shared::answering`] until it is dropped.
+struct Answering(Arc<Shared>);
+
+impl Answering {
+    fn new(shared: &Arc<Shared>) -> Self {
+        shared
+            .answering
+            .fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        Answering(Arc::clone(shared))
+    }
+}
+
+impl Drop for Answering {
+    fn drop(&mut self) {
+        if self
+            .0
+            .answering
+            .fetch_sub(1, std::sync::atomic::Ordering::SeqCst)
+            == 1
+        {
+            self.0.answered.notify_waiters();
+        }
+    }
 }
 
 /// This executive's place in a fleet: its presence, its inbox, and its messages in flight.
@@ -91,6 +122,8 @@ impl Fleet {
             sending: Mutex::new(HashMap::new()),
             peers: tokio::sync::watch::Sender::new(BTreeMap::new()),
             drops: Drops::new(&format!("fleet:{pool}"), Duration::from_secs(10)),
+            answering: Default::default(),
+            answered: tokio::sync::Notify::new(),
         });
         let me = Arc::clone(&shared);
         let peers = session
@@ -105,7 +138,8 @@ impl Fleet {
             .declare_queryable(keys.fleet_inbox(pool))
             .complete(true)
             .callback(move |q| {
-                me.rt.spawn(Arc::clone(&me).on_letter(q));
+                let answering = Answering::new(&me);
+                me.rt.spawn(Arc::clone(&me).on_letter(q, answering));
             })
             .await
             .map_err(z)?;
@@ -191,11 +225,29 @@ impl Fleet {
         self.shared.drops.counts()
     }
 
-    /// Stops sending (what is unacknowledged stays in the store and is sent on resume),
-    /// withdraws the presence and the inbox.
+    /// Stops sending (what is unacknowledged stays in the store and is sent on resume), lets the
+    /// letters being answered reply (for at most [`ANSWERS_WAIT`]), withdraws the presence and
+    /// the inbox.
     pub async fn close(&mut self) {
         for (_, h) in self.shared.in_flight().drain() {
             h.abort();
+        }
+        let shared = &self.shared;
+        let answered = async {
+            loop {
+                // Created before the count is read, so an answer in between still wakes it.
+                let next = shared.answered.notified();
+                if shared.answering.load(std::sync::atomic::Ordering::SeqCst) == 0 {
+                    break;
+                }
+                next.await;
+            }
+        };
+        if tokio::time::timeout(ANSWERS_WAIT, answered).await.is_err() {
+            tracing::warn!(
+                waited = ?ANSWERS_WAIT,
+                "letters still unanswered at close; their senders will send them again"
+            );
         }
         if let Some((t, _)) = self.alive.take()
             && let Err(e) = t.undeclare().await
@@ -361,7 +413,7 @@ impl Shared {
 
     /// A letter for this pool: checked at the door, stepped by the executive, and its verdict
     /// replied once committed.
-    async fn on_letter(self: Arc<Shared>, query: Query) {
+    async fn on_letter(self: Arc<Shared>, query: Query, _answering: Answering) {
         let key = query.key_expr().as_str().to_owned();
         let bytes = query
             .payload()

@@ -356,13 +356,14 @@ impl<'a> Run<'a> {
             // comes meanwhile is lost, as anywhere) or it also sends one — the simulator then
             // takes its messages in the drawing's order, left to right, which the engine does
             // not keep; such a task sends when it is left.
+            // The cheap tests first: model exploration scans no message flows for a task
+            // entered along a sequence flow.
             let id = &self.g.node(node).id;
+            let implicit = self.g.node(node).incoming.is_empty();
             let flows = || self.g.collaborations.iter().flat_map(|c| &c.message_flows);
-            let messaged = flows().any(|m| &m.target == id)
-                && (self.g.node(node).incoming.is_empty()
-                    || !(game.decide
-                        || game.hold.contains(&node)
-                        || flows().any(|m| &m.source == id)));
+            let messaged = (implicit || !(game.decide || game.hold.contains(&node)))
+                && flows().any(|m| &m.target == id)
+                && (implicit || !flows().any(|m| &m.source == id));
             if messaged {
                 self.subscribe(t, node, On::Message(String::new(), None));
                 if let Some(tok) = self.s.tokens.get_mut(&t) {

@@ -201,21 +201,17 @@ pub(super) fn data_association(
     } else {
         sources.clone()
     };
+    let (wrong, kind, way, what) = if input {
+        ("dataOutput", "input", "writes", "output")
+    } else {
+        ("dataInput", "output", "reads", "input")
+    };
     for r in inside {
-        let wrong = if input { "dataOutput" } else { "dataInput" };
         if ix.by_id.get(r).is_some_and(|end| end.name == wrong) {
-            let (way, what) = if input {
-                ("writes", "output")
-            } else {
-                ("reads", "input")
-            };
             err(
                 "bad-data-association",
                 "§10.4.1",
-                format!(
-                    "data {} association {way} `{r}`, a data {what}",
-                    if input { "input" } else { "output" }
-                ),
+                format!("data {kind} association {way} `{r}`, a data {what}"),
             );
         }
     }

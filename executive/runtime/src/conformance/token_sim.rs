@@ -87,13 +87,8 @@ struct Player {
 
 /// Plays `s`; a failure says whether an error nothing caught failed an instance on the way.
 fn run(dir: &Path, s: &Scenario) -> Result<(), (String, bool)> {
-    let mut uncaught = false;
-    play(dir, s, &mut uncaught).map_err(|why| (why, uncaught))
-}
-
-fn play(dir: &Path, s: &Scenario, uncaught: &mut bool) -> Result<(), String> {
     let path = dir.join("simulator").join(&s.diagram);
-    let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let bytes = std::fs::read(&path).map_err(|e| (format!("{}: {e}", path.display()), false))?;
     let options = Options {
         token_game: true,
         script_connector: true,
@@ -105,10 +100,11 @@ fn play(dir: &Path, s: &Scenario, uncaught: &mut bool) -> Result<(), String> {
             .diagnostics
             .iter()
             .find(|d| d.severity == executive_model::Severity::Error);
-        format!(
+        let why = format!(
             "does not load: {}",
             first.map_or("?", |d| d.message.as_str())
-        )
+        );
+        (why, false)
     })?);
     let mut p = Player {
         engine: Engine::new(Arc::clone(&g)),
@@ -122,9 +118,7 @@ fn play(dir: &Path, s: &Scenario, uncaught: &mut bool) -> Result<(), String> {
         uncaught: false,
     };
     p.engine.game();
-    let played = p.steps(dir, &s.steps);
-    *uncaught = p.uncaught;
-    played
+    p.steps(dir, &s.steps).map_err(|why| (why, p.uncaught))
 }
 
 impl Player {
