@@ -8,6 +8,8 @@
 //! (`raw ms`, and how many times that the loader takes). The peers are
 //! installed once into a scratch copy of the harness (`$TMPDIR/trace-bench-peers`), since
 //! `shared/` is read-only. Run with `cargo bench -p executive-model --bench parse`.
+//! `PARSE_ONLY=seq-1000` (or `generated`) loads that model `PARSE_REPS` times (default 2,000)
+//! and nothing else, for profiling.
 
 use std::path::Path;
 use std::time::Instant;
@@ -97,6 +99,19 @@ fn peer(dir: &Path, engine: &str, model: &Path) -> Option<f64> {
 }
 
 fn main() {
+    if let Ok(only) = std::env::var("PARSE_ONLY") {
+        let bytes = match only.as_str() {
+            "generated" => generated(10_000).into_bytes(),
+            _ => std::fs::read(shared().join("bench/peers/models/seq-1000.bpmn")).expect("model"),
+        };
+        let reps = std::env::var("PARSE_REPS")
+            .ok()
+            .and_then(|r| r.parse().ok())
+            .unwrap_or(2_000);
+        let (ms, _) = ours(&bytes, reps);
+        println!("{only}: median {ms:.3} ms over {reps} loads");
+        return;
+    }
     let scratch = std::env::temp_dir().join("trace-bench-models");
     std::fs::create_dir_all(&scratch).expect("scratch dir");
     let generated_path = scratch.join("gen-10000.bpmn");

@@ -198,20 +198,16 @@ impl Reader<'_> {
         if let Some(b) = self.read_trace(el) {
             return Some(b);
         }
-        let mut found: Vec<TaskBinding> = Vec::new();
-        if let Some(b) = self.read_zeebe(el) {
-            found.push(b);
-        }
-        if let Some(b) = self.read_camunda(el) {
-            found.push(b);
-        }
-        if let Some(b) = self.read_spiff(el) {
-            found.push(b);
-        }
-        if found.len() > 1 {
+        let zeebe = self.read_zeebe(el);
+        let camunda = self.read_camunda(el);
+        let spiff = self.read_spiff(el);
+        let found = usize::from(zeebe.is_some())
+            + usize::from(camunda.is_some())
+            + usize::from(spiff.is_some());
+        if found > 1 {
             self.problem(el.offset, "conflicting-bindings", "the task carries bindings in more than one other engine's dialect (zeebe, camunda, spiffworkflow), and which one runs would be a guess; keep one, or add a trace:task".to_owned());
         }
-        found.into_iter().next().or_else(|| implementation(el))
+        zeebe.or(camunda).or(spiff).or_else(|| implementation(el))
     }
 
     fn read_trace(&mut self, el: &Element) -> Option<TaskBinding> {

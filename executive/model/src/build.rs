@@ -147,12 +147,11 @@ pub(crate) struct Builder<'d, 's> {
     global_event_defs: BTreeMap<String, &'d Element<'d>>,
     /// Global tasks callable by call activities.
     global_tasks: BTreeMap<String, &'d Element<'d>>,
-    /// Every BPMN id in the document, with the element name and offset.
-    /// Ids are unique per target namespace: (namespace index, id) -> (element name, offset).
-    pub(crate) all_ids: HashMap<(usize, &'d str), (&'d str, usize)>,
-    /// Item-aware elements (data objects and their references, properties, data stores and their
-    /// references, data inputs and outputs) by (namespace index, id).
-    data_els: HashMap<(usize, &'d str), &'d Element<'d>>,
+    /// Every BPMN element with an id, first occurrence of each: ids are unique per target
+    /// namespace, so keyed by (namespace index, id).
+    pub(crate) all_ids: Ids<'d>,
+    /// Whether some id is given to more than one element of a namespace.
+    duplicate_ids: bool,
     /// First offset of each document of the bundle, ascending.
     bases: Vec<usize>,
     /// Namespace index of each document (documents with equal targetNamespace share one).
@@ -171,13 +170,17 @@ pub(crate) struct Builder<'d, 's> {
     declared: bool,
 }
 
-/// Builds the graph from a parsed document. Returns `None` only when the root is not a BPMN
+/// Every BPMN element with an id, by (namespace index, id): the first of each.
+pub(crate) type Ids<'d> = HashMap<(usize, &'d str), &'d Element<'d>>;
+
+/// Builds the graph from parsed documents, with the index of their ids when no id is used twice
+/// (the constraint checks look ids up in it). Returns `None` only when the root is not a BPMN
 /// `definitions` element; every other problem is a diagnostic in `sink`.
-pub(crate) fn build(
-    docs: &[&Document],
+pub(crate) fn build<'d>(
+    docs: &[&'d Document<'d>],
     sink: &mut Sink,
     options: &crate::Options,
-) -> Option<ProcessGraph> {
+) -> Option<(ProcessGraph, Option<Ids<'d>>)> {
     let root = &docs.first()?.root;
     if !root.is_bpmn("definitions") {
         let what = match &root.ns {
@@ -189,13 +192,18 @@ pub(crate) fn build(
         ));
         return None;
     }
+    // Flow nodes carry ids, so there are at most as many as ids: room for them at once, not
+    // copied as it grows (on a large model the copies cost fresh pages too). Up to a bound, as
+    // hostile input may hold millions of ids and no flow node.
+    let ids: usize = docs.iter().map(|d| d.ids).sum();
+    let nodes = ids.min(1 << 16);
     let mut b = Builder {
         sink,
         g: ProcessGraph {
             id: root.attr("id").map(str::to_owned),
             target_namespace: root.attr("targetNamespace").map(str::to_owned),
             processes: Vec::new(),
-            nodes: Vec::new(),
+            nodes: Vec::with_capacity(nodes),
             flows: Vec::new(),
             messages: Vec::new(),
             signals: Vec::new(),
@@ -207,7 +215,7 @@ pub(crate) fn build(
             node_ids: Vec::new(),
             process_ids: BTreeMap::new(),
         },
-        node_src: Vec::new(),
+        node_src: Vec::with_capacity(nodes),
         flow_src: Vec::new(),
         associations: Vec::new(),
         messages: BTreeMap::new(),
@@ -216,8 +224,8 @@ pub(crate) fn build(
         escalations: BTreeMap::new(),
         global_event_defs: BTreeMap::new(),
         global_tasks: BTreeMap::new(),
-        all_ids: HashMap::with_capacity(docs.iter().map(|d| d.ids).sum()),
-        data_els: HashMap::new(),
+        all_ids: HashMap::with_capacity(ids),
+        duplicate_ids: false,
         bases: docs.iter().map(|d| d.root.offset).collect(),
         doc_namespace: {
             let mut seen: Vec<Option<&str>> = Vec::new();
@@ -280,7 +288,8 @@ pub(crate) fn build(
     }
     b.unknown_definitions_children(root);
     b.g.index_nodes();
-    Some(b.g)
+    let ids = (!b.duplicate_ids).then_some(b.all_ids);
+    Some((b.g, ids))
 }
 
 impl<'d> Builder<'d, '_> {
@@ -299,7 +308,7 @@ impl<'d> Builder<'d, '_> {
     }
 
     /// The element `id` in the namespace of the element at `offset`.
-    fn any_ref(&self, offset: usize, id: &str) -> Option<(&'d str, usize)> {
+    fn any_ref(&self, offset: usize, id: &str) -> Option<&'d Element<'d>> {
         let ns = self.doc_namespace[self.doc_of(offset)];
         self.all_ids.get(&(ns, local_ref(id))).copied()
     }
@@ -330,19 +339,17 @@ impl<'d> Builder<'d, '_> {
                 && let Some(id) = el.attr("id")
             {
                 let ns = self.doc_namespace[self.doc_of(el.offset)];
-                if let Some((other, at)) = self.all_ids.get(&(ns, id)).copied() {
+                if let Some(other) = self.all_ids.get(&(ns, id)) {
                     let msg = format!(
-                        "id `{id}` is used twice: by <{}> and by <{other}> at byte {at}",
-                        el.name
+                        "id `{id}` is used twice: by <{}> and by <{}> at byte {}",
+                        el.name, other.name, other.offset
                     );
+                    self.duplicate_ids = true;
                     self.sink
                         .error("duplicate-id", el.offset, Some(id), msg)
                         .constraint("EXT.002");
                 } else {
-                    self.all_ids.insert((ns, id), (el.name, el.offset));
-                    if crate::constraints::ITEM_AWARE.contains(&el.name) {
-                        self.data_els.insert((ns, id), el);
-                    }
+                    self.all_ids.insert((ns, id), el);
                 }
                 if el.name == "linkEventDefinition" {
                     self.link_names.insert(id, el.attr("name").unwrap_or(id));
@@ -640,6 +647,7 @@ impl<'d> Builder<'d, '_> {
 
     fn flows(&mut self) {
         let sources = std::mem::take(&mut self.flow_src);
+        self.g.flows.reserve_exact(sources.len());
         for (el, scope, strict) in sources {
             self.declared = self.declared_in(scope);
             let id = el.attr("id").unwrap_or_default().to_owned();
@@ -657,8 +665,8 @@ impl<'d> Builder<'d, '_> {
                 match b.node_ref(el.offset, r) {
                     Some(n) => Some(n),
                     None => {
-                        let what = match b.any_ref(el.offset, r) {
-                            Some((name, _)) => format!(
+                        let what = match b.any_ref(el.offset, r).map(|e| e.name) {
+                            Some(name) => format!(
                                 "<{name}> `{r}`, which is not a flow node (activity, event or gateway)"
                             ),
                             None => format!("`{r}`, which does not exist"),

@@ -7,13 +7,13 @@
 //! reason (e.g. EXT.128: WSDL `operationRef` on message events; the executive correlates
 //! messages by name).
 
+use std::borrow::Cow;
 use std::cell::OnceCell;
 use std::collections::BTreeSet;
 
 use foldhash::{HashMap, HashMapExt, HashSet, HashSetExt};
 
-use crate::build::local_ref;
-use crate::build::{ACTIVITIES, FLOW_NODES};
+use crate::build::{ACTIVITIES, FLOW_NODES, Ids, local_ref};
 use crate::diagnostic::Sink;
 use crate::xml::{Document, Element, Ns};
 
@@ -310,15 +310,15 @@ fn ref_targets(owner: &str, name: &str) -> Option<&'static [&'static str]> {
 
 ///
 /// Lookups only, so hash maps; iteration goes through `elements`, in a fixed order.
-struct Index<'d> {
-    /// Every BPMN element with an id.
-    by_id: HashMap<&'d str, &'d Element<'d>>,
+struct Index<'d, 'i> {
+    /// Every BPMN element with an id, keyed by (0, id): the build's index of a document whose
+    /// ids are unique, or one of the document's own.
+    by_id: Cow<'i, Ids<'d>>,
     /// The elements of `by_id`, first occurrence of each id.
     elements: Vec<&'d Element<'d>>,
-    /// The process each element lies in, by element id.
-    process_of: HashMap<&'d str, &'d str>,
-    /// Participant of each process.
-    pool_of_process: HashMap<&'d str, &'d str>,
+    /// The process each element lies in, and the participant of each process. Built when first
+    /// asked (only message flows and data visibility ask).
+    processes: OnceCell<Processes<'d>>,
     /// Sequence flows among `elements`.
     flows: usize,
     /// Whether some id is given to more than one element.
@@ -332,54 +332,98 @@ struct Index<'d> {
     ends: OnceCell<HashMap<&'d str, (usize, usize)>>,
 }
 
-impl<'d> Index<'d> {
+/// Which process each element lies in, by element id, and the participant of each process, by
+/// process id.
+struct Processes<'d> {
+    of: HashMap<&'d str, &'d str>,
+    pools: HashMap<&'d str, &'d str>,
+}
+
+impl<'d, 'i> Index<'d, 'i> {
     /// The element attribute `attr` of `el` names, if it names one.
     fn named(&self, el: &Element, attr: &str) -> Option<&'d Element<'d>> {
-        el.attr(attr)
-            .and_then(|r| self.by_id.get(local_ref(r)))
-            .copied()
+        el.attr(attr).and_then(|r| self.get(local_ref(r)))
     }
 
-    fn new(root: &'d Element<'d>, ids: usize) -> Index<'d> {
+    /// The element with id `id`, if any (the first, when several have it).
+    fn get(&self, id: &str) -> Option<&'d Element<'d>> {
+        self.by_id.get(&(0, id)).copied()
+    }
+
+    /// The index of `root`'s tree, on `shared` when given (see `by_id`).
+    fn new(root: &'d Element<'d>, ids: usize, shared: Option<&'i Ids<'d>>) -> Index<'d, 'i> {
         let mut ix = Index {
-            by_id: HashMap::with_capacity(ids),
+            by_id: match shared {
+                Some(shared) => Cow::Borrowed(shared),
+                None => Cow::Owned(HashMap::with_capacity(ids)),
+            },
             elements: Vec::with_capacity(ids),
-            process_of: HashMap::with_capacity(ids),
-            pool_of_process: HashMap::new(),
+            processes: OnceCell::new(),
             flows: 0,
             duplicate_ids: false,
             root,
             holders: OnceCell::new(),
             ends: OnceCell::new(),
         };
-        let mut stack: Vec<(&Element, Option<&str>)> = vec![(root, None)];
-        while let Some((el, process)) = stack.pop() {
+        let mut stack: Vec<&Element> = vec![root];
+        while let Some(el) = stack.pop() {
             if el.ns != Ns::Bpmn {
                 continue;
             }
-            let id = el.attr("id");
-            let process = if el.name == "process" { id } else { process };
-            if let Some(id) = id {
-                match ix.by_id.entry(id) {
-                    std::collections::hash_map::Entry::Vacant(v) => {
-                        v.insert(el);
-                        ix.elements.push(el);
-                        ix.flows += usize::from(el.name == "sequenceFlow");
-                    }
-                    std::collections::hash_map::Entry::Occupied(_) => ix.duplicate_ids = true,
-                }
-                if let Some(p) = process {
-                    ix.process_of.insert(id, p);
+            if let Some(id) = el.attr("id") {
+                let first = match &mut ix.by_id {
+                    // The build's index holds every id once.
+                    Cow::Borrowed(_) => true,
+                    Cow::Owned(own) => match own.entry((0, id)) {
+                        std::collections::hash_map::Entry::Vacant(v) => {
+                            v.insert(el);
+                            true
+                        }
+                        std::collections::hash_map::Entry::Occupied(_) => false,
+                    },
+                };
+                if first {
+                    ix.elements.push(el);
+                    ix.flows += usize::from(el.name == "sequenceFlow");
+                } else {
+                    ix.duplicate_ids = true;
                 }
             }
-            if el.name == "participant"
-                && let (Some(id), Some(p)) = (id, el.attr("processRef"))
-            {
-                ix.pool_of_process.insert(local_ref(p), id);
-            }
-            stack.extend(el.children.iter().map(|c| (c, process)));
+            stack.extend(el.children);
         }
         ix
+    }
+
+    /// The process element `id` lies in (see `processes`).
+    fn process_of(&self, id: &str) -> Option<&'d str> {
+        self.processes().of.get(id).copied()
+    }
+
+    fn processes(&self) -> &Processes<'d> {
+        self.processes.get_or_init(|| {
+            let mut found = Processes {
+                of: HashMap::with_capacity(self.elements.len()),
+                pools: HashMap::new(),
+            };
+            let mut stack: Vec<(&Element, Option<&str>)> = vec![(self.root, None)];
+            while let Some((el, process)) = stack.pop() {
+                if el.ns != Ns::Bpmn {
+                    continue;
+                }
+                let id = el.attr("id");
+                let process = if el.name == "process" { id } else { process };
+                if let (Some(id), Some(p)) = (id, process) {
+                    found.of.insert(id, p);
+                }
+                if el.name == "participant"
+                    && let (Some(id), Some(p)) = (id, el.attr("processRef"))
+                {
+                    found.pools.insert(local_ref(p), id);
+                }
+                stack.extend(el.children.iter().map(|c| (c, process)));
+            }
+            found
+        })
     }
 
     /// What holds the data input or output `id` (see `holders`).
@@ -432,18 +476,19 @@ impl<'d> Index<'d> {
     }
 
     fn kind(&self, id: &str) -> Option<&'d str> {
-        self.by_id.get(local_ref(id)).map(|e| e.name)
+        self.get(local_ref(id)).map(|e| e.name)
     }
 
     /// The pool an element belongs to: a participant itself, or the participant of its process.
     fn pool(&self, id: &str) -> Option<&'d str> {
         let id = local_ref(id);
-        let el = self.by_id.get(id)?;
+        let el = self.get(id)?;
         if el.name == "participant" {
             return el.attr("id");
         }
-        let p = self.process_of.get(id)?;
-        Some(self.pool_of_process.get(p).copied().unwrap_or(p))
+        let processes = self.processes();
+        let p = processes.of.get(id)?;
+        Some(processes.pools.get(p).copied().unwrap_or(p))
     }
 }
 
@@ -492,9 +537,9 @@ fn is_uri(v: &str) -> bool {
 
 /// Runs every element-level constraint over the document (with
 /// [`crate::validate::element_check`] in the same walk), and [`event_data`].
-pub(crate) fn check(doc: &Document<'_>, sink: &mut Sink) {
+pub(crate) fn check<'d>(doc: &'d Document<'d>, shared: Option<&Ids<'d>>, sink: &mut Sink) {
     let root = &doc.root;
-    let ix = Index::new(root, doc.ids);
+    let ix = Index::new(root, doc.ids, shared);
     // Each element with its parent, whether its process is executable and marked so, and the
     // id of its process.
     type Visit<'e> = (
@@ -693,7 +738,7 @@ pub(crate) fn check(doc: &Document<'_>, sink: &mut Sink) {
             }
             "collaboration" => {
                 for r in el.bpmn_children("choreographyRef") {
-                    if let Some(ch) = ix.by_id.get(local_ref(r.text)) {
+                    if let Some(ch) = ix.get(local_ref(r.text)) {
                         let closed = |e: &Element| e.attr("isClosed") == Some("true");
                         if ch.name == "choreography" && closed(ch) != closed(el) {
                             err("is-closed-mismatch", "EXT.033", "the collaboration and the choreography it references must agree on isClosed".to_owned());
@@ -878,7 +923,7 @@ pub(crate) fn check(doc: &Document<'_>, sink: &mut Sink) {
 /// Where a document lists `<incoming>`/`<outgoing>` on its flow nodes, every sequence flow must
 /// be listed at both of its ends (EXT.101 for start events, EXT.107 for end events).
 /// Linear in the listings and flows, however many one node lists.
-fn listed_flows(ix: &Index<'_>, sink: &mut Sink) {
+fn listed_flows(ix: &Index<'_, '_>, sink: &mut Sink) {
     // Every listing once: (the listing element's id, `incoming` or `outgoing`, the flow).
     let mut listings = HashSet::new();
     for el in &ix.elements {
@@ -901,7 +946,7 @@ fn listed_flows(ix: &Index<'_>, sink: &mut Sink) {
             let Some(node) = f.attr(end).map(local_ref) else {
                 continue;
             };
-            let Some(n) = ix.by_id.get(node) else {
+            let Some(n) = ix.get(node) else {
                 continue;
             };
             if !listings.contains(&(node, child, fid)) {
@@ -920,7 +965,7 @@ fn listed_flows(ix: &Index<'_>, sink: &mut Sink) {
 }
 
 fn check_ref(
-    ix: &Index<'_>,
+    ix: &Index<'_, '_>,
     what: &str,
     value: &str,
     kinds: &[&str],
@@ -959,7 +1004,7 @@ const SHORT_LIST: usize = 16;
 /// without looking each one up again.
 fn flow_node_refs(
     el: &Element,
-    ix: &Index<'_>,
+    ix: &Index<'_, '_>,
     err: &mut impl FnMut(&'static str, &'static str, String),
 ) -> usize {
     let id = el.attr("id");
@@ -967,7 +1012,7 @@ fn flow_node_refs(
     for (child, attr) in [("incoming", "targetRef"), ("outgoing", "sourceRef")] {
         for (i, r) in el.bpmn_children(child).enumerate() {
             let f = local_ref(r.text);
-            let Some(flow) = ix.by_id.get(f).filter(|flow| flow.name == "sequenceFlow") else {
+            let Some(flow) = ix.get(f).filter(|flow| flow.name == "sequenceFlow") else {
                 continue;
             };
             if flow.attr(attr).map(local_ref) == Some(id.unwrap_or_default()) {
@@ -996,7 +1041,7 @@ fn flow_node_refs(
 
 fn message_flow(
     el: &Element,
-    ix: &Index<'_>,
+    ix: &Index<'_, '_>,
     err: &mut impl FnMut(&'static str, &'static str, String),
 ) {
     let (Some(s), Some(t)) = (
@@ -1032,7 +1077,7 @@ fn message_flow(
         );
     }
     let msg_def = |id: &str| {
-        ix.by_id.get(id).is_some_and(|e| {
+        ix.get(id).is_some_and(|e| {
             e.bpmn_child("messageEventDefinition").is_some()
                 || e.bpmn_children("eventDefinitionRef")
                     .any(|r| ix.kind(r.text) == Some("messageEventDefinition"))

@@ -128,11 +128,14 @@ impl ProcessGraph {
     /// Sorts [`ProcessGraph::node_ids`] once every node is in, keeping the first node of an id
     /// drawn twice.
     pub(crate) fn index_nodes(&mut self) {
-        let nodes = &self.nodes;
-        let mut ids: Vec<NodeId> = (0..nodes.len()).map(|i| NodeId(i as u32)).collect();
-        ids.sort_unstable_by(|a, b| nodes[a.index()].id.cmp(&nodes[b.index()].id).then(a.cmp(b)));
-        ids.dedup_by(|later, first| nodes[later.index()].id == nodes[first.index()].id);
-        self.node_ids = ids;
+        // Sorted as (id, node) pairs side by side, not as nodes looked up in the graph for
+        // every comparison.
+        let mut ids: Vec<(&str, NodeId)> = (self.nodes.iter().enumerate())
+            .map(|(i, n)| (n.id.as_str(), NodeId(i as u32)))
+            .collect();
+        ids.sort_unstable();
+        ids.dedup_by(|later, first| later.0 == first.0);
+        self.node_ids = ids.into_iter().map(|(_, n)| n).collect();
     }
 
     /// Looks a process up by its BPMN id.

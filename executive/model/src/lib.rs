@@ -276,13 +276,16 @@ pub fn load_bundle(
                 }
             }
             let built = build::build(&docs, &mut sink, options);
-            if let Some(g) = &built {
+            if let Some((g, ids)) = &built {
                 validate::Checker::new(g, &mut sink).run();
+                // One document's ids, each once, are what the checks index: the build's index
+                // serves them.
+                let shared = ids.as_ref().filter(|_| docs.len() == 1);
                 for d in &docs {
-                    constraints::check(d, &mut sink);
+                    constraints::check(d, shared, &mut sink);
                 }
             }
-            built
+            built.map(|(g, _)| g)
         }
         None => None,
     };

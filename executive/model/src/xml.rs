@@ -17,6 +17,7 @@
 //! so every input is read in bounded time and memory.
 
 use std::borrow::Cow;
+use std::cell::Cell;
 
 use bumpalo::Bump;
 use quick_xml::events::attributes::{Attribute, Attributes};
@@ -388,6 +389,46 @@ pub(crate) fn parse<'a>(
     bump: &'a Bump,
     base: usize,
     limits: &Limits,
+    warnings: Vec<(usize, String)>,
+) -> Result<Document<'a>, XmlError> {
+    let mut tree = Tree {
+        bump,
+        open: Vec::new(),
+        pending: recycle(PENDING.take()),
+        attrs: Vec::new(),
+        root: None,
+        hidden: 0,
+        ids: 0,
+    };
+    let read = read(text, &mut tree, base, limits, warnings);
+    if tree.pending.capacity() <= KEEP_PENDING {
+        PENDING.set(recycle(tree.pending));
+    }
+    read
+}
+
+/// The most siblings' room [`PENDING`] keeps between loads (about 8 MB).
+const KEEP_PENDING: usize = 100_000;
+
+thread_local! {
+    /// The children buffer of this thread's last parse, emptied: a large model's siblings need
+    /// megabytes, which a new buffer would fault in afresh on every load.
+    static PENDING: Cell<Vec<Element<'static>>> = const { Cell::new(Vec::new()) };
+}
+
+/// `v`, emptied, as a vector of `U`: on the same allocation where `T` and `U` have one layout
+/// (std collects in place then), as here, where they differ only in what they borrow from.
+fn recycle<T, U>(mut v: Vec<T>) -> Vec<U> {
+    v.clear();
+    v.into_iter().filter_map(|_| None).collect()
+}
+
+/// Reads `text` into `tree` (see [`parse`]).
+fn read<'a>(
+    text: &'a str,
+    tree: &mut Tree<'a>,
+    base: usize,
+    limits: &Limits,
     mut warnings: Vec<(usize, String)>,
 ) -> Result<Document<'a>, XmlError> {
     if text.len() > limits.max_bytes {
@@ -405,15 +446,6 @@ pub(crate) fn parse<'a>(
     let mut scope = Scope {
         bindings: vec![("xml", Ns::Xml), ("", Ns::None)],
         pushed: Vec::new(),
-    };
-    let mut tree = Tree {
-        bump,
-        open: Vec::new(),
-        pending: Vec::new(),
-        attrs: Vec::new(),
-        root: None,
-        hidden: 0,
-        ids: 0,
     };
     let mut elements = 0usize;
     loop {
@@ -453,7 +485,7 @@ pub(crate) fn parse<'a>(
                     offset,
                     &mut scope,
                     limits,
-                    &mut tree,
+                    tree,
                     &mut warnings,
                 )?;
                 let kept = tree.keeps(&element);
@@ -553,6 +585,7 @@ pub(crate) fn parse<'a>(
     }
     let root = tree
         .root
+        .take()
         .ok_or_else(|| err(base, "no root element: this is not an XML document"))?;
     Ok(Document {
         root,
@@ -728,6 +761,23 @@ mod tests {
                 .name,
             "BPMNDiagram"
         );
+    }
+
+    #[test]
+    fn keeps_the_children_buffer_between_parses() {
+        let siblings = format!("<r>{}</r>", "<a/>".repeat(1000));
+        let first = read(&siblings).unwrap();
+        assert_eq!(first.root.children.len(), 1000);
+        let kept = PENDING.take();
+        assert!(
+            kept.is_empty() && kept.capacity() >= 1000,
+            "{}",
+            kept.capacity()
+        );
+        PENDING.set(kept);
+        // The next parse reads on the kept buffer and leaves nothing of the last tree in it.
+        assert_eq!(read("<r><b/><c/></r>").unwrap().root.children.len(), 2);
+        assert!(PENDING.take().capacity() >= 1000);
     }
 
     #[test]

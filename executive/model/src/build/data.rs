@@ -103,12 +103,16 @@ impl<'d> Builder<'d, '_> {
             return Some(DataRef::Output(i));
         }
         let ns = self.doc_namespace[self.doc_of(offset)];
-        let el = *self.data_els.get(&(ns, id))?;
-        let referenced = |attr: &str| {
-            el.attr(attr)
-                .and_then(|r| self.data_els.get(&(ns, local_ref(r))))
+        // Item-aware elements: data objects and their references, properties, data stores and
+        // their references, data inputs and outputs.
+        let data = |id: &str| {
+            self.all_ids
+                .get(&(ns, id))
                 .copied()
+                .filter(|el| crate::constraints::ITEM_AWARE.contains(&el.name))
         };
+        let el = data(id)?;
+        let referenced = |attr: &str| el.attr(attr).and_then(|r| data(local_ref(r)));
         Some(match el.name {
             "dataObjectReference" => {
                 DataRef::Variable(item_name(referenced("dataObjectRef").unwrap_or(el)))

@@ -6,7 +6,7 @@ use super::*;
 
 /// The item definition an item-aware element carries: its own `itemSubjectRef`, or that of
 /// the data object or data store a reference to one names.
-pub(super) fn item_ref<'d>(ix: &Index<'d>, el: &'d Element<'d>) -> Option<&'d str> {
+pub(super) fn item_ref<'d>(ix: &Index<'d, '_>, el: &'d Element<'d>) -> Option<&'d str> {
     if let Some(item) = el.attr("itemSubjectRef") {
         return Some(local_ref(item));
     }
@@ -15,8 +15,7 @@ pub(super) fn item_ref<'d>(ix: &Index<'d>, el: &'d Element<'d>) -> Option<&'d st
         "dataStoreReference" => el.attr("dataStoreRef"),
         _ => None,
     }?;
-    ix.by_id
-        .get(local_ref(target))?
+    ix.get(local_ref(target))?
         .attr("itemSubjectRef")
         .map(local_ref)
 }
@@ -24,11 +23,11 @@ pub(super) fn item_ref<'d>(ix: &Index<'d>, el: &'d Element<'d>) -> Option<&'d st
 /// Two item definitions are equivalent (the word of §10.3.3 and §10.4.1) when they are one,
 /// or name the same structure and agree on being a collection; an item definition without a
 /// `structureRef` is equivalent to itself only.
-pub(super) fn equivalent(ix: &Index<'_>, a: &str, b: &str) -> bool {
+pub(super) fn equivalent(ix: &Index<'_, '_>, a: &str, b: &str) -> bool {
     if a == b {
         return true;
     }
-    match (ix.by_id.get(a), ix.by_id.get(b)) {
+    match (ix.get(a), ix.get(b)) {
         (Some(x), Some(y)) => {
             x.attr("structureRef").is_some()
                 && x.attr("structureRef").map(local_ref) == y.attr("structureRef").map(local_ref)
@@ -46,7 +45,7 @@ pub(super) fn data_carries(
     task: &Element,
     kind: &str,
     message: &Element,
-    ix: &Index<'_>,
+    ix: &Index<'_, '_>,
     (code, rule, what): (&'static str, &'static str, &str),
     err: &mut impl FnMut(&'static str, &'static str, String),
 ) {
@@ -81,7 +80,7 @@ pub(super) fn data_carries(
 /// operation's in-message, its data output the item of the out-message (EXT.045).
 pub(super) fn operation_items(
     el: &Element,
-    ix: &Index<'_>,
+    ix: &Index<'_, '_>,
     err: &mut impl FnMut(&'static str, &'static str, String),
 ) {
     let Some(op) = ix.named(el, "operationRef") else {
@@ -103,7 +102,7 @@ pub(super) fn operation_items(
     ] {
         if let Some(message) = op
             .bpmn_child(child)
-            .and_then(|m| ix.by_id.get(local_ref(m.trimmed_text())))
+            .and_then(|m| ix.get(local_ref(m.trimmed_text())))
         {
             data_carries(el, kind, message, ix, ("item-mismatch", rule, what), err);
         }
@@ -114,7 +113,7 @@ pub(super) fn operation_items(
 /// output that of the message it receives (§10.3.3).
 pub(super) fn message_items(
     el: &Element,
-    ix: &Index<'_>,
+    ix: &Index<'_, '_>,
     err: &mut impl FnMut(&'static str, &'static str, String),
 ) {
     let Some(message) = ix.named(el, "messageRef") else {
@@ -138,7 +137,7 @@ pub(super) fn message_items(
 pub(super) fn data_association(
     el: &Element,
     owner: Option<&Element>,
-    ix: &Index<'_>,
+    ix: &Index<'_, '_>,
     err: &mut impl FnMut(&'static str, &'static str, String),
 ) {
     let sources: Vec<&str> = el
@@ -149,11 +148,11 @@ pub(super) fn data_association(
     // ItemDefinition or the DataAssociation MUST have a transformation Expression".
     let target = el
         .bpmn_child("targetRef")
-        .and_then(|t| ix.by_id.get(local_ref(t.trimmed_text())));
+        .and_then(|t| ix.get(local_ref(t.trimmed_text())));
     if let ([source], Some(target)) = (sources.as_slice(), target)
         && el.bpmn_child("transformation").is_none()
         && el.bpmn_child("assignment").is_none()
-        && let Some(source) = ix.by_id.get(*source)
+        && let Some(source) = ix.get(source)
         && let (Some(a), Some(b)) = (item_ref(ix, source), item_ref(ix, target))
         && !equivalent(ix, a, b)
     {
@@ -207,7 +206,7 @@ pub(super) fn data_association(
         ("dataInput", "output", "reads", "input")
     };
     for r in inside {
-        if ix.by_id.get(r).is_some_and(|end| end.name == wrong) {
+        if ix.get(r).is_some_and(|end| end.name == wrong) {
             err(
                 "bad-data-association",
                 "§10.4.1",
@@ -216,7 +215,7 @@ pub(super) fn data_association(
         }
     }
     for r in outside {
-        let Some(target) = ix.by_id.get(r) else {
+        let Some(target) = ix.get(r) else {
             continue;
         };
         let kind = target.name;
@@ -243,9 +242,8 @@ pub(super) fn data_association(
                 in_spec
                     && holder.name == "process"
                     && ix
-                        .process_of
-                        .get(r)
-                        .is_some_and(|p| holder.attr("id") == Some(*p))
+                        .process_of(r)
+                        .is_some_and(|p| holder.attr("id") == Some(p))
             });
             if !holder_is_process {
                 err(
@@ -372,7 +370,7 @@ pub(super) fn io_specification(
 /// Two item-aware elements carry the same item: one item definition, or two with the same
 /// `structureRef` and collection flag. Where either names no item (or one that does not
 /// resolve), nothing is known against it.
-pub(super) fn same_item(ix: &Index<'_>, a: &Element, b: &Element) -> bool {
+pub(super) fn same_item(ix: &Index<'_, '_>, a: &Element, b: &Element) -> bool {
     match (item_of(ix, a), item_of(ix, b)) {
         (Some(x), Some(y)) => {
             std::ptr::eq(x, y)
@@ -391,7 +389,7 @@ pub(super) fn same_item(ix: &Index<'_>, a: &Element, b: &Element) -> bool {
 /// refuses it).
 pub(super) fn call_data(
     el: &Element,
-    ix: &Index<'_>,
+    ix: &Index<'_, '_>,
     err: &mut impl FnMut(&'static str, &'static str, String),
 ) {
     let Some(callee) = ix
@@ -441,19 +439,16 @@ pub(super) fn call_data(
     }
 }
 
-pub(super) fn item_of<'d>(ix: &Index<'d>, el: &Element) -> Option<&'d Element<'d>> {
+pub(super) fn item_of<'d>(ix: &Index<'d, '_>, el: &Element) -> Option<&'d Element<'d>> {
     let r = el.attr("itemSubjectRef")?;
-    ix.by_id
-        .get(local_ref(r))
-        .copied()
-        .filter(|i| i.name == "itemDefinition")
+    ix.get(local_ref(r)).filter(|i| i.name == "itemDefinition")
 }
 
 pub(super) fn multi_instance(
     el: &Element,
     activity: Option<&Element>,
     executable: bool,
-    ix: &Index<'_>,
+    ix: &Index<'_, '_>,
     err: &mut impl FnMut(&'static str, &'static str, String),
 ) {
     let Some(activity) = activity else { return };
@@ -526,7 +521,7 @@ pub(super) fn multi_instance(
 /// An ioBinding must bind a data input and output whose items match the operation's messages.
 pub(super) fn io_binding(
     el: &Element,
-    ix: &Index<'_>,
+    ix: &Index<'_, '_>,
     err: &mut impl FnMut(&'static str, &'static str, String),
 ) {
     let Some(op) = ix.named(el, "operationRef") else {
@@ -539,7 +534,7 @@ pub(super) fn io_binding(
         let data = ix.named(el, data_attr);
         let msg = op
             .bpmn_child(msg_child)
-            .and_then(|m| ix.by_id.get(local_ref(m.text)));
+            .and_then(|m| ix.get(local_ref(m.text)));
         if let (Some(data), Some(msg)) = (data, msg) {
             let data_item = data.attr("itemSubjectRef").map(local_ref);
             let msg_item = msg.attr("itemRef").map(local_ref);
@@ -559,7 +554,7 @@ pub(super) fn io_binding(
 
 /// Events with data: one data output (catch) or input (throw) per event definition, whose item
 /// matches the definition's item (EXT.093, EXT.094).
-pub(super) fn event_data(root: &Element, ix: &Index<'_>, sink: &mut Sink) {
+pub(super) fn event_data(root: &Element, ix: &Index<'_, '_>, sink: &mut Sink) {
     let mut stack = vec![root];
     while let Some(el) = stack.pop() {
         if el.ns != Ns::Bpmn {
@@ -586,7 +581,7 @@ pub(super) fn event_data(root: &Element, ix: &Index<'_>, sink: &mut Sink) {
             .filter(|c| c.ns == Ns::Bpmn)
             .filter_map(|c| {
                 if c.name == "eventDefinitionRef" {
-                    ix.by_id.get(local_ref(c.text)).copied()
+                    ix.get(local_ref(c.text))
                 } else {
                     c.name.ends_with("EventDefinition").then_some(c)
                 }
@@ -605,27 +600,26 @@ pub(super) fn event_data(root: &Element, ix: &Index<'_>, sink: &mut Sink) {
             let item = match d.name {
                 "messageEventDefinition" => d
                     .attr("messageRef")
-                    .and_then(|m| ix.by_id.get(local_ref(m)))
+                    .and_then(|m| ix.get(local_ref(m)))
                     .and_then(|m| m.attr("itemRef")),
                 "errorEventDefinition" => d
                     .attr("errorRef")
-                    .and_then(|m| ix.by_id.get(local_ref(m)))
+                    .and_then(|m| ix.get(local_ref(m)))
                     .and_then(|m| m.attr("structureRef")),
                 "escalationEventDefinition" => d
                     .attr("escalationRef")
-                    .and_then(|m| ix.by_id.get(local_ref(m)))
+                    .and_then(|m| ix.get(local_ref(m)))
                     .and_then(|m| m.attr("structureRef")),
                 "signalEventDefinition" => d
                     .attr("signalRef")
-                    .and_then(|m| ix.by_id.get(local_ref(m)))
+                    .and_then(|m| ix.get(local_ref(m)))
                     .and_then(|m| m.attr("structureRef")),
                 _ => None,
             };
             if let (Some(item), Some(own)) = (item, data.attr("itemSubjectRef")) {
                 // Item definitions are equivalent when they name the same structure.
                 let structure = |i: &str| {
-                    ix.by_id
-                        .get(local_ref(i))
+                    ix.get(local_ref(i))
                         .and_then(|d| d.attr("structureRef"))
                         .map(local_ref)
                         .unwrap_or(local_ref(i))
