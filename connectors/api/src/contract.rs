@@ -131,25 +131,63 @@ pub enum PeerState {
     Absent,
 }
 
-/// The executive's verdict on an [`Report::Answer`]: `Ok` once the answer is committed,
-/// `Err(reason)` when it was refused (nothing changed). Given at most once.
+/// The executive's verdict on an [`Report::Answer`] or a [`Report::Letter`]: `Ok` once the
+/// answer or message is committed, `Err(reason)` when it was refused (nothing changed). Given at
+/// most once.
 #[derive(Clone)]
-pub struct Verdict(Arc<Mutex<Option<VerdictSender>>>);
+pub struct Verdict(Arc<Mutex<Option<Giver>>>);
 
-type VerdictSender = oneshot::Sender<Result<(), String>>;
+/// Where a verdict goes.
+enum Giver {
+    /// To a task that waits for it.
+    Channel(oneshot::Sender<Result<(), String>>),
+    /// Into a call made where the verdict is given (see [`Verdict::call`]).
+    Call(Call),
+}
+
+/// A call that receives the verdict, or `None` when no verdict will come.
+struct Call(Option<Box<Heard>>);
+
+/// What a [`Verdict::call`] makes with the verdict.
+type Heard = dyn FnOnce(Option<Result<(), String>>) + Send;
+
+impl Drop for Call {
+    fn drop(&mut self) {
+        if let Some(call) = self.0.take() {
+            call(None);
+        }
+    }
+}
 
 impl Verdict {
     /// A verdict slot and the receiver the sender of the answer waits on.
     pub fn new() -> (Verdict, oneshot::Receiver<Result<(), String>>) {
         let (tx, rx) = oneshot::channel();
-        (Verdict(Arc::new(Mutex::new(Some(tx)))), rx)
+        (Verdict(Arc::new(Mutex::new(Some(Giver::Channel(tx))))), rx)
+    }
+
+    /// A verdict that makes `call` with it where it is given, with no task woken in between:
+    /// a reply sent straight from the executive's step. `call` gets `None` if the verdict is
+    /// dropped without being given (the executive stops).
+    pub fn call(call: impl FnOnce(Option<Result<(), String>>) + Send + 'static) -> Verdict {
+        Verdict(Arc::new(Mutex::new(Some(Giver::Call(Call(Some(
+            Box::new(call),
+        )))))))
     }
 
     /// Gives the verdict (later calls do nothing).
     pub fn give(&self, verdict: Result<(), String>) {
-        let tx = self.0.lock().unwrap_or_else(|p| p.into_inner()).take();
-        if let Some(tx) = tx {
-            let _ = tx.send(verdict);
+        let giver = self.0.lock().unwrap_or_else(|p| p.into_inner()).take();
+        match giver {
+            Some(Giver::Channel(tx)) => {
+                let _ = tx.send(verdict);
+            }
+            Some(Giver::Call(mut call)) => {
+                if let Some(call) = call.0.take() {
+                    call(Some(verdict));
+                }
+            }
+            None => {}
         }
     }
 }
@@ -335,5 +373,29 @@ mod tests {
         let l: Limits = serde_json::from_str(r#"{"accept_within_ms": 1000}"#).unwrap();
         assert_eq!(l.max_sends(), 3);
         assert!(serde_json::from_str::<Limits>(r#"{"accept_within": 1}"#).is_err());
+    }
+
+    #[test]
+    fn a_called_verdict_is_given_once_or_said_undecided_when_dropped() {
+        let heard = Arc::new(Mutex::new(Vec::new()));
+        let verdict = |heard: &Arc<Mutex<Vec<_>>>| {
+            let heard = Arc::clone(heard);
+            Verdict::call(move |v| heard.lock().unwrap().push(v))
+        };
+        let given = verdict(&heard);
+        let copy = given.clone();
+        given.give(Err("refused".into()));
+        copy.give(Ok(()));
+        drop((given, copy));
+        assert_eq!(*heard.lock().unwrap(), [Some(Err("refused".to_owned()))]);
+        let dropped = verdict(&heard);
+        drop(dropped.clone());
+        assert_eq!(
+            heard.lock().unwrap().len(),
+            1,
+            "a clone left is still undecided"
+        );
+        drop(dropped);
+        assert_eq!(heard.lock().unwrap().last(), Some(&None));
     }
 }

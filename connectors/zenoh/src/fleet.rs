@@ -17,11 +17,11 @@ use std::time::{Duration, Instant};
 
 use connector_api::wire::{self, Letter, LetterReply};
 use connector_api::{Keys, PeerState, Report, Reports, Verdict};
-use zenoh::Session;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::Subscriber;
 use zenoh::query::{ConsolidationMode, Query, Queryable};
 use zenoh::sample::SampleKind;
+use zenoh::{Session, Wait};
 
 use crate::codec::{encoding, json};
 use crate::drops::{Drops, Reason};
@@ -33,9 +33,6 @@ const FIRST_PAUSE: Duration = Duration::from_millis(100);
 const MAX_PAUSE: Duration = Duration::from_secs(2);
 /// How often a message still unacknowledged is said in the log.
 const SAY_EVERY: Duration = Duration::from_secs(30);
-/// How long a received message may wait for the executive's verdict before the sender is told
-/// to try again.
-const VERDICT_WAIT: Duration = Duration::from_secs(30);
 /// How long closing waits for the letters still being answered: a verdict given just before the
 /// executive stops reaches its sender instead of dying with the process.
 const ANSWERS_WAIT: Duration = Duration::from_secs(5);
@@ -137,10 +134,7 @@ impl Fleet {
         let inbox = session
             .declare_queryable(keys.fleet_inbox(pool))
             .complete(true)
-            .callback(move |q| {
-                let answering = Answering::new(&me);
-                me.rt.spawn(Arc::clone(&me).on_letter(q, answering));
-            })
+            .callback(move |q| me.on_letter(q))
             .await
             .map_err(z)?;
         let alive = session
@@ -345,13 +339,6 @@ impl Shared {
                             "message refused by its receiver"
                         ),
                     }
-                    // No longer in flight once it has its verdict (before it is reported).
-                    self.in_flight().remove(&letter.key);
-                    self.report(Report::Delivered {
-                        key: letter.key.clone(),
-                        refused: (!reply.applied)
-                            .then(|| reply.reason.unwrap_or_else(|| "no reason given".to_owned())),
-                    });
                     return;
                 }
                 Err(why) => {
@@ -375,45 +362,54 @@ impl Shared {
         }
     }
 
-    /// One try: the receiver's verdict, or why there is none.
+    /// One try: the receiver's verdict, or why there is none. A verdict is reported to the
+    /// executive from Zenoh's callback as it arrives (the first reply decides), before this
+    /// task hears of it.
     async fn try_once(
-        &self,
+        self: &Arc<Shared>,
         key: &str,
         payload: &[u8],
         letter: &str,
     ) -> Result<LetterReply, String> {
-        let replies = self
-            .session
+        let (tx, rx) = tokio::sync::oneshot::channel();
+        let first = Mutex::new(Some(tx));
+        let (me, name) = (Arc::clone(self), letter.to_owned());
+        self.session
             .get(key)
             .payload(payload.to_vec())
             .encoding(encoding("letter"))
             .consolidation(ConsolidationMode::None)
             .timeout(TRY_WAIT)
-            .with(crate::replies())
+            .callback(move |reply| {
+                let Some(tx) = first.lock().unwrap_or_else(|p| p.into_inner()).take() else {
+                    return tracing::debug!(letter = name, "a later reply to a letter; dropped");
+                };
+                let verdict = verdict_of(&reply, &name);
+                if let Ok(r) = &verdict {
+                    // No longer in flight once it has its verdict (before it is reported).
+                    me.in_flight().remove(&name);
+                    me.report(Report::Delivered {
+                        key: name.clone(),
+                        refused: (!r.applied).then(|| {
+                            r.reason
+                                .clone()
+                                .unwrap_or_else(|| "no reason given".to_owned())
+                        }),
+                    });
+                }
+                let _ = tx.send(verdict);
+            })
             .await
             .map_err(|e| format!("zenoh: {e}"))?;
-        let reply = replies
-            .recv_async()
-            .await
-            .map_err(|_| "no executive of that pool answered".to_owned())?;
-        match reply.result() {
-            Ok(sample) => {
-                let r =
-                    wire::parse::<LetterReply>("letter reply", key, &sample.payload().to_bytes())
-                        .map_err(|e| e.to_string())?;
-                if r.key == letter {
-                    Ok(r)
-                } else {
-                    Err(format!("the reply names message `{}`", r.key))
-                }
-            }
-            Err(e) => Err(String::from_utf8_lossy(&e.payload().to_bytes()).into_owned()),
-        }
+        rx.await
+            .map_err(|_| "no executive of that pool answered".to_owned())?
     }
 
-    /// A letter for this pool: checked at the door, stepped by the executive, and its verdict
-    /// replied once committed.
-    async fn on_letter(self: Arc<Shared>, query: Query, _answering: Answering) {
+    /// A letter for this pool: checked at the door (in Zenoh's callback, as it arrives), then
+    /// stepped by the executive, which replies with the verdict from its own step once it is
+    /// committed ([`Verdict::call`]): no task of the link is woken between the commit and the
+    /// reply. A letter the executive drops unstepped (it stops) tells its sender to try again.
+    fn on_letter(self: &Arc<Shared>, query: Query) {
         let key = query.key_expr().as_str().to_owned();
         let bytes = query
             .payload()
@@ -424,7 +420,7 @@ impl Shared {
             Err(e) => {
                 self.drops
                     .drop(Reason::Garbage, &key, "letter", "", &e.to_string());
-                return reply_err(&query, &e.to_string()).await;
+                return reply_err(&query, &e.to_string());
             }
         };
         let chunk = Keys::last_chunk(&key);
@@ -449,40 +445,58 @@ impl Shared {
         };
         if let Some(why) = wrong {
             self.drops.drop(Reason::Garbage, &key, "letter", "", &why);
-            return reply_err(&query, &why).await;
+            return reply_err(&query, &why);
         }
-        let (verdict, decided) = Verdict::new();
+        // Counted until its verdict is replied (see `Fleet::close`).
+        let answering = Answering::new(self);
         let name = letter.key.clone();
-        self.report(Report::Letter { letter, verdict });
-        let reply = match tokio::time::timeout(VERDICT_WAIT, decided).await {
-            Ok(Ok(Ok(()))) => LetterReply {
-                key: name,
-                applied: true,
-                reason: None,
-            },
-            Ok(Ok(Err(reason))) => LetterReply {
-                key: name,
-                applied: false,
-                reason: Some(reason),
-            },
-            // Not decided: the sender tries again (never a refusal, which would be final).
-            Ok(Err(_)) => return reply_err(&query, "the executive is stopping").await,
-            Err(_) => {
-                return reply_err(&query, "the executive gave no verdict in time").await;
+        let verdict = Verdict::call(move |given| {
+            let reply = match given {
+                Some(Ok(())) => LetterReply {
+                    key: name,
+                    applied: true,
+                    reason: None,
+                },
+                Some(Err(reason)) => LetterReply {
+                    key: name,
+                    applied: false,
+                    reason: Some(reason),
+                },
+                // Not decided: the sender tries again (never a refusal, which would be final).
+                None => return reply_err(&query, "the executive is stopping"),
+            };
+            if let Err(e) = query
+                .reply(query.key_expr().clone(), json(&reply))
+                .encoding(encoding("letter_reply"))
+                .wait()
+            {
+                tracing::debug!(key, error = %e, "letter verdict not sent (the sender will try again)");
             }
-        };
-        if let Err(e) = query
-            .reply(query.key_expr().clone(), json(&reply))
-            .encoding(encoding("letter_reply"))
-            .await
-        {
-            tracing::debug!(key, error = %e, "letter verdict not sent (the sender will try again)");
-        }
+            drop(answering);
+        });
+        self.report(Report::Letter { letter, verdict });
     }
 }
 
-async fn reply_err(query: &Query, why: &str) {
-    if let Err(e) = query.reply_err(why.to_owned()).await {
+/// The receiver's verdict on letter `letter` in `reply`, or why it is none.
+fn verdict_of(reply: &zenoh::query::Reply, letter: &str) -> Result<LetterReply, String> {
+    match reply.result() {
+        Ok(sample) => {
+            let key = sample.key_expr().as_str();
+            let r = wire::parse::<LetterReply>("letter reply", key, &sample.payload().to_bytes())
+                .map_err(|e| e.to_string())?;
+            if r.key == letter {
+                Ok(r)
+            } else {
+                Err(format!("the reply names message `{}`", r.key))
+            }
+        }
+        Err(e) => Err(String::from_utf8_lossy(&e.payload().to_bytes()).into_owned()),
+    }
+}
+
+fn reply_err(query: &Query, why: &str) {
+    if let Err(e) = query.reply_err(why.to_owned()).wait() {
         tracing::debug!(error = %e, "letter error reply not sent");
     }
 }
