@@ -130,7 +130,10 @@ impl ProcessGraph {
     pub(crate) fn index_nodes(&mut self) {
         // Sorted as (id, node) pairs side by side, not as nodes looked up in the graph for
         // every comparison.
-        let mut ids: Vec<(&str, NodeId)> = (self.nodes.iter().enumerate())
+        let mut ids: Vec<(&str, NodeId)> = self
+            .nodes
+            .iter()
+            .enumerate()
             .map(|(i, n)| (n.id.as_str(), NodeId(i as u32)))
             .collect();
         ids.sort_unstable();
