@@ -33,9 +33,6 @@ const FIRST_PAUSE: Duration = Duration::from_millis(100);
 const MAX_PAUSE: Duration = Duration::from_secs(2);
 /// How often a message still unacknowledged is said in the log.
 const SAY_EVERY: Duration = Duration::from_secs(30);
-/// How long closing waits for the letters still being answered: a verdict given just before the
-/// executive stops reaches its sender instead of dying with the process.
-const ANSWERS_WAIT: Duration = Duration::from_secs(5);
 
 /// Why the fleet link could not be set up.
 #[derive(Debug, thiserror::Error)]
@@ -59,34 +56,6 @@ struct Shared {
     /// The state of each pool's executive seen so far (this one's among them).
     peers: tokio::sync::watch::Sender<BTreeMap<String, PeerState>>,
     drops: Drops,
-    /// Letters received and not yet answered, and the signal that one was answered.
-    answering: std::sync::atomic::AtomicUsize,
-    answered: tokio::sync::Notify,
-}
-
-/// One letter being answered, counted in [`Shared::answering`] until it is dropped.
-struct Answering(Arc<Shared>);
-
-impl Answering {
-    fn new(shared: &Arc<Shared>) -> Self {
-        shared
-            .answering
-            .fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-        Answering(Arc::clone(shared))
-    }
-}
-
-impl Drop for Answering {
-    fn drop(&mut self) {
-        if self
-            .0
-            .answering
-            .fetch_sub(1, std::sync::atomic::Ordering::SeqCst)
-            == 1
-        {
-            self.0.answered.notify_waiters();
-        }
-    }
 }
 
 /// This executive's place in a fleet: its presence, its inbox, and its messages in flight.
@@ -119,8 +88,6 @@ impl Fleet {
             sending: Mutex::new(HashMap::new()),
             peers: tokio::sync::watch::Sender::new(BTreeMap::new()),
             drops: Drops::new(&format!("fleet:{pool}"), Duration::from_secs(10)),
-            answering: Default::default(),
-            answered: tokio::sync::Notify::new(),
         });
         let me = Arc::clone(&shared);
         let peers = session
@@ -219,29 +186,13 @@ impl Fleet {
         self.shared.drops.counts()
     }
 
-    /// Stops sending (what is unacknowledged stays in the store and is sent on resume), lets the
-    /// letters being answered reply (for at most [`ANSWERS_WAIT`]), withdraws the presence and
-    /// the inbox.
+    /// Stops sending (what is unacknowledged stays in the store and is sent on resume) and
+    /// withdraws the presence and the inbox. A letter's verdict is replied where it is given, so
+    /// none given before this is lost with the process; one dropped ungiven tells its sender to
+    /// try again.
     pub async fn close(&mut self) {
         for (_, h) in self.shared.in_flight().drain() {
             h.abort();
-        }
-        let shared = &self.shared;
-        let answered = async {
-            loop {
-                // Created before the count is read, so an answer in between still wakes it.
-                let next = shared.answered.notified();
-                if shared.answering.load(std::sync::atomic::Ordering::SeqCst) == 0 {
-                    break;
-                }
-                next.await;
-            }
-        };
-        if tokio::time::timeout(ANSWERS_WAIT, answered).await.is_err() {
-            tracing::warn!(
-                waited = ?ANSWERS_WAIT,
-                "letters still unanswered at close; their senders will send them again"
-            );
         }
         if let Some((t, _)) = self.alive.take()
             && let Err(e) = t.undeclare().await
@@ -409,7 +360,7 @@ impl Shared {
     /// stepped by the executive, which replies with the verdict from its own step once it is
     /// committed ([`Verdict::call`]): no task of the link is woken between the commit and the
     /// reply. A letter the executive drops unstepped (it stops) tells its sender to try again.
-    fn on_letter(self: &Arc<Shared>, query: Query) {
+    fn on_letter(&self, query: Query) {
         let key = query.key_expr().as_str().to_owned();
         let bytes = query
             .payload()
@@ -447,8 +398,6 @@ impl Shared {
             self.drops.drop(Reason::Garbage, &key, "letter", "", &why);
             return reply_err(&query, &why);
         }
-        // Counted until its verdict is replied (see `Fleet::close`).
-        let answering = Answering::new(self);
         let name = letter.key.clone();
         let verdict = Verdict::call(move |given| {
             let reply = match given {
@@ -472,7 +421,6 @@ impl Shared {
             {
                 tracing::debug!(key, error = %e, "letter verdict not sent (the sender will try again)");
             }
-            drop(answering);
         });
         self.report(Report::Letter { letter, verdict });
     }
